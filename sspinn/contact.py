@@ -16,7 +16,9 @@ Per foot, one ground reaction force (F_x, F_y) acts at a contact point on the he
   μ̂ a network output (the friction factor).
 * **Horizontal force, forward simulation**: a regularised Coulomb law that opposes sliding of the
   contact point, ``F_x = −μ · tanh(ẋ / v_s) · F_y`` with μ = 0.8 and v_s = 0.05 m/s. It needs no
-  learned input; the smaller v_s, the stiffer (and the smaller the integration step it needs).
+  learned input; the smaller v_s, the stiffer (and the smaller the integration step it needs:
+  with v_s = 0.05 m/s explicit RK4 was stable only below ~1.3e-4 s, with v_s = 0.2 m/s below
+  ~5e-4 s, measured in ``tests/test_dynamics.py``'s scenario).
 
 The formulas are written once, here, as SymPy expressions; :mod:`sspinn.codegen` generates them
 into every backend together with the equations of motion.

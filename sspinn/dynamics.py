@@ -119,14 +119,14 @@ def inverse_dynamics(q: Array, u: Array, qdd: Array, grf: Array, w: Array, p: An
     """
     zeros_tau = _zeros_like_vector(q, N_TAU)
     r = kane_residual(q, u, qdd, zeros_tau, grf, w, p)
-    return r[..., 3:], r[..., :3]
+    return take_last(r, slice(3, None)), take_last(r, slice(0, 3))
 
 
 def energy(q: Array, u: Array, p: Any) -> tuple[Array, Array]:
     """(kinetic, potential) energy in J; potential is zero with every centre of mass at y = 0."""
     ops, q, p, v = prepare_inputs(q, p, u=(u, N_Q))
     e = gen.energy(ops, q, v["u"], p)
-    return e[..., 0], e[..., 1]
+    return take_last(e, 0), take_last(e, 1)
 
 
 def contact_fraction(q: Array, c: Any = None) -> Array:
@@ -155,6 +155,11 @@ def forward_dynamics_with_contact(q: Array, u: Array, tau: Array, p: Any, c: Any
     """q̈ and GRF (..., 4) under the forward-simulation contact model."""
     grf, w = contact_forces(q, u, p, c)
     return forward_dynamics(q, u, tau, grf, w, p), grf
+
+
+def take_last(x: Array, i: int | slice) -> Array:
+    """``x[..., i]`` for NumPy/torch, ``x[i]`` for CasADi column vectors."""
+    return x[i] if backend_name(x) == "casadi" else x[..., i]
 
 
 def _zeros_like_vector(q: Array, n: int) -> Array:
