@@ -9,8 +9,9 @@ type of an input. torch and CasADi are imported lazily so the NumPy path needs n
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from functools import cache
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 

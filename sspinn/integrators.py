@@ -9,7 +9,8 @@ hot path (see :mod:`sspinn.simulation`; the closure form lets numba cache the co
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 Accel = Callable[..., Any]
 Step = Callable[[Any, Any, float, tuple], tuple[Any, Any]]

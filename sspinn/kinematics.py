@@ -12,7 +12,7 @@ from typing import Any
 from sspinn._generated import model_expr as gen
 from sspinn.body import N_IMU_PARAMETERS, IMUPlacement
 from sspinn.conventions import N_Q, POINTS, SEGMENTS, index
-from sspinn.dynamics import Array, prepare_inputs, as_vector, check_input
+from sspinn.dynamics import Array, as_vector, check_input, prepare_inputs
 
 #: Columns of :func:`point_kinematics` and :func:`segment_kinematics`.
 POINT_COLUMNS = ("x", "y", "vx", "vy", "ax", "ay")

@@ -146,7 +146,7 @@ def simulate(
     sample_dt: float = 0.01,
     substeps: int = 10,
     torques: np.ndarray | None = None,
-    contact: ContactParameters | np.ndarray | None = ContactParameters(),
+    contact: ContactParameters | np.ndarray | None = ContactParameters(),  # noqa: B008 (frozen, immutable)
     method: str = "rk4",
 ) -> Trajectory:
     """Integrate the model from (q0, u0) for ``duration`` seconds.

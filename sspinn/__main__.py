@@ -1,0 +1,5 @@
+import sys
+
+from sspinn.cli import main
+
+sys.exit(main())
