@@ -64,6 +64,10 @@ EXPR_FUNCTIONS: dict[str, Spec] = {
         ("q", "u", "qdd", "imu", "p"),
         "Virtual IMU [acc_x, acc_y, gyr_z] per segment in its sensor frame, shape (7, 3).",
     ),
+    "imu_kinematics": Spec(
+        ("q", "u", "qdd", "imu", "p"),
+        "Global [x, y, vx, vy, ax, ay] of each IMU (sensor origin), shape (7, 6); its frame's angle is the segment angle + φ.",
+    ),
     "energy": Spec(("q", "u", "p"), "[kinetic, potential] energy, J, shape (2,)."),
     "contact_fraction": Spec(("q", "c"), "Contact-point fraction w (0 toe … 1 heel) per foot, shape (2,)."),
     "contact_forces_learned": Spec(

@@ -155,11 +155,13 @@ def derive() -> SymbolicModel:
 
     # ---------------------------------------------------------------- virtual IMUs
     imu = {seg: sp.symbols(f"imu_{seg}_x imu_{seg}_y imu_{seg}_angle", real=True) for seg in SEGMENTS}
-    imu_rows = []
+    imu_rows, imu_kin = [], []
     for seg in SEGMENTS:
         px, py, phi = imu[seg]
         sensor = origin[seg].locatenew(f"imu_{seg}", px * frame[seg].x + py * frame[seg].y)
-        x, y, _, _, ax, ay = kinematics(xy(sensor))
+        sensor_kin = kinematics(xy(sensor))
+        imu_kin.append(sensor_kin)
+        ax, ay = sensor_kin[4:]
         th = plain(angle[seg]) + phi  # sensor-frame angle in N
         # specific force a − g (g = −g·N.y) in the sensor frame
         fxs, fys = ax, ay + g
@@ -205,6 +207,7 @@ def derive() -> SymbolicModel:
             "point_kinematics": point_kin,
             "segment_kinematics": seg_kin,
             "virtual_imu": virtual_imu,
+            "imu_kinematics": sp.Matrix(imu_kin),
             "energy": energy,
             "contact_fraction": sp.Matrix([w_of_q[s] for s in SIDES]),
             "contact_forces_learned": sp.Matrix(forces_learned),

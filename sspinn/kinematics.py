@@ -45,14 +45,25 @@ def virtual_imu(q: Array, u: Array, qdd: Array, imu: Any, p: Any) -> Array:
     acc is the specific force a − g (m/s², reads +g on acc_y when upright at rest), gyr_z the
     segment's angular rate (rad/s). ``imu`` is an :class:`IMUPlacement` or its 21-vector.
     """
+    return _imu_function(gen.virtual_imu, q, u, qdd, imu, p)
+
+
+def imu_kinematics(q: Array, u: Array, qdd: Array, imu: Any, p: Any) -> Array:
+    """(..., 7, 6): global [x, y, vx, vy, ax, ay] of each sensor's origin (SEGMENTS order).
+    The sensor frame's global angle is the segment angle (:func:`segment_kinematics`) + φ."""
+    return _imu_function(gen.imu_kinematics, q, u, qdd, imu, p)
+
+
+def _imu_function(fn: Any, q: Array, u: Array, qdd: Array, imu: Any, p: Any) -> Array:
     if isinstance(imu, IMUPlacement):
         imu = imu.vector()
     ops, q, p, v = prepare_inputs(q, p, u=(u, N_Q), qdd=(qdd, N_Q))
     imu = check_input("imu placement", as_vector(imu, q), N_IMU_PARAMETERS)
-    return gen.virtual_imu(ops, q, v["u"], v["qdd"], imu, p)
+    return fn(ops, q, v["u"], v["qdd"], imu, p)
 
 
 __all__ = [
+    "imu_kinematics",
     "POINTS",
     "SEGMENTS",
     "POINT_COLUMNS",

@@ -25,6 +25,7 @@ def _all_outputs(x: dict, p, c, imu):
         "point_kinematics": kinematics.point_kinematics(x["q"], x["u"], x["qdd"], x["w"], p),
         "segment_kinematics": kinematics.segment_kinematics(x["q"], x["u"], x["qdd"]),
         "virtual_imu": kinematics.virtual_imu(x["q"], x["u"], x["qdd"], imu, p),
+        "imu_kinematics": kinematics.imu_kinematics(x["q"], x["u"], x["qdd"], imu, p),
         "kinetic": kin,
         "potential": pot,
         "grf_sim": grf_sim,

@@ -171,6 +171,7 @@ def test_virtual_imu_matches_differentiated_positions(body, imu):
     theta = kinematics.segment_kinematics(q, u, qdd)[:, seg, 0]
     x, y = imu.positions["tibia_r"]
     pos = knee + np.stack([x * np.cos(theta) - y * np.sin(theta), x * np.sin(theta) + y * np.cos(theta)], -1)
+    np.testing.assert_allclose(kinematics.imu_kinematics(q, u, qdd, imu, body)[:, seg, :2], pos, atol=1e-12)
     acc = np.gradient(np.gradient(pos, h, axis=0), h, axis=0)
     acc[:, 1] += GRAVITY
     along_x = acc[:, 0] * np.cos(theta) + acc[:, 1] * np.sin(theta)

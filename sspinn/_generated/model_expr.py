@@ -731,6 +731,109 @@ def virtual_imu(ops, q, u, qdd, imu, p):
     return ops.pack([-t1*t8 + t10*t9, t1*t10 + t8*t9, d_pelvis_tilt, -t13*t22 + t23*t26, t13*t26 + t22*t23, t19, -t29*t39 + t40*t43, t29*t43 + t39*t40, t30, t46*t55 - t56*t57, t46*t57 + t55*t56, t50, -t60*t69 + t70*t72, t60*t72 + t69*t70, t66, -t75*t85 + t86*t89, t75*t89 + t85*t86, t76, t101*t92 - t102*t103, t101*t102 + t103*t92, t96], (7, 3))
 
 
+def imu_kinematics(ops, q, u, qdd, imu, p):
+    """Global [x, y, vx, vy, ax, ay] of each IMU (sensor origin), shape (7, 6); its frame's angle is the segment angle + φ.
+
+    Inputs (last-axis sizes): q (9), u (9), qdd (9), imu (21), p (41).
+    """
+    pelvis_tx, pelvis_ty, pelvis_tilt, hip_r, knee_r, ankle_r, hip_l, knee_l, ankle_l, = ops.take(q, (0, 1, 2, 3, 4, 5, 6, 7, 8,))
+    d_pelvis_tx, d_pelvis_ty, d_pelvis_tilt, d_hip_r, d_knee_r, d_ankle_r, d_hip_l, d_knee_l, d_ankle_l, = ops.take(u, (0, 1, 2, 3, 4, 5, 6, 7, 8,))
+    dd_pelvis_tx, dd_pelvis_ty, dd_pelvis_tilt, dd_hip_r, dd_knee_r, dd_ankle_r, dd_hip_l, dd_knee_l, dd_ankle_l, = ops.take(qdd, (0, 1, 2, 3, 4, 5, 6, 7, 8,))
+    imu_pelvis_x, imu_pelvis_y, imu_femur_r_x, imu_femur_r_y, imu_tibia_r_x, imu_tibia_r_y, imu_foot_r_x, imu_foot_r_y, imu_femur_l_x, imu_femur_l_y, imu_tibia_l_x, imu_tibia_l_y, imu_foot_l_x, imu_foot_l_y, = ops.take(imu, (0, 1, 3, 4, 6, 7, 9, 10, 12, 13, 15, 16, 18, 19,))
+    femur_r_length, tibia_r_length, femur_l_length, tibia_l_length, = ops.take(p, (9, 14, 27, 32,))
+    t0 = ops.cos(pelvis_tilt)
+    t1 = imu_pelvis_x*t0
+    t2 = ops.sin(pelvis_tilt)
+    t3 = imu_pelvis_y*t2
+    t4 = imu_pelvis_x*t2
+    t5 = imu_pelvis_y*t0
+    t6 = -d_pelvis_tx
+    t7 = -dd_pelvis_tx
+    t8 = d_pelvis_tilt**2
+    t9 = -dd_pelvis_ty
+    t10 = hip_r + pelvis_tilt
+    t11 = ops.cos(t10)
+    t12 = imu_femur_r_x*t11
+    t13 = ops.sin(t10)
+    t14 = imu_femur_r_y*t13
+    t15 = imu_femur_r_x*t13
+    t16 = imu_femur_r_y*t11
+    t17 = d_hip_r + d_pelvis_tilt
+    t18 = dd_hip_r + dd_pelvis_tilt
+    t19 = t17**2
+    t20 = knee_r + t10
+    t21 = ops.cos(t20)
+    t22 = imu_tibia_r_x*t21
+    t23 = ops.sin(t20)
+    t24 = imu_tibia_r_y*t23
+    t25 = femur_r_length*t13
+    t26 = pelvis_tx + t25
+    t27 = imu_tibia_r_x*t23
+    t28 = imu_tibia_r_y*t21
+    t29 = femur_r_length*t11
+    t30 = pelvis_ty - t29
+    t31 = d_knee_r + t17
+    t32 = d_pelvis_tx + t17*t29
+    t33 = d_pelvis_ty + t17*t25
+    t34 = t31**2
+    t35 = dd_knee_r + t18
+    t36 = -femur_r_length*t11*t18 + t19*t25 + t7
+    t37 = dd_pelvis_ty + t18*t25 + t19*t29
+    t38 = ankle_r + t20
+    t39 = ops.cos(t38)
+    t40 = imu_foot_r_x*t39
+    t41 = t23*tibia_r_length
+    t42 = ops.sin(t38)
+    t43 = imu_foot_r_y*t42
+    t44 = imu_foot_r_x*t42
+    t45 = imu_foot_r_y*t39
+    t46 = t21*tibia_r_length
+    t47 = d_ankle_r + t31
+    t48 = t47**2
+    t49 = dd_ankle_r + t35
+    t50 = hip_l + pelvis_tilt
+    t51 = ops.cos(t50)
+    t52 = imu_femur_l_x*t51
+    t53 = ops.sin(t50)
+    t54 = imu_femur_l_y*t53
+    t55 = imu_femur_l_x*t53
+    t56 = imu_femur_l_y*t51
+    t57 = d_hip_l + d_pelvis_tilt
+    t58 = dd_hip_l + dd_pelvis_tilt
+    t59 = t57**2
+    t60 = knee_l + t50
+    t61 = ops.cos(t60)
+    t62 = imu_tibia_l_x*t61
+    t63 = ops.sin(t60)
+    t64 = imu_tibia_l_y*t63
+    t65 = femur_l_length*t53
+    t66 = pelvis_tx + t65
+    t67 = imu_tibia_l_x*t63
+    t68 = imu_tibia_l_y*t61
+    t69 = femur_l_length*t51
+    t70 = pelvis_ty - t69
+    t71 = d_knee_l + t57
+    t72 = d_pelvis_tx + t57*t69
+    t73 = d_pelvis_ty + t57*t65
+    t74 = t71**2
+    t75 = dd_knee_l + t58
+    t76 = -femur_l_length*t51*t58 + t59*t65 + t7
+    t77 = dd_pelvis_ty + t58*t65 + t59*t69
+    t78 = ankle_l + t60
+    t79 = ops.cos(t78)
+    t80 = imu_foot_l_x*t79
+    t81 = t63*tibia_l_length
+    t82 = ops.sin(t78)
+    t83 = imu_foot_l_y*t82
+    t84 = imu_foot_l_x*t82
+    t85 = imu_foot_l_y*t79
+    t86 = t61*tibia_l_length
+    t87 = d_ankle_l + t71
+    t88 = t87**2
+    t89 = dd_ankle_l + t75
+    return ops.pack([pelvis_tx + t1 - t3, pelvis_ty + t4 + t5, -d_pelvis_tilt*t4 - d_pelvis_tilt*t5 - t6, d_pelvis_tilt*t1 - d_pelvis_tilt*t3 + d_pelvis_ty, -dd_pelvis_tilt*t4 - dd_pelvis_tilt*t5 + imu_pelvis_y*t2*t8 - t1*t8 - t7, dd_pelvis_tilt*imu_pelvis_x*t0 - dd_pelvis_tilt*t3 - t4*t8 - t5*t8 - t9, pelvis_tx + t12 - t14, pelvis_ty + t15 + t16, -t15*t17 - t16*t17 - t6, d_pelvis_ty + t12*t17 - t14*t17, imu_femur_r_y*t13*t19 - t12*t19 - t15*t18 - t16*t18 - t7, imu_femur_r_x*t11*t18 - t14*t18 - t15*t19 - t16*t19 - t9, t22 - t24 + t26, t27 + t28 + t30, -t27*t31 - t28*t31 + t32, t22*t31 - t24*t31 + t33, imu_tibia_r_y*t23*t34 - t22*t34 - t27*t35 - t28*t35 - t36, t22*t35 - t24*t35 - t27*t34 - t28*t34 + t37, t26 + t40 + t41 - t43, t30 + t44 + t45 - t46, t31*t46 + t32 - t44*t47 - t45*t47, t31*t41 + t33 + t40*t47 - t43*t47, imu_foot_r_y*t42*t48 + t21*t35*tibia_r_length - t34*t41 - t36 - t40*t48 - t44*t49 - t45*t49, t34*t46 + t35*t41 + t37 + t40*t49 - t43*t49 - t44*t48 - t45*t48, pelvis_tx + t52 - t54, pelvis_ty + t55 + t56, -t55*t57 - t56*t57 - t6, d_pelvis_ty + t52*t57 - t54*t57, imu_femur_l_y*t53*t59 - t52*t59 - t55*t58 - t56*t58 - t7, imu_femur_l_x*t51*t58 - t54*t58 - t55*t59 - t56*t59 - t9, t62 - t64 + t66, t67 + t68 + t70, -t67*t71 - t68*t71 + t72, t62*t71 - t64*t71 + t73, imu_tibia_l_y*t63*t74 - t62*t74 - t67*t75 - t68*t75 - t76, t62*t75 - t64*t75 - t67*t74 - t68*t74 + t77, t66 + t80 + t81 - t83, t70 + t84 + t85 - t86, t71*t86 + t72 - t84*t87 - t85*t87, t71*t81 + t73 + t80*t87 - t83*t87, imu_foot_l_y*t82*t88 + t61*t75*tibia_l_length - t74*t81 - t76 - t80*t88 - t84*t89 - t85*t89, t74*t86 + t75*t81 + t77 + t80*t89 - t83*t89 - t84*t88 - t85*t88], (7, 6))
+
+
 def energy(ops, q, u, p):
     """[kinetic, potential] energy, J, shape (2,).
 
