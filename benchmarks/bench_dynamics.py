@@ -1,8 +1,8 @@
 """Speed of the generated model code against a naive SymPy ``lambdify`` baseline measured in the same run.
 
-Run ``python benchmarks/bench_dynamics.py`` (about a minute and a half on 2 CPU cores), ``--quick`` for a
-smoke run of a few seconds plus the derivation (small batches, few repeats; the figures then mean
-little), ``--json PATH`` to also save the results.
+Run ``python benchmarks/bench_dynamics.py`` (0.5–1.5 min on 2 CPU cores), ``--quick`` for a smoke run
+(one small batch, one repeat: ~15 s, most of it deriving and lambdifying the model; its figures mean
+little), ``--json PATH`` to also save the results. ``--no-cuda`` skips the GPU even when torch sees one.
 
 What is measured:
 
@@ -50,8 +50,9 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
+from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numba
 import numpy as np
@@ -83,7 +84,7 @@ class Settings:
 
 
 FULL = Settings(batches=(4096, 65536), warmup=3, repeats=7, min_repeat_s=0.25, sim_duration=1.0)
-QUICK = Settings(batches=(256,), warmup=1, repeats=2, min_repeat_s=0.01, sim_duration=0.05)
+QUICK = Settings(batches=(256,), warmup=1, repeats=1, min_repeat_s=0.01, sim_duration=0.05)
 
 
 @dataclass
@@ -97,6 +98,7 @@ class Row:
     rate: float  # states/s (section 1) or evaluations/s (section 2)
     ratio: float  # rate / baseline rate
     max_deviation: float | None  # largest |difference| from the baseline's result (relative in section 1)
+    spread: float  # (slowest − fastest) / median repeat time: how noisy the figure is
 
 
 @dataclass
@@ -109,8 +111,13 @@ class Results:
 
 
 # ------------------------------------------------------------------------------------------------ timing
-def median_seconds(fn: Callable[[], Any], warmup: int, repeats: int, sync: Callable[[], None] = lambda: None) -> float:
-    """Median wall time of one call of ``fn`` after ``warmup`` untimed calls."""
+class Timing(NamedTuple):
+    seconds: float  # median over the repeats
+    spread: float  # (max − min) / median
+
+
+def time_calls(fn: Callable[[], Any], warmup: int, repeats: int, sync: Callable[[], None] = lambda: None) -> Timing:
+    """Wall time of one call of ``fn`` after ``warmup`` untimed calls (``sync`` waits for a GPU)."""
     for _ in range(warmup):
         fn()
     sync()
@@ -120,11 +127,12 @@ def median_seconds(fn: Callable[[], Any], warmup: int, repeats: int, sync: Calla
         fn()
         sync()
         times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+    median = statistics.median(times)
+    return Timing(median, (max(times) - min(times)) / median)
 
 
-def calls_per_second(fn: Callable[[], Any], settings: Settings) -> float:
-    """Median rate of calls of a fast ``fn`` in loops long enough to time (like ``timeit.autorange``)."""
+def time_loop(fn: Callable[[], Any], settings: Settings) -> tuple[int, Timing]:
+    """(n, timing of n calls) of a fast ``fn``, n chosen so a repeat lasts ``min_repeat_s`` (like timeit)."""
     for _ in range(settings.warmup):
         fn()
     t0 = time.perf_counter()
@@ -136,7 +144,7 @@ def calls_per_second(fn: Callable[[], Any], settings: Settings) -> float:
         for _ in range(n):
             fn()
 
-    return n / median_seconds(loop, warmup=0, repeats=settings.repeats)
+    return n, time_calls(loop, warmup=0, repeats=settings.repeats)
 
 
 # ------------------------------------------------------------------------------------------------ inputs
@@ -203,36 +211,43 @@ def naive_numpy_forward_dynamics(model: SymbolicModel) -> Callable[..., np.ndarr
 
 
 # ------------------------------------------------------------------------------------------------ section 1
+def torch_inputs(batch: int, device: str) -> list[torch.Tensor]:
+    """Inputs of kane_residual in argument order, float32; leaves with requires_grad for GRAD_INPUTS."""
+    data = random_inputs(np.random.default_rng(SEED), (batch,)) | {"p": body_vector()}
+    return [
+        torch.tensor(data[k], dtype=torch.float32, device=device, requires_grad=k in GRAD_INPUTS)
+        for k in RESIDUAL_INPUTS
+    ]
+
+
+def forward_backward(residual: Callable[..., torch.Tensor], inputs: list[torch.Tensor]) -> None:
+    """One timed call: residual, loss = r.square().sum(), backward into the input leaves."""
+    for x in inputs:
+        x.grad = None
+    residual(*inputs).square().sum().backward()
+
+
 def bench_residual_torch(model: SymbolicModel, settings: Settings, devices: list[str]) -> list[Row]:
     """Kane residual forward + backward throughput, ours vs naive lambdify, torch float32."""
     naive = naive_torch_residual(model)
+    section = "kane_residual_fwd_bwd_torch_float32"
     rows = []
     for device in devices:
         sync = torch.cuda.synchronize if device == "cuda" else (lambda: None)
         for batch in settings.batches:
-            data = random_inputs(np.random.default_rng(SEED), (batch,))
-            data["p"] = body_vector()
-            x = {
-                k: torch.tensor(v, dtype=torch.float32, device=device, requires_grad=k in GRAD_INPUTS)
-                for k, v in data.items()
-            }
-            args = [x[k] for k in RESIDUAL_INPUTS]
-
-            def forward_backward(fn: Callable[..., torch.Tensor]) -> None:
-                for k in GRAD_INPUTS:
-                    x[k].grad = None
-                fn(*args).square().sum().backward()
-
+            inputs = torch_inputs(batch, device)
             with torch.no_grad():
-                r_ours, r_naive = dynamics.kane_residual(*args), naive(*args)
+                r_ours, r_naive = dynamics.kane_residual(*inputs), naive(*inputs)
                 deviation = float((r_ours - r_naive).abs().max() / r_naive.abs().max())
-            t_naive = median_seconds(lambda: forward_backward(naive), settings.warmup, settings.repeats, sync)
-            t_ours = median_seconds(
-                lambda: forward_backward(dynamics.kane_residual), settings.warmup, settings.repeats, sync
+            t_naive, t_ours = (
+                time_calls(partial(forward_backward, fn, inputs), settings.warmup, settings.repeats, sync)
+                for fn in (naive, dynamics.kane_residual)
             )
-            section = "kane_residual_fwd_bwd_torch_float32"
-            rows.append(Row(section, "naive", device, batch, batch / t_naive, 1.0, 0.0))
-            rows.append(Row(section, "ours", device, batch, batch / t_ours, t_naive / t_ours, deviation))
+            rate_naive, rate_ours = batch / t_naive.seconds, batch / t_ours.seconds
+            rows.append(Row(section, "naive", device, batch, rate_naive, 1.0, 0.0, t_naive.spread))
+            rows.append(
+                Row(section, "ours", device, batch, rate_ours, rate_ours / rate_naive, deviation, t_ours.spread)
+            )
     return rows
 
 
@@ -257,39 +272,23 @@ def bench_single_state_numpy(model: SymbolicModel, settings: Settings) -> list[R
 
     reference_contact = naive(q, u, tau, grf, w, p)
     reference_free = naive(q, u, tau, no_grf, no_w, p)
-    cases: list[tuple[str, Callable[[], Any], float, np.ndarray | None, np.ndarray]] = [
-        # (method, one call, evaluations per call, result or None, reference for the deviation)
-        ("naive", lambda: naive(q, u, tau, grf, w, p), 1, reference_contact, reference_contact),
-        (
-            "forward_dynamics",
-            lambda: dynamics.forward_dynamics(q, u, tau, grf, w, p),
-            1,
-            dynamics.forward_dynamics(q, u, tau, grf, w, p),
-            reference_contact,
-        ),
-        (
-            "accel_python_loop_no_contact",
-            lambda: simulation.accel(q, u, tau, p, c, False),
-            1,
-            simulation.accel(q, u, tau, p, c, False),
-            reference_free,
-        ),
-        (
-            "accel_python_loop_contact",
-            lambda: simulation.accel(q, u, tau, p, c, True),
-            1,
-            simulation.accel(q, u, tau, p, c, True),
-            reference_contact,
-        ),
-        ("simulate_rk4_compiled_loop_contact", rollout, sim_evals, None, reference_contact),
+    cases: list[tuple[str, Callable[[], Any], int, np.ndarray | None]] = [
+        # (method, one call, model evaluations per call, reference q̈ for the deviation or None)
+        ("naive", partial(naive, q, u, tau, grf, w, p), 1, reference_contact),
+        ("forward_dynamics", partial(dynamics.forward_dynamics, q, u, tau, grf, w, p), 1, reference_contact),
+        ("accel_python_loop_no_contact", partial(simulation.accel, q, u, tau, p, c, False), 1, reference_free),
+        ("accel_python_loop_contact", partial(simulation.accel, q, u, tau, p, c, True), 1, reference_contact),
+        ("simulate_rk4_compiled_loop_contact", rollout, sim_evals, None),
     ]
     rows = []
     baseline = 0.0
-    for method, fn, evals_per_call, result, reference in cases:
-        rate = calls_per_second(fn, settings) * evals_per_call
+    for method, fn, evals_per_call, reference in cases:
+        deviation = None if reference is None else float(np.abs(fn() - reference).max())
+        n_calls, timing = time_loop(fn, settings)
+        rate = n_calls * evals_per_call / timing.seconds
         baseline = baseline or rate
-        deviation = float(np.abs(result - reference).max()) if result is not None else None
-        rows.append(Row("forward_dynamics_single_state_numpy", method, "cpu", 1, rate, rate / baseline, deviation))
+        section = "forward_dynamics_single_state_numpy"
+        rows.append(Row(section, method, "cpu", 1, rate, rate / baseline, deviation, timing.spread))
     return rows
 
 
@@ -333,9 +332,11 @@ def format_table(results: Results) -> str:
         if row.section.startswith("forward_dynamics"):
             deviation = "—" if row.max_deviation is None else f"{row.max_deviation:.1e}"
             lines.append(f"   {LABELS[row.method]:<58}{row.rate:>14,.0f}{row.ratio:>12.1f}×{deviation:>12}")
+    spread = max(row.spread for row in results.rows)
     lines += [
         "   (simulate: 4 accel evaluations per rk4 step counted; Δ of the rollout is not defined)",
         "",
+        f"largest timing spread over the repeats of any figure, (slowest − fastest) / median: {spread:.0%}",
         f"total benchmark time: {results.total_seconds:.1f} s",
     ]
     return "\n".join(lines)
@@ -371,7 +372,9 @@ def main(argv: Sequence[str] | None = None) -> Results:
 
     t0 = time.perf_counter()
     model = derive()  # cached per process; both baselines start from these unsimplified expressions
-    results = Results(settings={"mode": "quick" if args.quick else "full", **asdict(settings)}, environment=environment())
+    results = Results(
+        settings={"mode": "quick" if args.quick else "full", **asdict(settings)}, environment=environment()
+    )
     results.rows += bench_residual_torch(model, settings, devices)
     results.rows += bench_single_state_numpy(model, settings)
     results.total_seconds = time.perf_counter() - t0
