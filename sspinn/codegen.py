@@ -78,6 +78,12 @@ EXPR_FUNCTIONS: dict[str, Spec] = {
         ("q", "u", "p", "c"),
         "GRF [Fx_r, Fy_r, Fx_l, Fy_l] (N) of the forward-simulation contact model, shape (4,).",
     ),
+    "contact_from_ankles": Spec(
+        ("q", "u", "ankle", "mu_hat", "p", "c"),
+        "Per foot [Fx, Fy, x, y, vx, vy] (N, m, m/s) of the learned contact model at the contact point\n"
+        "    attached to separately estimated ankle kinematics ``ankle`` = [x, y, vx, vy] per foot (r, l),\n"
+        "    with the foot angle and rate from q, u (SSPINNpose's ground-contact states), shape (2, 6).",
+    ),
 }
 
 #: Numba kernels: name → (outputs, inputs). Outputs are written into trailing array arguments.

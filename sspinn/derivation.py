@@ -187,6 +187,23 @@ def derive() -> SymbolicModel:
         forces_learned += [contact.friction_learned(fy_s, mu_hat[i], cpar), fy_s]
         forces_sim += [contact.friction_simulation(fy_s, vx, cpar), fy_s]
 
+    # SSPINNpose's variant: the contact point hangs off *separately estimated* ankle kinematics
+    # (global x, y, vx, vy per foot); only the foot angle and rate come from q, u.
+    ankle = {s: sp.symbols(f"ankle_x_{s} ankle_y_{s} ankle_vx_{s} ankle_vy_{s}", real=True) for s in SIDES}
+    from_ankles = []
+    for i, s in enumerate(SIDES):
+        foot = frame[f"foot_{s}"]
+        offset = points[f"contact_{s}"].pos_from(points[f"ankle_{s}"])  # foot-fixed, at fraction w
+        rx, ry = (plain(offset.dot(N.x)), plain(offset.dot(N.y)))
+        rate = plain(foot.ang_vel_in(N).dot(N.z))
+        ax_, ay_, avx, avy = ankle[s]
+        xc, yc = ax_ + rx, ay_ + ry
+        vxc, vyc = avx - rate * ry, avy + rate * rx  # v_ankle + ω ẑ × r
+        sub = {w[s]: w_of_q[s]}
+        xc, yc, vxc, vyc = (e.xreplace(sub) for e in (xc, yc, vxc, vyc))
+        fy_s = contact.vertical_force(yc, vyc, body_weight, cpar)
+        from_ankles.append([contact.friction_learned(fy_s, mu_hat[i], cpar), fy_s, xc, yc, vxc, vyc])
+
     return SymbolicModel(
         inputs={
             "q": qs,
@@ -199,6 +216,7 @@ def derive() -> SymbolicModel:
             "imu": [s for seg in SEGMENTS for s in imu[seg]],
             "c": [cpar[n] for n in contact.CONTACT_PARAMETERS],
             "mu_hat": mu_hat,
+            "ankle": [a for s in SIDES for a in ankle[s]],
         },
         outputs={
             "mass_matrix": M_plain,
@@ -212,6 +230,7 @@ def derive() -> SymbolicModel:
             "contact_fraction": sp.Matrix([w_of_q[s] for s in SIDES]),
             "contact_forces_learned": sp.Matrix(forces_learned),
             "contact_forces_simulation": sp.Matrix(forces_sim),
+            "contact_from_ankles": sp.Matrix(from_ankles),
         },
     )
 

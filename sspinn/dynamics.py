@@ -151,6 +151,20 @@ def contact_forces(q: Array, u: Array, p: Any, c: Any = None, mu_hat: Array | No
     return gen.contact_forces_learned(ops, q, v["u"], mu_hat, p, v["c"]), w
 
 
+def contact_from_ankles(q: Array, u: Array, ankle: Array, mu_hat: Array, p: Any, c: Any = None) -> Array:
+    """SSPINNpose's ground contact from separately estimated ankle kinematics.
+
+    ``ankle`` (..., 8) = [x, y, vx, vy] of the right then left ankle (m, m/s, global); the foot
+    angle and rate come from q, u; ``mu_hat`` (..., 2) is the learned friction factor. Returns
+    (..., 2, 6): per foot [Fx, Fy, x, y, vx, vy] — the learned-friction GRF (N) and the contact
+    point's position and (material) velocity. With ``ankle`` equal to the forward kinematics the
+    forces equal :func:`contact_forces` with ``mu_hat``.
+    """
+    c = ContactParameters() if c is None else c
+    ops, q, p, v = prepare_inputs(q, p, u=(u, N_Q), ankle=(ankle, 8), mu_hat=(mu_hat, 2), c=(c, N_CONTACT_PARAMETERS))
+    return gen.contact_from_ankles(ops, q, v["u"], v["ankle"], v["mu_hat"], p, v["c"])
+
+
 def forward_dynamics_with_contact(q: Array, u: Array, tau: Array, p: Any, c: Any = None) -> tuple[Array, Array]:
     """q̈ and GRF (..., 4) under the forward-simulation contact model."""
     grf, w = contact_forces(q, u, p, c)

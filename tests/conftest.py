@@ -45,6 +45,7 @@ def random_inputs(rng: np.random.Generator, batch: tuple[int, ...] = ()) -> dict
         "grf": rng.normal(scale=300.0, size=batch + (4,)),
         "w": rng.uniform(size=batch + (2,)),
         "mu_hat": rng.normal(size=batch + (2,)),
+        "ankle": rng.normal(scale=0.1, size=batch + (8,)),
     }
 
 

@@ -31,6 +31,7 @@ def _all_outputs(x: dict, p, c, imu):
         "grf_sim": grf_sim,
         "w_sim": w_sim,
         "grf_learned": grf_learned,
+        "contact_from_ankles": dynamics.contact_from_ankles(x["q"], x["u"], x["ankle"], x["mu_hat"], p, c),
     }
 
 

@@ -202,3 +202,17 @@ def test_contact_model_behaviour(body, contact):
     # toes up → contact at the heel
     q[index("ankle_r")] = 0.5
     assert dynamics.contact_forces(q, u, body, contact)[1][0] > 0.99
+
+
+def test_contact_from_ankles_equals_forward_kinematics_contact(rng, body, contact):
+    x = random_inputs(rng, batch=(6,))
+    x["q"][..., 1] = 0.92  # feet around the ground
+    pk = kinematics.point_kinematics(x["q"], x["u"], x["qdd"], np.zeros((6, 2)), body)
+    ankle = np.concatenate([pk[:, kinematics.point_index(f"ankle_{s}"), :4] for s in "rl"], axis=-1)
+    out = dynamics.contact_from_ankles(x["q"], x["u"], ankle, x["mu_hat"], body, contact)
+    grf, w = dynamics.contact_forces(x["q"], x["u"], body, contact, mu_hat=x["mu_hat"])
+    np.testing.assert_allclose(out[..., :2].reshape(6, 4), grf, rtol=1e-10, atol=1e-9)
+    assert np.abs(grf[:, 1::2]).max() > 1.0, "the test must load at least one foot"
+    contact_pts = kinematics.point_kinematics(x["q"], x["u"], x["qdd"], w, body)
+    for i, s in enumerate("rl"):
+        np.testing.assert_allclose(out[:, i, 2:], contact_pts[:, kinematics.point_index(f"contact_{s}"), :4], atol=1e-12)

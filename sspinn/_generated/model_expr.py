@@ -1033,3 +1033,44 @@ def contact_forces_simulation(ops, q, u, p, c):
     t32 = t30*t31
     t33 = t16*(-contact_damping*(d_pelvis_ty + femur_l_length*t18*ops.sin(t19) + t21*tibia_l_length*ops.sin(t22) - t24*t26*t31 + t24*t28*t30) + 1)*ops.softplus(-contact_transition*(pelvis_ty - t20 - t23 + t29 + t32))
     return ops.pack([-contact_friction*t17*ops.tanh(t0*(d_pelvis_tx + t1*t3 - t12*t7 - t15*t7 + t4*t6)), t17, -contact_friction*t33*ops.tanh(t0*(d_pelvis_tx + t18*t20 + t21*t23 - t24*t29 - t24*t32)), t33], (4,))
+
+
+def contact_from_ankles(ops, q, u, ankle, mu_hat, p, c):
+    """Per foot [Fx, Fy, x, y, vx, vy] (N, m, m/s) of the learned contact model at the contact point
+    attached to separately estimated ankle kinematics ``ankle`` = [x, y, vx, vy] per foot (r, l),
+    with the foot angle and rate from q, u (SSPINNpose's ground-contact states), shape (2, 6).
+
+    Inputs (last-axis sizes): q (9), u (9), ankle (8), mu_hat (2), p (41), c (7).
+    """
+    pelvis_tilt, hip_r, knee_r, ankle_r, hip_l, knee_l, ankle_l, = ops.take(q, (2, 3, 4, 5, 6, 7, 8,))
+    d_pelvis_tilt, d_hip_r, d_knee_r, d_ankle_r, d_hip_l, d_knee_l, d_ankle_l, = ops.take(u, (2, 3, 4, 5, 6, 7, 8,))
+    ankle_x_r, ankle_y_r, ankle_vx_r, ankle_vy_r, ankle_x_l, ankle_y_l, ankle_vx_l, ankle_vy_l, = ops.take(ankle, (0, 1, 2, 3, 4, 5, 6, 7,))
+    mu_hat_r, mu_hat_l, = ops.take(mu_hat, (0, 1,))
+    gravity, pelvis_mass, femur_r_mass, tibia_r_mass, foot_r_mass, foot_r_heel_x, foot_r_heel_y, foot_r_toe_x, foot_r_toe_y, femur_l_mass, tibia_l_mass, foot_l_mass, foot_l_heel_x, foot_l_heel_y, foot_l_toe_x, foot_l_toe_y, = ops.take(p, (0, 1, 5, 10, 15, 19, 20, 21, 22, 23, 28, 33, 37, 38, 39, 40,))
+    contact_stiffness, contact_transition, contact_damping, contact_friction_max, contact_sharpness, = ops.take(c, (0, 1, 2, 3, 6,))
+    t0 = d_ankle_r + d_hip_r + d_knee_r + d_pelvis_tilt
+    t1 = ankle_r + hip_r + knee_r + pelvis_tilt
+    t2 = ops.cos(t1)
+    t3 = (1/2)*ops.tanh(contact_sharpness*t1) + 1/2
+    t4 = foot_r_toe_x + t3*(foot_r_heel_x - foot_r_toe_x)
+    t5 = ops.sin(t1)
+    t6 = foot_r_toe_y + t3*(foot_r_heel_y - foot_r_toe_y)
+    t7 = t2*t4 - t5*t6
+    t8 = ankle_vy_r + t0*t7
+    t9 = t2*t6 + t4*t5
+    t10 = ankle_y_r + t9
+    t11 = contact_stiffness*gravity*(femur_l_mass + femur_r_mass + foot_l_mass + foot_r_mass + pelvis_mass + tibia_l_mass + tibia_r_mass)/contact_transition
+    t12 = t11*(-contact_damping*t8 + 1)*ops.softplus(-contact_transition*t10)
+    t13 = d_ankle_l + d_hip_l + d_knee_l + d_pelvis_tilt
+    t14 = ankle_l + hip_l + knee_l + pelvis_tilt
+    t15 = ops.cos(t14)
+    t16 = (1/2)*ops.tanh(contact_sharpness*t14) + 1/2
+    t17 = foot_l_toe_x + t16*(foot_l_heel_x - foot_l_toe_x)
+    t18 = ops.sin(t14)
+    t19 = foot_l_toe_y + t16*(foot_l_heel_y - foot_l_toe_y)
+    t20 = t15*t17 - t18*t19
+    t21 = ankle_vy_l + t13*t20
+    t22 = t15*t19 + t17*t18
+    t23 = ankle_y_l + t22
+    t24 = t11*(-contact_damping*t21 + 1)*ops.softplus(-contact_transition*t23)
+    return ops.pack([contact_friction_max*t12*ops.tanh(mu_hat_r), t12, ankle_x_r + t7, t10, ankle_vx_r - t0*t9, t8, contact_friction_max*t24*ops.tanh(mu_hat_l), t24, ankle_x_l + t20, t23, ankle_vx_l - t13*t22, t21], (2, 6))
