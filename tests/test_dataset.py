@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from sspinn.conventions import GRAVITY, SEGMENTS
-from sspinn.dataset import Dataset, DataFormatError, Labels, Recording
+from sspinn.dataset import DataFormatError, Dataset, Labels, Recording
 from sspinn.readers import read_averaged_stride, read_csv_recording
 from tests.conftest import shared_data
 

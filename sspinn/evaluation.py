@@ -1,0 +1,163 @@
+"""Evaluation of estimates against labels: SSPINNpose's metrics and a report with plots.
+
+Metrics (computed over the label columns that are available):
+
+* **JAE** — RMSD of the joint angles incl. pelvis tilt, degrees (pooled over angles and samples);
+* **JTE** — RMSD of the joint torques, %BW·BH (body weight × body height);
+* **GRFE** — RMSE of the ground reaction forces (horizontal and vertical, both feet), %BW;
+* **speed error** — |mean estimated − mean true horizontal speed|, m/s;
+* **jitter** — mean |d³θ/dt³| of the estimated joint angles, rad/s³ (smoothness; lower is smoother).
+
+Metrics are only ever computed on recordings the model was not trained on, except for the
+paper's "averaged" protocol, which by design trains and evaluates on the same unlabelled stride
+(and is reported as such).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS
+from sspinn.dataset import SAMPLE_RATE_HZ, Recording
+from sspinn.inference import GaitEstimate
+
+ANGLES = ("pelvis_tilt", *JOINTS)
+
+
+@dataclass
+class Metrics:
+    jae_deg: float
+    jte_pct_bwbh: float
+    grfe_pct_bw: float
+    speed_error_mps: float
+    jitter: float
+    n_samples: int
+
+    def as_dict(self) -> dict[str, float]:
+        return asdict(self)
+
+
+def _pooled_rmse(est: np.ndarray, ref: np.ndarray) -> float:
+    if est.size == 0:
+        return float("nan")
+    return float(np.sqrt(np.mean((est - ref) ** 2)))
+
+
+def compute_metrics(est: GaitEstimate, rec: Recording, skip: int = 0) -> Metrics:
+    """Metrics of one estimate against its recording's labels, ignoring the first ``skip``
+    samples (the LSTM's warm-up)."""
+    if rec.labels is None:
+        raise ValueError(f"{rec.name}: no labels to evaluate against")
+    lab = rec.labels
+    sl = slice(skip, None)
+    have = set(lab.columns())
+    ang = [c for c in ANGLES if c in have]
+    jae = np.degrees(_pooled_rmse(est.q[sl][:, [COORDINATES.index(c) for c in ang]], np.stack([lab.column(c)[sl] for c in ang], -1))) if ang else float("nan")
+    tq = [j for j in JOINTS if f"tau_{j}" in have]
+    bwbh = rec.mass * GRAVITY * rec.height
+    jte = 100 * _pooled_rmse(est.tau[sl][:, [JOINTS.index(j) for j in tq]], np.stack([lab.column(f"tau_{j}")[sl] for j in tq], -1)) / bwbh if tq else float("nan")
+    gr = [g for g in GRF if g in have]
+    bw = rec.mass * GRAVITY
+    grfe = 100 * _pooled_rmse(est.grf[sl][:, [GRF.index(g) for g in gr]], np.stack([lab.column(g)[sl] for g in gr], -1)) / bw if gr else float("nan")
+    speed = abs(float(np.mean(est.u[sl, 0])) - float(np.mean(lab.column("speed")[sl]))) if "speed" in have else float("nan")
+    angles = est.q[sl][:, 2:]
+    jitter = float(np.mean(np.abs(np.diff(angles, n=3, axis=0)))) * SAMPLE_RATE_HZ**3 if len(angles) > 3 else float("nan")
+    return Metrics(jae_deg=float(jae), jte_pct_bwbh=float(jte), grfe_pct_bw=float(grfe), speed_error_mps=speed, jitter=jitter, n_samples=len(est.time[sl]))
+
+
+def mean_metrics(items: list[Metrics]) -> Metrics:
+    """Sample-weighted mean of per-recording metrics (NaN-aware)."""
+    w = np.array([m.n_samples for m in items], dtype=float)
+    out = {}
+    for key in ("jae_deg", "jte_pct_bwbh", "grfe_pct_bw", "speed_error_mps", "jitter"):
+        v = np.array([getattr(m, key) for m in items])
+        ok = np.isfinite(v)
+        out[key] = float(np.sum(v[ok] * w[ok]) / np.sum(w[ok])) if ok.any() else float("nan")
+    return Metrics(**out, n_samples=int(w.sum()))
+
+
+# ------------------------------------------------------------------------------ report
+def gait_cycles(vertical_grf: np.ndarray, threshold: float) -> list[tuple[int, int]]:
+    """(start, end) sample indices of gait cycles from heel strike to heel strike, detected as
+    upward crossings of ``threshold`` (N) by one foot's vertical GRF."""
+    on = vertical_grf > threshold
+    strikes = np.flatnonzero(on[1:] & ~on[:-1]) + 1
+    return [(int(a), int(b)) for a, b in zip(strikes[:-1], strikes[1:]) if 30 <= b - a <= 300]
+
+
+def normalise_cycles(signal: np.ndarray, cycles: list[tuple[int, int]], points: int = 101) -> np.ndarray:
+    """(n_cycles, points) of a signal time-normalised to 0–100 % of each cycle."""
+    grid = np.linspace(0, 1, points)
+    return np.array([np.interp(grid, np.linspace(0, 1, b - a + 1), signal[a : b + 1]) for a, b in cycles])
+
+
+def write_report(estimates: list[GaitEstimate], recordings: list[Recording], out: Path, title: str, skip: int = 0, extra: dict | None = None) -> dict:
+    """Metrics table (Markdown + JSON) and PNG plots (stick figures over time, gait-cycle
+    normalised angles/torques/GRFs vs reference) for each recording; returns the metrics."""
+    import json
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from sspinn.body import BodyParameters
+    from sspinn.plotting import draw_stick_figure
+
+    out.mkdir(parents=True, exist_ok=True)
+    per = {e.name: compute_metrics(e, r, skip) for e, r in zip(estimates, recordings)}
+    mean = mean_metrics(list(per.values()))
+    lines = [f"# {title}", "", "| recording | JAE (deg) | JTE (%BW·BH) | GRFE (%BW) | speed error (m/s) | jitter (rad/s³) |", "|---|---|---|---|---|---|"]
+    for name, m in [*per.items(), ("**mean**", mean)]:
+        lines.append(f"| {name} | {m.jae_deg:.2f} | {m.jte_pct_bwbh:.2f} | {m.grfe_pct_bw:.2f} | {m.speed_error_mps:.3f} | {m.jitter:.0f} |")
+    for est, rec in zip(estimates, recordings):
+        body = BodyParameters.from_anthropometry(rec.height, rec.mass)
+        fig, axes = plt.subplots(2, 3, figsize=(14, 7))
+        ax = axes[0, 0]
+        for i, k in enumerate(np.linspace(skip, len(est.time) - 1, 8).astype(int)):
+            q = est.q[k].copy()
+            q[0] = 0.6 * i
+            draw_stick_figure(ax, q, body, grf=est.grf[k])
+        ax.set_aspect("equal")
+        ax.axhline(0, color="0.6")
+        ax.set_title("estimated poses (spread out in x) with GRF")
+        lab = rec.labels
+        grf_ref = lab.column("grf_y_r") if lab is not None and "grf_y_r" in lab.columns() else est.grf[:, 1]
+        cycles = gait_cycles(grf_ref[skip:], 0.05 * rec.mass * GRAVITY)
+        cycles = [(a + skip, b + skip) for a, b in cycles]
+        panels = [("hip_r", "angle"), ("knee_r", "angle"), ("ankle_r", "angle"), ("tau_knee_r", "torque"), ("grf_y_r", "grf")]
+        for ax, (col, kind) in zip(axes.flat[1:], panels):
+            if kind == "angle":
+                e, scale, unit = est.q[:, COORDINATES.index(col)], 180 / np.pi, "deg"
+            elif kind == "torque":
+                e, scale, unit = est.tau[:, JOINTS.index(col[4:])], 1.0, "N·m"
+            else:
+                e, scale, unit = est.grf[:, GRF.index(col)], 1 / (rec.mass * GRAVITY), "BW"
+            x = np.linspace(0, 100, 101)
+            if cycles:
+                ec = normalise_cycles(e, cycles) * scale
+                ax.plot(x, ec.mean(0), color="tab:blue", label="sspinn")
+                ax.fill_between(x, ec.mean(0) - ec.std(0), ec.mean(0) + ec.std(0), color="tab:blue", alpha=0.2)
+                if lab is not None and col in lab.columns():
+                    rc = normalise_cycles(lab.column(col), cycles) * scale
+                    ax.plot(x, rc.mean(0), color="k", ls="--", label="reference")
+                ax.set_xlabel("% gait cycle")
+            else:
+                ax.plot(est.time, e * scale, color="tab:blue", label="sspinn")
+                if lab is not None and col in lab.columns():
+                    ax.plot(est.time, lab.column(col) * scale, color="k", ls="--", label="reference")
+                ax.set_xlabel("time (s)")
+            ax.set_title(f"{col} ({unit})")
+            ax.legend(fontsize=8)
+        fig.suptitle(f"{title}: {est.name}")
+        fig.tight_layout()
+        fig.savefig(out / f"{est.name}.png", dpi=90)
+        plt.close(fig)
+        lines.append(f"\n![{est.name}]({est.name}.png)")
+    (out / "report.md").write_text("\n".join(lines) + "\n")
+    result = {"title": title, "mean": mean.as_dict(), "recordings": {k: v.as_dict() for k, v in per.items()}, **(extra or {})}
+    (out / "metrics.json").write_text(json.dumps(result, indent=2))
+    return result

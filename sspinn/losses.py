@@ -1,0 +1,192 @@
+"""SSPINNpose's self-supervised losses: physics, measurement and plausibility terms.
+
+Every term is a mean squared error of dimensionless quantities (forces in body weights BW,
+torques in BW·BH, kinematic errors in the units of :func:`sspinn.network.output_scales`):
+
+=========  ======  ===================================================================
+term       weight  meaning
+=========  ======  ===================================================================
+kane       3       Kane residual M(q)q̈ − f(q, u, τ, F_gc) with the contact-model GRFs
+temporal   3       dq/dt − u and du/dt − q̈ (central differences), each divided by the
+                   sequence's standard deviation of the derivative
+imu        30      virtual − measured IMU signals, divided by each channel's standard
+                   deviation (over the training data), averaged over IMUs and channels
+contact    100     separately estimated ankle kinematics − forward kinematics (L_GC)
+bounds     10000   joint limits (hip, ankle [−π/3, π/3], knee [−π/3, 0.1] rad by
+                   default), |pelvis velocity| ≤ 10 m/s, pelvis height in [0, 2] m,
+                   each foot carrying ≥ 20 % BW on average over the sequence (L_B)
+torque     1       speed-weighted effort: (τ / (BW·BH) / max(ẋ_root, 1 m/s))² (L_τ)
+slide      30      (|ẋ_contact| / (1 m/s) · F_y / BW)² — no sliding under load
+foot_speed 1       foot-IMU horizontal speed vs a ZUPT Kalman estimate, penalised only
+                   beyond 30 % of the sequence's maximum ZUPT speed (L_FS)
+=========  ======  ===================================================================
+
+Fine-tuning multiplies the kane, temporal and contact weights by 10 (:meth:`LossWeights.finetune`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, replace
+
+import torch
+
+from sspinn import dynamics, kinematics
+from sspinn.body import JointLimits
+from sspinn.contact import ContactParameters
+from sspinn.conventions import GRAVITY, SEGMENTS
+from sspinn.network import Estimate
+
+
+@dataclass(frozen=True)
+class LossWeights:
+    """λ of each term (defaults: the paper's)."""
+
+    kane: float = 3.0
+    temporal: float = 3.0
+    imu: float = 30.0
+    contact: float = 100.0
+    bounds: float = 10000.0
+    torque: float = 1.0
+    slide: float = 30.0
+    foot_speed: float = 1.0
+
+    def finetune(self) -> LossWeights:
+        """The paper's fine-tuning weights: kane, temporal and contact × 10."""
+        return replace(self, kane=10 * self.kane, temporal=10 * self.temporal, contact=10 * self.contact)
+
+    def as_dict(self) -> dict[str, float]:
+        return asdict(self)
+
+
+@dataclass
+class Batch:
+    """What the losses need besides the estimate; B sequences of T samples.
+
+    imu: (B, T, n_imu, 3) measured signals of ``segments``; imu_std: (n_imu, 3) channel scales;
+    p: (B, 41) body parameters; height, mass: (B,); placement: (B, 21) IMU placement (may be a
+    learnable tensor); zupt_speed: (B, T, 2) foot horizontal speed of a ZUPT filter for the
+    right and left foot IMU (NaN where unavailable) or None; dt: s.
+    """
+
+    imu: torch.Tensor
+    imu_std: torch.Tensor
+    segments: tuple[str, ...]
+    p: torch.Tensor
+    height: torch.Tensor
+    mass: torch.Tensor
+    placement: torch.Tensor
+    dt: float
+    zupt_speed: torch.Tensor | None = None
+
+
+def _relu2(x: torch.Tensor) -> torch.Tensor:
+    return torch.relu(x).square()
+
+
+def _central_diff(x: torch.Tensor, dt: float) -> torch.Tensor:
+    """d/dt along the time axis (-2) by central differences; drops the first and last sample."""
+    return (x[:, 2:] - x[:, :-2]) / (2 * dt)
+
+
+class PhysicsLosses:
+    """Computes every loss term of an :class:`Estimate` for a :class:`Batch`.
+
+    Args:
+        weights: λ per term.
+        contact: contact-model parameters (vector or dataclass); default ContactParameters().
+        limits: joint limits for the bounds term.
+        foot_load: minimum mean vertical force per foot over a sequence, in BW.
+    """
+
+    def __init__(
+        self,
+        weights: LossWeights | None = None,
+        contact: ContactParameters | None = None,
+        limits: JointLimits | None = None,
+        foot_load: float = 0.2,
+    ) -> None:
+        self.weights = weights or LossWeights()
+        self.contact = (contact or ContactParameters()).vector()
+        lo, hi = (limits or JointLimits()).arrays()
+        self.lower, self.upper = torch.as_tensor(lo), torch.as_tensor(hi)
+        self.foot_load = foot_load
+
+    def __call__(self, est: Estimate, batch: Batch) -> dict[str, torch.Tensor]:
+        """Dict of every weighted term plus ``total`` (scalars) and ``grf`` (B, T, 4, N) for logging."""
+        q, u, qdd, tau = est.q, est.u, est.qdd, est.tau
+        like = q
+        p = batch.p[:, None, :]
+        c = torch.as_tensor(self.contact, dtype=like.dtype, device=like.device)
+        weight = (batch.mass * GRAVITY)[:, None]  # BW, (B, 1)
+        bwbh = weight * batch.height[:, None]
+        terms: dict[str, torch.Tensor] = {}
+
+        # ground contact on the separately estimated ankle kinematics
+        gc = dynamics.contact_from_ankles(q, u, est.ankle_global(), est.mu_hat, p, c)  # (B, T, 2, 6)
+        grf = gc[..., :2].flatten(-2)
+        w = dynamics.contact_fraction(q, c)
+
+        # L_K
+        r = dynamics.kane_residual(q, u, qdd, tau, grf, w, p)
+        r_scaled = torch.cat([r[..., :2] / weight[..., None], r[..., 2:] / bwbh[..., None]], dim=-1)
+        terms["kane"] = r_scaled.square().mean()
+
+        # L_T
+        dq, du = _central_diff(q, batch.dt), _central_diff(u, batch.dt)
+        su = u.detach().std(dim=1, keepdim=True).clamp_min(1e-3)
+        sa = qdd.detach().std(dim=1, keepdim=True).clamp_min(1e-3)
+        terms["temporal"] = ((dq - u[:, 1:-1]) / su).square().mean() + ((du - qdd[:, 1:-1]) / sa).square().mean()
+
+        # L_IMU
+        placement = batch.placement[:, None, :]
+        idx = [SEGMENTS.index(s) for s in batch.segments]
+        virtual = kinematics.virtual_imu(q, u, qdd, placement, p)[..., idx, :]
+        terms["imu"] = ((virtual - batch.imu) / batch.imu_std).square().mean()
+
+        # L_GC: ankle kinematics, estimated vs forward kinematics (x relative to the hip)
+        pk = kinematics.point_kinematics(q, u, qdd, w, p)
+        fk = torch.stack([pk[..., kinematics.point_index(f"ankle_{s}"), :] for s in "rl"], dim=-2)
+        fk = torch.cat([fk[..., :1] - q[..., None, :1], fk[..., 1:]], dim=-1)
+        h = batch.height[:, None, None, None]
+        gc_scale = torch.cat([h * 0.1, h * 0.1, torch.ones_like(h), torch.ones_like(h), 10 * torch.ones_like(h), 10 * torch.ones_like(h)], dim=-1)
+        terms["contact"] = ((est.ankle - fk) / gc_scale).square().mean()
+
+        # L_B
+        lower, upper = self.lower.to(like), self.upper.to(like)
+        joints = q[..., 3:]
+        fy = grf[..., 1::2] / weight[..., None]
+        bounds = (
+            _relu2(lower - joints).mean()
+            + _relu2(joints - upper).mean()
+            + _relu2(u[..., :2].abs() - 10.0).mean()
+            + _relu2(-q[..., 1]).mean()
+            + _relu2(q[..., 1] - 2.0).mean()
+            + _relu2(self.foot_load - fy.mean(dim=1)).mean()
+        )
+        terms["bounds"] = bounds
+
+        # L_τ
+        speed = u[..., :1].abs().clamp_min(1.0)
+        terms["torque"] = (tau / bwbh[..., None] / speed).square().mean()
+
+        # L_slide
+        terms["slide"] = (gc[..., 4].abs() * gc[..., 1] / weight[..., None]).square().mean()
+
+        # L_FS
+        if batch.zupt_speed is not None:
+            kin = kinematics.imu_kinematics(q, u, qdd, placement, p)
+            feet = [SEGMENTS.index("foot_r"), SEGMENTS.index("foot_l")]
+            v_est = kin[..., feet, 2].abs()  # horizontal speed of the foot IMUs
+            v_ref = batch.zupt_speed
+            known = torch.isfinite(v_ref)
+            v_ref0 = torch.where(known, v_ref, torch.zeros_like(v_ref))
+            margin = 0.3 * v_ref0.amax(dim=1, keepdim=True)
+            excess = _relu2((v_est - v_ref0).abs() - margin)
+            terms["foot_speed"] = (excess * known).sum() / known.sum().clamp_min(1)
+        else:
+            terms["foot_speed"] = torch.zeros((), dtype=like.dtype, device=like.device)
+
+        lam = self.weights.as_dict()
+        weighted = {k: lam[k] * v for k, v in terms.items()}
+        total = sum(weighted.values())
+        return {**{k: v for k, v in weighted.items()}, "total": total, "grf": grf.detach()}

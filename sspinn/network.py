@@ -1,0 +1,152 @@
+"""The SSPINNpose network: IMU signals (+ body, placement and contact constants) → gait dynamics.
+
+Architecture (Gambietz et al., SSPINNpose): an LSTM (2 layers, hidden 512, dropout 0.4;
+unidirectional for real time, optionally bidirectional offline), a dense layer of 128 units and
+a linear layer with 46 outputs per time step:
+
+==========  =====  ====================================================================
+block       size   content (decoded by :func:`decode`; SI units, conventions module)
+==========  =====  ====================================================================
+q           8      all coordinates but pelvis_tx (the horizontal root position is the
+                   integral of the estimated horizontal root velocity)
+u           9      generalized speeds
+qdd         9      generalized accelerations
+tau         6      joint torques
+contact     14     per foot (r, l): ankle [x − pelvis_tx, y, vx, vy, ax, ay] estimated
+                   separately from the kinematic chain, and the friction factor μ̂
+==========  =====  ====================================================================
+
+Raw outputs are dimensionless; :func:`decode` scales them by body size (height, body weight)
+and typical gait magnitudes so that a unit output is a plausible amount of each quantity.
+Inputs are normalised with per-channel statistics stored in the model (buffers), so a saved
+model carries everything it needs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import torch
+from torch import nn
+
+from sspinn.conventions import N_Q, N_TAU
+
+N_OUTPUTS = (N_Q - 1) + N_Q + N_Q + N_TAU + 14
+assert N_OUTPUTS == 46
+
+
+@dataclass(frozen=True)
+class NetworkConfig:
+    """LSTM size. Defaults are the paper's; ``configs/sspinn/demo.yaml`` uses a CPU-sized one."""
+
+    hidden: int = 512
+    layers: int = 2
+    dropout: float = 0.4
+    dense: int = 128
+    bidirectional: bool = False
+
+    def __post_init__(self) -> None:
+        if self.hidden < 1 or self.layers < 1 or self.dense < 1:
+            raise ValueError(f"network sizes must be positive: {self}")
+        if not 0.0 <= self.dropout < 1.0:
+            raise ValueError(f"dropout must be in [0, 1), got {self.dropout}")
+
+
+@dataclass
+class Estimate:
+    """Decoded network outputs, each (..., T, n) in SI units (see the module docstring)."""
+
+    q: torch.Tensor  # (..., T, 9), pelvis_tx integrated from u
+    u: torch.Tensor  # (..., T, 9)
+    qdd: torch.Tensor  # (..., T, 9)
+    tau: torch.Tensor  # (..., T, 6)
+    ankle: torch.Tensor  # (..., T, 2, 6): [x − pelvis_tx, y, vx, vy, ax, ay] per foot (r, l)
+    mu_hat: torch.Tensor  # (..., T, 2)
+
+    def ankle_global(self) -> torch.Tensor:
+        """(..., T, 8): [x, y, vx, vy] per foot with x made global by adding pelvis_tx."""
+        a = self.ankle[..., :4].clone()
+        a[..., 0] = a[..., 0] + self.q[..., :1]
+        return a.flatten(-2)
+
+
+class SSPINNposeNet(nn.Module):
+    """LSTM → dense(128) → 46 outputs per time step (see the module docstring).
+
+    Args:
+        n_inputs: features per time step (IMU channels + constants).
+        config: network sizes.
+    """
+
+    def __init__(self, n_inputs: int, config: NetworkConfig = NetworkConfig()) -> None:
+        super().__init__()
+        self.config = config
+        self.n_inputs = n_inputs
+        self.lstm = nn.LSTM(
+            n_inputs,
+            config.hidden,
+            num_layers=config.layers,
+            dropout=config.dropout if config.layers > 1 else 0.0,
+            batch_first=True,
+            bidirectional=config.bidirectional,
+        )
+        width = config.hidden * (2 if config.bidirectional else 1)
+        self.head = nn.Sequential(nn.Linear(width, config.dense), nn.ELU(), nn.Linear(config.dense, N_OUTPUTS))
+        self.register_buffer("input_mean", torch.zeros(n_inputs))
+        self.register_buffer("input_std", torch.ones(n_inputs))
+
+    def set_normalisation(self, mean: torch.Tensor, std: torch.Tensor) -> None:
+        """Per-feature statistics of the training inputs (std floored at 1e-6)."""
+        self.input_mean.copy_(mean)
+        self.input_std.copy_(std.clamp_min(1e-6))
+
+    def forward(
+        self, x: torch.Tensor, state: tuple[torch.Tensor, torch.Tensor] | None = None
+    ) -> tuple[torch.Tensor, tuple[torch.Tensor, torch.Tensor]]:
+        """x (B, T, n_inputs) in physical units → raw outputs (B, T, 46) and the LSTM state."""
+        if x.shape[-1] != self.n_inputs:
+            raise ValueError(f"expected {self.n_inputs} input features, got {x.shape[-1]}")
+        h, state = self.lstm((x - self.input_mean) / self.input_std, state)
+        return self.head(h), state
+
+    def hyperparameters(self) -> dict:
+        return {"n_inputs": self.n_inputs, **asdict(self.config)}
+
+
+def output_scales(height: torch.Tensor, mass: torch.Tensor, gravity: float = 9.81) -> torch.Tensor:
+    """(..., 46) scale of each raw output: length ∝ height, torque ∝ m·g·h, typical rates.
+
+    ``height`` and ``mass`` are (...,) tensors (one per sequence).
+    """
+    ones = torch.ones_like(height)
+    h = height
+    torque = 0.1 * mass * gravity * height  # 10 %BW·BH ≈ 120 N·m for 1.75 m, 70 kg
+    q = [h * 0.05] + [ones * 0.5] * 7  # pelvis_ty offset handled in decode
+    u = [ones * 1.5, ones * 0.5] + [ones * 4.0] * 7
+    qdd = [ones * 10.0, ones * 10.0] + [ones * 50.0] * 7
+    tau = [torque] * N_TAU
+    ankle = [h * 0.2, h * 0.05, ones * 2.0, ones * 1.0, ones * 20.0, ones * 20.0, ones * 1.0]
+    return torch.stack(q + u + qdd + tau + ankle + ankle, dim=-1)
+
+
+def decode(raw: torch.Tensor, height: torch.Tensor, mass: torch.Tensor, dt: float, leg_length: torch.Tensor) -> Estimate:
+    """Raw outputs (B, T, 46) → :class:`Estimate` for sequences of subjects (B,) with heights
+    (m), masses (kg) and leg lengths (m, hip to ground when standing); ``dt`` in s.
+
+    pelvis_ty is expressed as an offset from the standing hip height; ankle y as an offset from
+    the standing ankle height (≈ 0.039·height); pelvis_tx is the cumulative (trapezoidal)
+    integral of the estimated horizontal root velocity, starting at 0 in each sequence.
+    """
+    scaled = raw * output_scales(height, mass)[:, None, :]
+    q_rest = scaled[..., :8].clone()
+    q_rest[..., 0] = q_rest[..., 0] + leg_length[:, None]
+    u = scaled[..., 8:17]
+    qdd = scaled[..., 17:26]
+    tau = scaled[..., 26:32]
+    contact = scaled[..., 32:46].reshape(*scaled.shape[:-1], 2, 7)
+    vx = u[..., 0]
+    tx = torch.cat([torch.zeros_like(vx[:, :1]), torch.cumsum(0.5 * (vx[:, 1:] + vx[:, :-1]) * dt, dim=1)], dim=1)
+    q = torch.cat([tx[..., None], q_rest], dim=-1)
+    ankle = contact[..., :6].clone()
+    ankle[..., 1] = ankle[..., 1] + (0.039 * height)[:, None, None]
+    return Estimate(q=q, u=u, qdd=qdd, tau=tau, ankle=ankle, mu_hat=contact[..., 6])

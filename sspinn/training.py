@@ -1,0 +1,398 @@
+"""Self-supervised training of the SSPINNpose network — readable top to bottom.
+
+1. ``TrainConfig`` (YAML in ``configs/sspinn/``) says what to train on and how.
+2. ``WindowSampler`` draws random windows (default 256 samples) from the training recordings.
+3. ``Trainer.fit`` runs Adam on the weighted physics losses of :mod:`sspinn.losses`, with input
+   noise augmentation, gradient clipping, a NaN/inf guard that names the offending windows,
+   TensorBoard logs, a progress bar, periodic checkpoints, ``resume`` and a checkpoint on Ctrl-C.
+
+No labels are used anywhere in training.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import random
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import yaml
+
+from sspinn.body import BodyParameters
+from sspinn.conventions import SEGMENTS
+from sspinn.dataset import SAMPLE_RATE_HZ, Recording
+from sspinn.losses import Batch, LossWeights, PhysicsLosses
+from sspinn.network import NetworkConfig, SSPINNposeNet, decode
+
+#: Named IMU configurations of the paper (sparse sets keep λ_IMU's relative weight; see losses).
+IMU_CONFIGURATIONS: dict[str, tuple[str, ...]] = {
+    "all": SEGMENTS,
+    "feet_thighs": ("femur_r", "foot_r", "femur_l", "foot_l"),
+    "feet_shanks": ("tibia_r", "foot_r", "tibia_l", "foot_l"),
+    "shanks_pelvis": ("pelvis", "tibia_r", "tibia_l"),
+    "shanks_thighs": ("femur_r", "tibia_r", "femur_l", "tibia_l"),
+}
+
+
+@dataclass
+class TrainConfig:
+    """Everything that defines a training run (see ``configs/sspinn/*.yaml``)."""
+
+    imus: str = "all"
+    network: NetworkConfig = field(default_factory=NetworkConfig)
+    weights: LossWeights = field(default_factory=LossWeights)
+    finetune: bool = False
+    learn_placement: bool = False
+    steps: int = 2000
+    batch_size: int = 32
+    window: int = 256
+    lr: float = 1e-3
+    input_noise: float = 0.25  # η: noise std as a fraction of each channel's std
+    grad_clip: float = 1.0
+    seed: int = 0
+    device: str = "auto"
+    threads: int = 0  # torch intra-op threads on CPU; 0 = torch's default
+    log_every: int = 20
+    checkpoint_every: int = 200
+    time_limit_s: float = 0.0  # stop (with a checkpoint) after this wall time; 0 = no limit
+
+    def __post_init__(self) -> None:
+        if isinstance(self.network, dict):
+            self.network = NetworkConfig(**self.network)
+        if isinstance(self.weights, dict):
+            self.weights = LossWeights(**self.weights)
+        if self.imus not in IMU_CONFIGURATIONS:
+            raise ValueError(f"unknown IMU configuration {self.imus!r}; choose one of {list(IMU_CONFIGURATIONS)}")
+        for name in ("steps", "batch_size", "window", "log_every", "checkpoint_every"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if self.window < 8:
+            raise ValueError(f"window must be at least 8 samples, got {self.window}")
+
+    @classmethod
+    def from_yaml(cls, path: str | Path, **overrides: Any) -> TrainConfig:
+        path = Path(path)
+        data = yaml.safe_load(path.read_text()) or {}
+        data = data.get("train", data)
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = set(data) - known
+        if unknown:
+            raise ValueError(f"{path}: unknown training option(s) {sorted(unknown)}; known: {sorted(known)}")
+        data.update({k: v for k, v in overrides.items() if v is not None})
+        try:
+            return cls(**data)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{path}: {exc}") from None
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+def resolve_device(name: str) -> torch.device:
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    return torch.device(name)
+
+
+# ------------------------------------------------------------------------------ data
+@dataclass
+class PreparedRecording:
+    """A recording with the per-recording constants the network and losses need."""
+
+    recording: Recording
+    p: np.ndarray  # (41,) body parameters from height/mass (what the estimator assumes)
+    placement: np.ndarray  # (21,) nominal IMU placement
+    zupt_speed: np.ndarray | None  # (T, 2) or None
+
+
+def prepare(recordings: list[Recording], segments: tuple[str, ...], zupt: bool = True) -> list[PreparedRecording]:
+    """Select the IMUs, compute body parameters (Winter scaling) and ZUPT foot speeds."""
+    out = []
+    for rec in recordings:
+        sel = rec.select_imus(segments)
+        speed = foot_zupt_speeds(sel) if zupt else None
+        body = BodyParameters.from_anthropometry(rec.height, rec.mass)
+        out.append(PreparedRecording(sel, body.vector(), rec.placement.vector(), speed))
+    return out
+
+
+def foot_zupt_speeds(rec: Recording) -> np.ndarray | None:
+    """(T, 2) horizontal foot speeds from a ZUPT Kalman filter on the foot IMUs (NaN for a
+    missing foot), or None when no foot IMU is present."""
+    try:
+        from sspinn.zupt import foot_speed
+    except ImportError:  # pragma: no cover - the ZUPT module is part of the package
+        return None
+    feet = [s for s in ("foot_r", "foot_l") if s in rec.segments]
+    if not feet:
+        return None
+    speeds = np.full((rec.n_samples, 2), np.nan)
+    for k, s in enumerate(("foot_r", "foot_l")):
+        if s in rec.segments:
+            sig = rec.imu[:, rec.segments.index(s)]
+            speeds[:, k] = foot_speed(sig[:, :2], sig[:, 2], SAMPLE_RATE_HZ)
+    return speeds
+
+
+def input_features(imu: np.ndarray, height: float, mass: float, placement: np.ndarray, segments: tuple[str, ...]) -> np.ndarray:
+    """(T, n_imu·3 + 2 + n_imu·3): IMU signals, then height, mass and the placement of the used
+    IMUs, repeated over time (the paper's θ_b and θ_IMU inputs)."""
+    idx = np.concatenate([np.arange(3) + 3 * SEGMENTS.index(s) for s in segments])
+    consts = np.concatenate([[height, mass], placement[idx]])
+    T = imu.shape[0]
+    return np.concatenate([imu.reshape(T, -1), np.broadcast_to(consts, (T, consts.size))], axis=1)
+
+
+class WindowSampler:
+    """Random windows of ``window`` samples (with replacement) from prepared recordings."""
+
+    def __init__(self, data: list[PreparedRecording], window: int, rng: np.random.Generator) -> None:
+        short = [d.recording.name for d in data if d.recording.n_samples < window]
+        if short:
+            raise ValueError(f"recordings shorter than the {window}-sample window: {short}")
+        self.data, self.window, self.rng = data, window, rng
+        lengths = np.array([d.recording.n_samples - window + 1 for d in data], dtype=float)
+        self.prob = lengths / lengths.sum()
+
+    def sample(self, batch_size: int) -> tuple[list[int], list[int]]:
+        which = self.rng.choice(len(self.data), size=batch_size, p=self.prob)
+        starts = [int(self.rng.integers(0, self.data[k].recording.n_samples - self.window + 1)) for k in which]
+        return [int(k) for k in which], starts
+
+
+def make_batch(
+    data: list[PreparedRecording], which: list[int], starts: list[int], window: int, segments: tuple[str, ...],
+    imu_std: torch.Tensor, device: torch.device, dtype: torch.dtype = torch.float32,
+) -> tuple[torch.Tensor, Batch]:
+    """Network inputs (B, T, F) and the loss :class:`Batch` for the chosen windows."""
+    feats, imus, ps, places, heights, masses, zupts = [], [], [], [], [], [], []
+    for k, s in zip(which, starts):
+        d = data[k]
+        rec = d.recording
+        sl = slice(s, s + window)
+        feats.append(input_features(rec.imu[sl], rec.height, rec.mass, d.placement, segments))
+        imus.append(rec.imu[sl])
+        ps.append(d.p)
+        places.append(d.placement)
+        heights.append(rec.height)
+        masses.append(rec.mass)
+        zupts.append(d.zupt_speed[sl] if d.zupt_speed is not None else np.full((window, 2), np.nan))
+
+    def t(x: Any) -> torch.Tensor:
+        return torch.as_tensor(np.asarray(x), dtype=dtype, device=device)
+
+    zupt = t(zupts)
+    batch = Batch(
+        imu=t(imus), imu_std=imu_std.to(device=device, dtype=dtype), segments=segments, p=t(ps), height=t(heights),
+        mass=t(masses), placement=t(places), dt=1.0 / SAMPLE_RATE_HZ,
+        zupt_speed=zupt if torch.isfinite(zupt).any() else None,
+    )
+    return t(feats), batch
+
+
+# ------------------------------------------------------------------------------ trainer
+class NonFiniteLossError(RuntimeError):
+    """Raised when a loss becomes NaN/inf; the message names the windows of the batch."""
+
+
+class Trainer:
+    """Trains an :class:`SSPINNposeNet` on recordings, self-supervised.
+
+    Args:
+        config: the run's configuration.
+        out: run folder (checkpoints ``checkpoint.pt``/``model.pt``, ``config.yaml``, TensorBoard).
+    """
+
+    def __init__(self, config: TrainConfig, out: str | Path) -> None:
+        self.config = config
+        self.out = Path(out)
+        self.segments = IMU_CONFIGURATIONS[config.imus]
+        self.device = resolve_device(config.device)
+        self.step = 0
+        self.model: SSPINNposeNet | None = None
+        self.history: list[dict[str, float]] = []
+
+    # -------------------------------------------------------------- setup
+    def _setup(self, train: list[Recording]) -> None:
+        cfg = self.config
+        random.seed(cfg.seed)
+        np.random.seed(cfg.seed)
+        torch.manual_seed(cfg.seed)
+        if cfg.threads > 0:
+            torch.set_num_threads(cfg.threads)
+        self.rng = np.random.default_rng(cfg.seed)
+        self.data = prepare(train, self.segments)
+        self.sampler = WindowSampler(self.data, cfg.window, self.rng)
+        all_imu = np.concatenate([d.recording.imu for d in self.data])  # (N, n_imu, 3)
+        self.imu_std = torch.as_tensor(all_imu.std(axis=0).clip(min=1e-3), dtype=torch.float32)
+        feats = np.concatenate([
+            input_features(d.recording.imu, d.recording.height, d.recording.mass, d.placement, self.segments)
+            for d in self.data
+        ])
+        self.model = SSPINNposeNet(feats.shape[1], cfg.network).to(self.device)
+        self.model.set_normalisation(torch.as_tensor(feats.mean(0), dtype=torch.float32), torch.as_tensor(feats.std(0), dtype=torch.float32))
+        self.noise_std = torch.as_tensor(feats.std(0), dtype=torch.float32, device=self.device)
+        self.noise_std[3 * len(self.segments):] = 0.0  # no noise on the constants
+        # learnable IMU placement per recording (the paper's placement optimisation)
+        self.placement = torch.nn.Parameter(torch.as_tensor(np.stack([d.placement for d in self.data]), dtype=torch.float32, device=self.device))
+        params = list(self.model.parameters()) + ([self.placement] if cfg.learn_placement else [])
+        self.optimizer = torch.optim.Adam(params, lr=cfg.lr)
+        weights = cfg.weights.finetune() if cfg.finetune else cfg.weights
+        self.losses = PhysicsLosses(weights)
+
+    # -------------------------------------------------------------- checkpoints
+    def save_checkpoint(self, path: Path | None = None) -> Path:
+        path = path or self.out / "checkpoint.pt"
+        assert self.model is not None
+        state = {
+            "step": self.step,
+            "config": self.config.to_dict(),
+            "segments": self.segments,
+            "model": self.model.state_dict(),
+            "hyperparameters": self.model.hyperparameters(),
+            "optimizer": self.optimizer.state_dict(),
+            "placement": self.placement.detach().cpu(),
+            "recordings": [d.recording.name for d in self.data],
+            "imu_std": self.imu_std,
+            "rng": {"numpy": self.rng.bit_generator.state, "torch": torch.get_rng_state()},
+            "history": self.history,
+        }
+        tmp = path.with_suffix(".tmp")
+        torch.save(state, tmp)
+        tmp.replace(path)  # atomic: a crash never leaves a half-written checkpoint
+        return path
+
+    def load_checkpoint(self, path: Path, weights_only: bool = False) -> None:
+        """Restore a checkpoint into a set-up trainer (all of it, or only the network's weights
+        for fine-tuning a trained model on new recordings)."""
+        state = torch.load(path, map_location=self.device, weights_only=False)
+        if tuple(state["segments"]) != self.segments:
+            raise ValueError(f"{path}: trained on IMUs {state['segments']}, this run uses {self.segments}")
+        assert self.model is not None
+        self.model.load_state_dict(state["model"])
+        if weights_only:
+            return
+        if state["recordings"] != [d.recording.name for d in self.data]:
+            raise ValueError(f"{path}: checkpoint was trained on other recordings; resume needs the same data")
+        self.optimizer.load_state_dict(state["optimizer"])
+        with torch.no_grad():
+            self.placement.copy_(state["placement"].to(self.device))
+        self.step = int(state["step"])
+        self.rng.bit_generator.state = state["rng"]["numpy"]
+        torch.set_rng_state(state["rng"]["torch"])
+        self.history = list(state.get("history", []))
+
+    # -------------------------------------------------------------- training
+    def fit(self, train: list[Recording], resume: bool = False, init_from: str | Path | None = None) -> SSPINNposeNet:
+        """Train for ``config.steps`` steps (continuing from ``checkpoint.pt`` with ``resume``,
+        or starting from another run's weights with ``init_from``). Returns the model."""
+        from tqdm.auto import tqdm
+
+        cfg = self.config
+        self.out.mkdir(parents=True, exist_ok=True)
+        self._setup(train)
+        ckpt = self.out / "checkpoint.pt"
+        if resume:
+            if not ckpt.exists():
+                raise FileNotFoundError(f"--resume: no checkpoint at {ckpt}")
+            self.load_checkpoint(ckpt)
+        elif init_from is not None:
+            self.load_checkpoint(Path(init_from), weights_only=True)
+        (self.out / "config.yaml").write_text(yaml.safe_dump({"train": cfg.to_dict()}, sort_keys=False))
+        writer = _tensorboard(self.out / "tensorboard")
+        assert self.model is not None
+        self.model.train()
+        start_time = time.perf_counter()
+        bar = tqdm(total=cfg.steps, initial=self.step, desc="training", unit="step", dynamic_ncols=True)
+        try:
+            while self.step < cfg.steps:
+                which, starts = self.sampler.sample(cfg.batch_size)
+                x, batch = make_batch(self.data, which, starts, cfg.window, self.segments, self.imu_std, self.device)
+                batch.placement = self.placement[which]
+                x = x + torch.randn_like(x) * cfg.input_noise * self.noise_std
+                raw, _ = self.model(x)
+                est = decode(raw, batch.height, batch.mass, batch.dt, leg_length(batch.p))
+                terms = self.losses(est, batch)
+                loss = terms["total"]
+                if not torch.isfinite(loss):
+                    bad = [f"{self.data[k].recording.name}[{s}:{s + cfg.window}]" for k, s in zip(which, starts)]
+                    self.save_checkpoint(self.out / "checkpoint_before_nan.pt")
+                    raise NonFiniteLossError(
+                        f"step {self.step}: loss is {loss.item()} "
+                        f"({', '.join(k for k, v in terms.items() if k != 'grf' and not torch.isfinite(v).all())} non-finite) "
+                        f"on windows {bad}; last good state saved to checkpoint_before_nan.pt"
+                    )
+                self.optimizer.zero_grad(set_to_none=True)
+                loss.backward()
+                torch.nn.utils.clip_grad_norm_(self.model.parameters(), cfg.grad_clip)
+                self.optimizer.step()
+                self.step += 1
+                bar.update(1)
+                if self.step % cfg.log_every == 0 or self.step == cfg.steps:
+                    record = {k: float(v.detach()) for k, v in terms.items() if k != "grf"}
+                    record["step"] = self.step
+                    record["wall_s"] = time.perf_counter() - start_time
+                    self.history.append(record)
+                    bar.set_postfix(loss=f"{record['total']:.3g}")
+                    if writer is not None:
+                        for k, v in record.items():
+                            if k not in ("step",):
+                                writer.add_scalar(f"loss/{k}" if k != "wall_s" else "time/wall_s", v, self.step)
+                if self.step % cfg.checkpoint_every == 0:
+                    self.save_checkpoint()
+                if cfg.time_limit_s and time.perf_counter() - start_time > cfg.time_limit_s:
+                    bar.write(f"time limit of {cfg.time_limit_s:.0f} s reached at step {self.step}")
+                    break
+        except KeyboardInterrupt:
+            bar.write(f"interrupted at step {self.step}: saving {ckpt} (continue with --resume)")
+            self.save_checkpoint()
+            raise
+        finally:
+            bar.close()
+            if writer is not None:
+                writer.close()
+        self.save_checkpoint()
+        save_model(self.model, self.out / "model.pt", self.segments, self.config, self.imu_std)
+        return self.model
+
+
+def leg_length(p: torch.Tensor) -> torch.Tensor:
+    """Standing hip height (m) from body-parameter vectors (..., 41): femur + tibia lengths +
+    ankle height (the foot's heel y offset)."""
+    from sspinn.body import PARAMETERS
+
+    i = PARAMETERS.index
+    return p[..., i("femur_r_length")] + p[..., i("tibia_r_length")] - p[..., i("foot_r_heel_y")]
+
+
+def _tensorboard(folder: Path):
+    try:
+        from torch.utils.tensorboard import SummaryWriter
+    except ImportError:  # tensorboard is a dependency; keep training alive without it
+        return None
+    return SummaryWriter(str(folder))
+
+
+def save_model(model: SSPINNposeNet, path: Path, segments: tuple[str, ...], config: TrainConfig, imu_std: torch.Tensor) -> None:
+    """The trained model alone (weights + what is needed to rebuild and run it)."""
+    torch.save(
+        {"model": model.state_dict(), "hyperparameters": model.hyperparameters(), "segments": segments,
+         "config": config.to_dict(), "imu_std": imu_std},
+        path,
+    )
+
+
+def load_model(path: str | Path, device: str | torch.device = "cpu") -> tuple[SSPINNposeNet, tuple[str, ...], dict[str, Any]]:
+    """Rebuild a saved model: (model in eval mode, IMU segments, training config dict)."""
+    state = torch.load(path, map_location=device, weights_only=False)
+    hp = dict(state["hyperparameters"])
+    n_inputs = hp.pop("n_inputs")
+    model = SSPINNposeNet(n_inputs, NetworkConfig(**hp))
+    model.load_state_dict(state["model"])
+    model.to(device).eval()
+    return model, tuple(state["segments"]), state["config"]
+

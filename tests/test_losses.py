@@ -1,0 +1,128 @@
+"""SSPINNpose losses on hand-checkable cases (float64)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from sspinn import dynamics, kinematics
+from sspinn.body import BodyParameters, IMUPlacement
+from sspinn.contact import ContactParameters
+from sspinn.conventions import GRAVITY, SEGMENTS
+from sspinn.losses import Batch, LossWeights, PhysicsLosses
+from sspinn.network import Estimate
+
+UNIT = LossWeights(**{k: 1.0 for k in LossWeights().as_dict()})
+DT = 0.01
+
+
+def exact_case(T: int = 120, height: float = 1.75, mass: float = 70.0, dynamic: bool = True):
+    """A smooth motion q(t), u(t) with feet on the ground, torques τ(t), and q̈ either analytic
+    (``dynamic=False``: temporally exact) or from forward dynamics with the contact-model GRFs
+    (``dynamic=True``: the equations of motion hold exactly at every sample); ankle states from
+    forward kinematics and IMU data from the model's virtual IMUs."""
+    body = BodyParameters.from_anthropometry(height, mass)
+    t = torch.arange(T, dtype=torch.float64) * DT
+    amp = torch.tensor([0.0, 0.02, 0.05, 0.4, -0.4, 0.2, -0.3, -0.3, 0.1], dtype=torch.float64)
+    off = torch.tensor([0.0, 0.86, 0.0, 0.0, -0.55, 0.0, 0.0, -0.6, 0.0], dtype=torch.float64)
+    om = 2 * np.pi * 0.9
+    q = off + amp * torch.sin(om * t)[:, None]
+    u = amp * om * torch.cos(om * t)[:, None]
+    qdd = -amp * om**2 * torch.sin(om * t)[:, None]
+    q[:, 0], u[:, 0], qdd[:, 0] = 1.3 * t, 1.3, 0.0
+    q, u, qdd = q[None], u[None], qdd[None]
+    p = torch.as_tensor(body.vector())
+    c = torch.as_tensor(ContactParameters().vector())
+    w = dynamics.contact_fraction(q, c)
+    pk = kinematics.point_kinematics(q, u, qdd, w, p)
+    fk = torch.stack([pk[..., kinematics.point_index(f"ankle_{s}"), :] for s in "rl"], dim=-2)
+    ankle = torch.cat([fk[..., :1] - q[..., None, :1], fk[..., 1:]], dim=-1)
+    mu_hat = 0.3 * torch.ones(1, T, 2, dtype=torch.float64)
+    tau = 20.0 * torch.sin(om * t)[None, :, None].expand(1, T, 6)
+    est = Estimate(q=q, u=u, qdd=qdd, tau=tau, ankle=ankle, mu_hat=mu_hat)
+    grf = dynamics.contact_from_ankles(q, u, est.ankle_global(), mu_hat, p, c)[..., :2].flatten(-2)
+    if dynamic:
+        est.qdd = qdd = dynamics.forward_dynamics(q, u, tau, grf, w, p)
+        pk = kinematics.point_kinematics(q, u, qdd, w, p)
+        fk = torch.stack([pk[..., kinematics.point_index(f"ankle_{s}"), :] for s in "rl"], dim=-2)
+        est.ankle = torch.cat([fk[..., :1] - q[..., None, :1], fk[..., 1:]], dim=-1)
+    placement = torch.as_tensor(IMUPlacement.default(height).vector())[None]
+    imu = kinematics.virtual_imu(q, u, qdd, placement[:, None], p)
+    batch = Batch(
+        imu=imu, imu_std=torch.ones(len(SEGMENTS), 3, dtype=torch.float64), segments=SEGMENTS, p=p[None],
+        height=torch.tensor([height], dtype=torch.float64), mass=torch.tensor([mass], dtype=torch.float64),
+        placement=placement, dt=DT,
+    )
+    return est, batch, grf
+
+
+def test_exact_motion_has_zero_kane_contact_and_imu_loss():
+    est, batch, grf = exact_case()
+    assert grf[..., 1::2].max() > 100.0, "the feet must be loaded for a meaningful Kane test"
+    terms = PhysicsLosses(UNIT)(est, batch)
+    assert terms["kane"] < 1e-20
+    assert terms["contact"] < 1e-24
+    assert terms["imu"] < 1e-20
+    # with analytic q̈ the motion is temporally exact: central differences of a sinusoid have a
+    # relative error (ω·dt)²/6 ≈ 0.05 %, so the temporal loss is tiny
+    est, batch, _ = exact_case(dynamic=False)
+    assert PhysicsLosses(UNIT)(est, batch)["temporal"] < 1e-5
+
+
+def test_each_physics_term_detects_its_violation():
+    est, batch, _ = exact_case()
+    losses = PhysicsLosses(UNIT)
+    est.tau = est.tau + 10.0  # 10 N·m wrong on every joint
+    assert losses(est, batch)["kane"] > 1e-6
+    est2, _, _ = exact_case()
+    est2.ankle = est2.ankle + torch.tensor([0.0, 0.01, 0, 0, 0, 0], dtype=torch.float64)  # 1 cm too high
+    assert losses(est2, batch)["contact"] == pytest.approx(((0.01 / (0.1 * 1.75)) ** 2) / 6, rel=1e-6)
+    est3, batch3, _ = exact_case(dynamic=False)
+    base3 = losses(est3, batch3)["temporal"]
+    est3.u = est3.u * 1.1
+    assert losses(est3, batch3)["temporal"] > 100 * base3
+    batch.imu = batch.imu + 0.5
+    assert losses(est, batch)["imu"] == pytest.approx(0.25, rel=1e-6)
+
+
+def test_bounds_values():
+    est, batch, grf = exact_case()
+    losses = PhysicsLosses(UNIT)
+    bw = 70.0 * GRAVITY
+    foot_term = torch.relu(0.2 - grf[..., 1::2].mean(dim=1) / bw).square().mean()
+    b0 = losses(est, batch)["bounds"]
+    assert b0 == pytest.approx(float(foot_term), abs=1e-12)
+    est.q = est.q.clone()
+    est.q[..., 4] = 0.2  # knee hyperextended by 0.1 rad beyond its 0.1 limit
+    b1 = losses(est, batch)["bounds"]
+    assert b1 - foot_term == pytest.approx(0.1**2 / 6, rel=1e-6)  # one joint of six, every sample
+
+
+def test_foot_speed_margin():
+    est, batch, _ = exact_case()
+    losses = PhysicsLosses(UNIT)
+    p = batch.p[:, None]
+    kin = kinematics.imu_kinematics(est.q, est.u, est.qdd, batch.placement[:, None], p)
+    v = kin[..., [SEGMENTS.index("foot_r"), SEGMENTS.index("foot_l")], 2].abs()
+    batch.zupt_speed = v.clone()
+    assert losses(est, batch)["foot_speed"] == 0.0
+    batch.zupt_speed = v + 0.29 * v.amax(dim=1, keepdim=True)  # inside the 30 % margin
+    assert losses(est, batch)["foot_speed"] == 0.0
+    batch.zupt_speed = v + 0.5
+    margin = 0.3 * batch.zupt_speed.amax(dim=1, keepdim=True)
+    expected = torch.relu(0.5 - margin).square().mean()
+    assert losses(est, batch)["foot_speed"] == pytest.approx(float(expected), rel=1e-9)
+
+
+def test_weights_and_finetune():
+    w = LossWeights()
+    assert (w.kane, w.temporal, w.imu, w.contact, w.bounds, w.torque, w.slide, w.foot_speed) == (3, 3, 30, 100, 10000, 1, 30, 1)
+    f = w.finetune()
+    assert (f.kane, f.temporal, f.contact, f.imu) == (30, 30, 1000, 30)
+    est, batch, _ = exact_case()
+    est.tau = est.tau + 10.0
+    a = PhysicsLosses(UNIT)(est, batch)
+    b = PhysicsLosses(w)(est, batch)
+    assert b["kane"] == pytest.approx(3 * a["kane"])
+    assert b["total"] == pytest.approx(sum(float(b[k]) for k in w.as_dict()))
