@@ -1,26 +1,169 @@
-"""Command-line interface: ``sspinn <command>`` (or ``python -m sspinn <command>``)."""
+"""Command-line interface: ``sspinn <command>`` (or ``python -m sspinn <command>``).
+
+Commands: ``demo`` (the main job on the embedded default), ``train``, ``finetune``, ``evaluate``,
+``infer``, ``export``. ``--data`` accepts a dataset folder (with ``dataset.json``), a folder with an
+averaged stride (``signals.csv`` + ``meta.json``) or a single recording ``.csv``.
+"""
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
+
+from sspinn.dataset import DataFormatError, Dataset, Recording
+
+
+def load_recordings(data: Path, split: str = "train", periods: int = 10, height: float = 1.75, mass: float = 70.0) -> list[Recording]:
+    """Recordings from a dataset folder (one split), an averaged-stride folder (repeated
+    ``periods`` times, the paper's circular padding) or a single recording CSV."""
+    if (data / "dataset.json").exists():
+        return Dataset.open(data).load(split)
+    if (data / "signals.csv").exists() and (data / "meta.json").exists():
+        from sspinn.readers import read_averaged_stride
+
+        return [read_averaged_stride(data, height=height, mass=mass, periods=periods)]
+    if data.suffix == ".csv":
+        return [Recording.load(data)]
+    raise DataFormatError(f"{data}: not a dataset folder (dataset.json), an averaged-stride folder (signals.csv + meta.json) or a recording .csv")
+
+
+def _data_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--data", type=Path, required=True, help="dataset folder, averaged-stride folder or recording .csv")
+    p.add_argument("--periods", type=int, default=10, help="strides of circular padding for averaged data")
+    p.add_argument("--height", type=float, default=1.75, help="assumed height (m) for averaged data without one")
+    p.add_argument("--mass", type=float, default=70.0, help="assumed mass (kg) for averaged data without one")
+
+
+def _train(args: argparse.Namespace, finetune: bool) -> int:
+    from sspinn.training import TrainConfig, Trainer
+
+    overrides = {"steps": args.steps, "seed": args.seed, "device": args.device, "time_limit_s": args.time_limit}
+    config = TrainConfig.from_yaml(args.config, **overrides)
+    if finetune:
+        config.finetune = True
+        config.learn_placement = args.learn_placement or config.learn_placement
+    train = load_recordings(args.data, "train", args.periods, args.height, args.mass)
+    trainer = Trainer(config, args.out)
+    trainer.fit(train, resume=args.resume, init_from=getattr(args, "model", None))
+    print(f"trained {trainer.step} steps → {args.out / 'model.pt'}")
+    return 0
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    from sspinn.evaluation import write_report
+    from sspinn.inference import estimate_recording
+    from sspinn.training import load_model
+
+    model, segments, _ = load_model(args.model)
+    recs = load_recordings(args.data, args.split, args.periods, args.height, args.mass)
+    ests = [estimate_recording(model, r, segments) for r in recs]
+    result = write_report(ests, recs, args.out, title=f"{args.model} on {args.data} ({args.split})", skip=args.skip)
+    print(json.dumps(result["mean"], indent=2))
+    print(f"report: {args.out / 'report.md'}")
+    return 0
+
+
+def _infer(args: argparse.Namespace) -> int:
+    from sspinn.inference import estimate_recording
+    from sspinn.training import load_model
+
+    model, segments, _ = load_model(args.model)
+    recs = load_recordings(args.data, args.split, args.periods, args.height, args.mass)
+    for rec in recs:
+        est = estimate_recording(model, rec, segments)
+        path = est.to_csv(args.out / f"{rec.name}_estimate.csv")
+        print(f"{rec.name}: {len(est.time)} samples → {path}")
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    import torch
+
+    from sspinn.training import load_model
+
+    model, segments, _ = load_model(args.model)
+
+    class OutputsOnly(torch.nn.Module):
+        """The exported graph maps inputs (B, T, F) to raw outputs (B, T, 46)."""
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.model = model
+
+        def forward(self, x: torch.Tensor) -> torch.Tensor:
+            return self.model(x)[0]
+
+    traced = torch.jit.trace(OutputsOnly().eval(), torch.zeros(1, 16, model.n_inputs))
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    traced.save(str(args.out))
+    print(f"TorchScript model ({model.n_inputs} inputs per sample, IMUs {list(segments)}) → {args.out}")
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="sspinn", description="Sagittal gait dynamics from IMUs, self-supervised.")
     sub = parser.add_subparsers(dest="command", required=True)
+
     demo = sub.add_parser("demo", help="the main job on the embedded default (for now: a physics showcase)")
     demo.add_argument("--out", type=Path, default=Path("results/demo"), help="output folder")
     demo.add_argument("--body", type=Path, default=None, help="body YAML (default: 1.75 m, 70 kg)")
+
+    for name, help_text in (("train", "self-supervised training"), ("finetune", "continue training with the fine-tuning weights")):
+        p = sub.add_parser(name, help=help_text)
+        p.add_argument("--config", type=Path, default=Path("configs/sspinn/demo.yaml"))
+        _data_args(p)
+        p.add_argument("--out", type=Path, required=True, help="run folder (checkpoints, TensorBoard, model.pt)")
+        p.add_argument("--resume", action="store_true", help="continue from <out>/checkpoint.pt")
+        p.add_argument("--steps", type=int, default=None)
+        p.add_argument("--seed", type=int, default=None)
+        p.add_argument("--device", default=None, help="cpu, cuda or auto")
+        p.add_argument("--time-limit", type=float, default=None, help="stop after this many seconds (with a checkpoint)")
+        if name == "finetune":
+            p.add_argument("--model", type=Path, required=True, help="trained model.pt to start from")
+            p.add_argument("--learn-placement", action="store_true", help="also optimise the IMU placement")
+
+    ev = sub.add_parser("evaluate", help="metrics and a report against labels")
+    ev.add_argument("--model", type=Path, required=True)
+    _data_args(ev)
+    ev.add_argument("--split", default="test")
+    ev.add_argument("--skip", type=int, default=50, help="samples of LSTM warm-up excluded from the metrics")
+    ev.add_argument("--out", type=Path, required=True)
+
+    inf = sub.add_parser("infer", help="estimates of recordings without labels → CSV")
+    inf.add_argument("--model", type=Path, required=True)
+    _data_args(inf)
+    inf.add_argument("--split", default="test")
+    inf.add_argument("--out", type=Path, required=True)
+
+    ex = sub.add_parser("export", help="TorchScript export of a trained network")
+    ex.add_argument("--model", type=Path, required=True)
+    ex.add_argument("--out", type=Path, required=True)
+
     args = parser.parse_args(argv)
+    try:
+        if args.command == "demo":
+            from sspinn import demo as demo_mod
+            from sspinn.body import BodyParameters
 
-    if args.command == "demo":
-        from sspinn import demo as demo_mod
-        from sspinn.body import BodyParameters
-
-        body = BodyParameters.from_yaml(args.body) if args.body else None
-        demo_mod.main(args.out, body)
+            body = BodyParameters.from_yaml(args.body) if args.body else None
+            demo_mod.main(args.out, body)
+            return 0
+        if args.command in ("train", "finetune"):
+            return _train(args, args.command == "finetune")
+        if args.command == "evaluate":
+            return _evaluate(args)
+        if args.command == "infer":
+            return _infer(args)
+        if args.command == "export":
+            return _export(args)
+    except (DataFormatError, FileNotFoundError, ValueError) as exc:
+        print(f"sspinn {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
     return 0
 
 

@@ -1,0 +1,128 @@
+"""The sspinn CLI and trainer on tiny data: train, resume, Ctrl-C safety, evaluate, infer, export,
+streaming."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+import yaml
+
+from sspinn.cli import main
+from sspinn.dataset import Dataset
+from sspinn.inference import StreamingEstimator, estimate_recording
+from sspinn.training import NonFiniteLossError, TrainConfig, Trainer, load_model
+from tests.test_dataset import make_recording
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    root = tmp_path_factory.mktemp("tiny")
+    rng = np.random.default_rng(3)
+    data = root / "data"
+    Dataset.write(data, {"train": [make_recording("a", "s1", 150, rng), make_recording("b", "s2", 150, rng)], "test": [make_recording("c", "s3", 120, rng)]})
+    cfg = root / "tiny.yaml"
+    cfg.write_text(yaml.safe_dump({"train": {
+        "network": {"hidden": 8, "layers": 1, "dropout": 0.0, "dense": 8}, "steps": 4, "batch_size": 2, "window": 32,
+        "log_every": 1, "checkpoint_every": 2, "device": "cpu",
+    }}))
+    return root, data, cfg
+
+
+def test_train_resume_evaluate_infer_export(tiny):
+    root, data, cfg = tiny
+    run = root / "run"
+    assert main(["train", "--config", str(cfg), "--data", str(data), "--out", str(run)]) == 0
+    for name in ("model.pt", "checkpoint.pt", "config.yaml"):
+        assert (run / name).exists()
+    assert any((run / "tensorboard").iterdir())
+    state = torch.load(run / "checkpoint.pt", weights_only=False)
+    assert state["step"] == 4
+    assert main(["train", "--config", str(cfg), "--data", str(data), "--out", str(run), "--resume", "--steps", "6"]) == 0
+    assert torch.load(run / "checkpoint.pt", weights_only=False)["step"] == 6
+    assert main(["evaluate", "--model", str(run / "model.pt"), "--data", str(data), "--out", str(root / "report"), "--skip", "10"]) == 0
+    assert (root / "report" / "report.md").exists() and (root / "report" / "c.png").exists()
+    assert main(["infer", "--model", str(run / "model.pt"), "--data", str(data), "--out", str(root / "infer")]) == 0
+    header = (root / "infer" / "c_estimate.csv").read_text().splitlines()[0].split(",")
+    assert header[:3] == ["time", "pelvis_tx", "pelvis_ty"] and "grf_y_l" in header and "tau_ankle_l" in header
+    assert main(["export", "--model", str(run / "model.pt"), "--out", str(root / "model.ts")]) == 0
+    scripted = torch.jit.load(str(root / "model.ts"))
+    model, segments, _ = load_model(run / "model.pt")
+    x = torch.randn(1, 20, model.n_inputs)
+    torch.testing.assert_close(scripted(x), model(x)[0])
+    assert main(["finetune", "--config", str(cfg), "--model", str(run / "model.pt"), "--data", str(data), "--out", str(root / "ft")]) == 0
+
+
+def test_resume_reproduces_an_uninterrupted_run(tiny):
+    root, data, cfg = tiny
+    train = Dataset.open(data).load("train")
+    config = TrainConfig.from_yaml(cfg)
+    full = Trainer(config, root / "full")
+    full.fit(train)
+    TrainConfig.from_yaml(cfg, steps=2)
+    half = Trainer(TrainConfig.from_yaml(cfg, steps=2), root / "half")
+    half.fit(train)
+    rest = Trainer(config, root / "half")
+    rest.fit(train, resume=True)
+    for a, b in zip(full.model.state_dict().values(), rest.model.state_dict().values()):
+        torch.testing.assert_close(a, b)
+
+
+def test_keyboard_interrupt_saves_a_checkpoint(tiny, monkeypatch):
+    root, data, cfg = tiny
+    train = Dataset.open(data).load("train")
+    trainer = Trainer(TrainConfig.from_yaml(cfg), root / "interrupted")
+    calls = {"n": 0}
+    real_step = torch.optim.Adam.step
+
+    def interrupt_on_third(self, *a, **k):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise KeyboardInterrupt
+        return real_step(self, *a, **k)
+
+    monkeypatch.setattr(torch.optim.Adam, "step", interrupt_on_third)
+    with pytest.raises(KeyboardInterrupt):
+        trainer.fit(train)
+    assert torch.load(root / "interrupted" / "checkpoint.pt", weights_only=False)["step"] == 2
+
+
+def test_nan_guard_names_the_windows(tiny, monkeypatch):
+    root, data, cfg = tiny
+    train = Dataset.open(data).load("train")
+    trainer = Trainer(TrainConfig.from_yaml(cfg), root / "nan")
+    import sspinn.training as tr
+
+    real = tr.decode
+
+    def poisoned(raw, *a, **k):
+        return real(raw * float("nan"), *a, **k)
+
+    monkeypatch.setattr(tr, "decode", poisoned)
+    with pytest.raises(NonFiniteLossError, match=r"step 0: loss is nan .* on windows \['[ab]\[\d+:\d+\]'"):
+        trainer.fit(train)
+
+
+def test_bad_config_and_data_errors(tiny, tmp_path, capsys):
+    root, data, cfg = tiny
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("train: {stepz: 3}\n")
+    assert main(["train", "--config", str(bad), "--data", str(data), "--out", str(tmp_path / "r")]) == 2
+    assert "unknown training option(s) ['stepz']" in capsys.readouterr().err
+    assert main(["train", "--config", str(cfg), "--data", str(tmp_path), "--out", str(tmp_path / "r")]) == 2
+    assert "not a dataset folder" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="unknown IMU configuration"):
+        TrainConfig(imus="hands")
+
+
+def test_streaming_matches_whole_sequence(tiny):
+    root, data, cfg = tiny
+    model, segments, _ = load_model(root / "run" / "model.pt")
+    rec = Dataset.open(data).load("test")[0]
+    whole = estimate_recording(model, rec, segments)
+    stream = StreamingEstimator(model, segments, rec.height, rec.mass, rec.placement.vector())
+    outs = [stream.step(rec.imu[k]) for k in range(40)]
+    np.testing.assert_allclose(np.array([o["tau"] for o in outs]), whole.tau[:40], rtol=1e-4, atol=1e-3)
+    np.testing.assert_allclose(np.array([o["grf"] for o in outs]), whole.grf[:40], rtol=1e-4, atol=1e-2)
+    with pytest.raises(ValueError, match="finite"):
+        stream.step(np.full((7, 3), np.nan))
