@@ -11,7 +11,9 @@ No labels are used anywhere in training.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import os
 import random
 import time
 from dataclasses import dataclass, field
@@ -59,6 +61,7 @@ class TrainConfig:
     log_every: int = 20
     checkpoint_every: int = 200
     time_limit_s: float = 0.0  # stop (with a checkpoint) after this wall time; 0 = no limit
+    amp: bool = True  # bfloat16 autocast of the network on CUDA (the physics stays float32)
 
     def __post_init__(self) -> None:
         if isinstance(self.network, dict):
@@ -94,8 +97,27 @@ class TrainConfig:
 
 def resolve_device(name: str) -> torch.device:
     if name == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+        name = "cuda" if torch.cuda.is_available() else "cpu"
+    if name == "cuda" and _world() > 1:
+        return torch.device("cuda", int(os.environ.get("LOCAL_RANK", 0)))
     return torch.device(name)
+
+
+def _world() -> int:
+    return int(os.environ.get("WORLD_SIZE", 1))
+
+
+def init_distributed(device: torch.device) -> tuple[int, int]:
+    """(rank, world size); initialises torch.distributed when launched by ``torchrun`` (gloo on
+    CPU, NCCL on CUDA). Each rank draws its own windows; gradients are averaged by DDP."""
+    import torch.distributed as dist
+
+    world = _world()
+    if world <= 1:
+        return 0, 1
+    if not dist.is_initialized():
+        dist.init_process_group(backend="nccl" if device.type == "cuda" else "gloo")
+    return dist.get_rank(), dist.get_world_size()
 
 
 # ------------------------------------------------------------------------------ data
@@ -219,12 +241,13 @@ class Trainer:
     # -------------------------------------------------------------- setup
     def _setup(self, train: list[Recording]) -> None:
         cfg = self.config
+        self.rank, self.world = init_distributed(self.device)
         random.seed(cfg.seed)
         np.random.seed(cfg.seed)
-        torch.manual_seed(cfg.seed)
+        torch.manual_seed(cfg.seed)  # identical initial weights on every rank
         if cfg.threads > 0:
             torch.set_num_threads(cfg.threads)
-        self.rng = np.random.default_rng(cfg.seed)
+        self.rng = np.random.default_rng([cfg.seed, self.rank])  # but different windows
         self.data = prepare(train, self.segments)
         self.sampler = WindowSampler(self.data, cfg.window, self.rng)
         all_imu = np.concatenate([d.recording.imu for d in self.data])  # (N, n_imu, 3)
@@ -243,6 +266,11 @@ class Trainer:
         self.optimizer = torch.optim.Adam(params, lr=cfg.lr)
         weights = cfg.weights.finetune() if cfg.finetune else cfg.weights
         self.losses = PhysicsLosses(weights)
+        self.net: torch.nn.Module = self.model
+        if self.world > 1:
+            from torch.nn.parallel import DistributedDataParallel
+
+            self.net = DistributedDataParallel(self.model, device_ids=[self.device.index] if self.device.type == "cuda" else None)
 
     # -------------------------------------------------------------- checkpoints
     def save_checkpoint(self, path: Path | None = None) -> Path:
@@ -260,6 +288,7 @@ class Trainer:
             "imu_std": self.imu_std,
             "rng": {"numpy": self.rng.bit_generator.state, "torch": torch.get_rng_state()},
             "history": self.history,
+            "world_size": self.world,
         }
         tmp = path.with_suffix(".tmp")
         torch.save(state, tmp)
@@ -302,32 +331,43 @@ class Trainer:
             self.load_checkpoint(ckpt)
         elif init_from is not None:
             self.load_checkpoint(Path(init_from), weights_only=True)
-        (self.out / "config.yaml").write_text(yaml.safe_dump({"train": cfg.to_dict()}, sort_keys=False))
-        writer = _tensorboard(self.out / "tensorboard")
+        lead = self.rank == 0  # only rank 0 writes files and shows progress
+        if lead:
+            (self.out / "config.yaml").write_text(yaml.safe_dump({"train": cfg.to_dict()}, sort_keys=False))
+        writer = _tensorboard(self.out / "tensorboard") if lead else None
         assert self.model is not None
         self.model.train()
         start_time = time.perf_counter()
-        bar = tqdm(total=cfg.steps, initial=self.step, desc="training", unit="step", dynamic_ncols=True)
+        bar = tqdm(total=cfg.steps, initial=self.step, desc="training", unit="step", dynamic_ncols=True, disable=not lead)
+        autocast = (
+            torch.autocast("cuda", dtype=torch.bfloat16) if cfg.amp and self.device.type == "cuda" else contextlib.nullcontext()
+        )
         try:
             while self.step < cfg.steps:
                 which, starts = self.sampler.sample(cfg.batch_size)
                 x, batch = make_batch(self.data, which, starts, cfg.window, self.segments, self.imu_std, self.device)
                 batch.placement = self.placement[which]
                 x = x + torch.randn_like(x) * cfg.input_noise * self.noise_std
-                raw, _ = self.model(x)
-                est = decode(raw, batch.height, batch.mass, batch.dt, leg_length(batch.p))
+                with autocast:
+                    raw, _ = self.net(x)
+                est = decode(raw.float(), batch.height, batch.mass, batch.dt, leg_length(batch.p))
                 terms = self.losses(est, batch)
                 loss = terms["total"]
                 if not torch.isfinite(loss):
                     bad = [f"{self.data[k].recording.name}[{s}:{s + cfg.window}]" for k, s in zip(which, starts)]
-                    self.save_checkpoint(self.out / "checkpoint_before_nan.pt")
+                    self.save_checkpoint(self.out / f"checkpoint_before_nan_rank{self.rank}.pt")
                     raise NonFiniteLossError(
-                        f"step {self.step}: loss is {loss.item()} "
+                        f"step {self.step} (rank {self.rank}): loss is {loss.item()} "
                         f"({', '.join(k for k, v in terms.items() if k != 'grf' and not torch.isfinite(v).all())} non-finite) "
-                        f"on windows {bad}; last good state saved to checkpoint_before_nan.pt"
+                        f"on windows {bad}; last good state saved to checkpoint_before_nan_rank{self.rank}.pt"
                     )
                 self.optimizer.zero_grad(set_to_none=True)
                 loss.backward()
+                if self.world > 1 and cfg.learn_placement and self.placement.grad is not None:
+                    import torch.distributed as dist
+
+                    dist.all_reduce(self.placement.grad)
+                    self.placement.grad /= self.world
                 torch.nn.utils.clip_grad_norm_(self.model.parameters(), cfg.grad_clip)
                 self.optimizer.step()
                 self.step += 1
@@ -342,22 +382,34 @@ class Trainer:
                         for k, v in record.items():
                             if k not in ("step",):
                                 writer.add_scalar(f"loss/{k}" if k != "wall_s" else "time/wall_s", v, self.step)
-                if self.step % cfg.checkpoint_every == 0:
+                if self.step % cfg.checkpoint_every == 0 and lead:
                     self.save_checkpoint()
-                if cfg.time_limit_s and time.perf_counter() - start_time > cfg.time_limit_s:
+                if cfg.time_limit_s and self._agree(time.perf_counter() - start_time > cfg.time_limit_s):
                     bar.write(f"time limit of {cfg.time_limit_s:.0f} s reached at step {self.step}")
                     break
         except KeyboardInterrupt:
-            bar.write(f"interrupted at step {self.step}: saving {ckpt} (continue with --resume)")
-            self.save_checkpoint()
+            if lead:
+                bar.write(f"interrupted at step {self.step}: saving {ckpt} (continue with --resume)")
+                self.save_checkpoint()
             raise
         finally:
             bar.close()
             if writer is not None:
                 writer.close()
-        self.save_checkpoint()
-        save_model(self.model, self.out / "model.pt", self.segments, self.config, self.imu_std)
+        if lead:
+            self.save_checkpoint()
+            save_model(self.model, self.out / "model.pt", self.segments, self.config, self.imu_std)
         return self.model
+
+    def _agree(self, flag: bool) -> bool:
+        """True on every rank if it is true on any (so all ranks stop at the same step)."""
+        if self.world <= 1:
+            return flag
+        import torch.distributed as dist
+
+        t = torch.tensor([float(flag)], device=self.device)
+        dist.all_reduce(t, op=dist.ReduceOp.MAX)
+        return bool(t.item())
 
 
 def leg_length(p: torch.Tensor) -> torch.Tensor:
