@@ -99,7 +99,7 @@ def test_nan_guard_names_the_windows(tiny, monkeypatch):
         return real(raw * float("nan"), *a, **k)
 
     monkeypatch.setattr(tr, "decode", poisoned)
-    with pytest.raises(NonFiniteLossError, match=r"step 0: loss is nan .* on windows \['[ab]\[\d+:\d+\]'"):
+    with pytest.raises(NonFiniteLossError, match=r"step 0 \(rank 0\): loss is nan .* on windows \['[ab]\[\d+:\d+\]'"):
         trainer.fit(train)
 
 
