@@ -182,6 +182,11 @@ class BodyParameters:
         return self.segment_mass_total * self.gravity
 
     @property
+    def standing_hip_height(self) -> float:
+        """Hip height (m) standing upright with flat feet: femur + tibia + ankle height."""
+        return self.femur_r.length + self.tibia_r.length - self.foot_r.heel[1]
+
+    @property
     def segment_mass_total(self) -> float:
         return sum(getattr(self, s).mass for s in SEGMENTS)
 

@@ -90,6 +90,7 @@ EXPR_FUNCTIONS: dict[str, Spec] = {
 NUMBA_KERNELS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "mass_matrix_forcing": (("mass_matrix", "forcing"), ("q", "u", "tau", "grf", "w", "p")),
     "contact_simulation": (("contact_forces_simulation", "contact_fraction"), ("q", "u", "p", "c")),
+    "contact_learned_from_ankles": (("contact_from_ankles", "contact_fraction"), ("q", "u", "ankle", "mu_hat", "p", "c")),
 }
 
 
@@ -186,7 +187,7 @@ def generate_numba(model: SymbolicModel) -> str:
                 for j in range(m.shape[1]):
                     if m.shape[1] == 1:
                         targets.append(f"{o}[{i}]")
-                    elif j >= i or not (m[i, j] - m[j, i]).is_zero:
+                    elif j >= i or m.shape[0] != m.shape[1] or not (m[i, j] - m[j, i]).is_zero:
                         targets.append(f"{o}[{i}, {j}]")
                     else:  # symmetric: mirror the upper triangle
                         continue

@@ -14,12 +14,13 @@ import numpy as np
 import torch
 
 from sspinn import dynamics
-from sspinn.body import BodyParameters
+from sspinn._generated import model_numba
+from sspinn.body import BodyParameters, IMUPlacement
 from sspinn.contact import ContactParameters
 from sspinn.conventions import COORDINATES, GRF, JOINTS
 from sspinn.dataset import SAMPLE_RATE_HZ, DataFormatError, Recording
-from sspinn.network import SSPINNposeNet, decode
-from sspinn.training import input_features, leg_length
+from sspinn.network import BLOCKS, SSPINNposeNet, decode, output_affine, split_outputs
+from sspinn.training import input_features
 
 
 @dataclass
@@ -65,13 +66,11 @@ def _check_segments(rec: Recording, segments: tuple[str, ...]) -> Recording:
     return rec.select_imus(segments)
 
 
-def _outputs(raw: torch.Tensor, height: float, mass: float, p: np.ndarray) -> dict[str, torch.Tensor]:
+def _outputs(raw: torch.Tensor, body: BodyParameters) -> dict[str, torch.Tensor]:
     """Decode raw outputs (1, T, 46) and evaluate the contact model (float64)."""
-    raw = raw.double()
-    h = torch.tensor([height], dtype=torch.float64)
-    m = torch.tensor([mass], dtype=torch.float64)
-    pt = torch.as_tensor(p, dtype=torch.float64)
-    est = decode(raw, h, m, 1.0 / SAMPLE_RATE_HZ, leg_length(pt)[None])
+    scale, offset = output_affine(body.height, body.mass, body.standing_hip_height, body.gravity)
+    est = decode(raw.double(), torch.as_tensor(scale)[None], torch.as_tensor(offset)[None], 1.0 / SAMPLE_RATE_HZ)
+    pt = torch.as_tensor(body.vector())
     c = torch.as_tensor(ContactParameters().vector())
     gc = dynamics.contact_from_ankles(est.q, est.u, est.ankle_global(), est.mu_hat, pt, c)
     return {
@@ -90,8 +89,8 @@ def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str
     placement = rec.placement.vector() if placement is None else placement
     x = input_features(rec.imu, rec.height, rec.mass, placement, segments)
     raw, _ = model(torch.as_tensor(x, dtype=torch.float32, device=device)[None])
-    p = BodyParameters.from_anthropometry(rec.height, rec.mass).vector()
-    out = {k: v[0].cpu().numpy() for k, v in _outputs(raw.cpu(), rec.height, rec.mass, p).items()}
+    body = BodyParameters.from_anthropometry(rec.height, rec.mass)
+    out = {k: v[0].cpu().numpy() for k, v in _outputs(raw.cpu(), body).items()}
     return GaitEstimate(name=rec.name, time=rec.time, **out)
 
 
@@ -108,31 +107,46 @@ class StreamingEstimator:
     def __init__(self, model: SSPINNposeNet, segments: tuple[str, ...], height: float, mass: float, placement: np.ndarray | None = None) -> None:
         if model.config.bidirectional:
             raise ValueError("a bidirectional model needs the whole sequence; it cannot stream")
-        from sspinn.body import IMUPlacement
-
         self.model = model.eval()
         self.segments = segments
         self.height, self.mass = height, mass
         self.placement = IMUPlacement.default(height).vector() if placement is None else placement
-        self.p = BodyParameters.from_anthropometry(height, mass).vector()
+        body = BodyParameters.from_anthropometry(height, mass)
+        self.p = body.vector()
+        self.c = ContactParameters().vector()
+        self.scale, self.offset = output_affine(height, mass, body.standing_hip_height, body.gravity)
         self.reset()
 
     def reset(self) -> None:
         self.state = None
         self.x_root = 0.0
+        self.vx_previous: float | None = None
 
     @torch.no_grad()
     def step(self, sample: np.ndarray) -> dict[str, np.ndarray]:
         """One sample (n_imu, 3) [acc_x, acc_y, gyr_z] in the model's segment order → dict of
-        q (9), u (9), qdd (9), tau (6), grf (4) at that sample."""
+        q (9), u (9), qdd (9), tau (6), grf (4), w (2) at that sample (NumPy, SI units).
+
+        The network runs in torch (oneDNN off: its per-call overhead dominates single-step
+        LSTMs on CPU, see ../shared/TRAPS.md); decoding and the contact model run on NumPy and
+        the generated numba kernel, so the physics adds microseconds, not milliseconds.
+        """
         sample = np.asarray(sample, dtype=np.float64)
         if sample.shape != (len(self.segments), 3) or not np.isfinite(sample).all():
             raise ValueError(f"expected a finite ({len(self.segments)}, 3) sample for IMUs {self.segments}, got {sample.shape}")
         x = input_features(sample[None], self.height, self.mass, self.placement, self.segments)
-        # oneDNN's per-call overhead dominates single-step LSTMs on CPU (see ../shared/TRAPS.md)
         with torch.backends.mkldnn.flags(enabled=False):
             raw, self.state = self.model(torch.as_tensor(x, dtype=torch.float32)[None], self.state)
-        out = {k: v[0, -1].numpy() for k, v in _outputs(raw, self.height, self.mass, self.p).items()}
-        self.x_root += out["u"][0] / SAMPLE_RATE_HZ
-        out["q"][0] = self.x_root
+        scaled = raw[0, -1].double().numpy() * self.scale + self.offset
+        vx = scaled[BLOCKS["u"].start]
+        if self.vx_previous is not None:  # trapezoidal integral, as in network.decode
+            self.x_root += 0.5 * (vx + self.vx_previous) / SAMPLE_RATE_HZ
+        self.vx_previous = vx
+        out = split_outputs(scaled, np.array(self.x_root))
+        ankle = np.ascontiguousarray(out["ankle"][:, :4].copy())
+        ankle[:, 0] += self.x_root
+        gc, w = np.empty((2, 6)), np.empty(2)
+        model_numba.contact_learned_from_ankles(out["q"], out["u"], ankle.reshape(-1), np.ascontiguousarray(out["mu_hat"]), self.p, self.c, gc, w)
+        out["grf"] = gc[:, :2].reshape(-1)
+        out["w"] = w
         return out

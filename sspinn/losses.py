@@ -1,7 +1,7 @@
 """SSPINNpose's self-supervised losses: physics, measurement and plausibility terms.
 
 Every term is a mean squared error of dimensionless quantities (forces in body weights BW,
-torques in BW·BH, kinematic errors in the units of :func:`sspinn.network.output_scales`):
+torques in BW·BH, kinematic errors in the units of :func:`sspinn.network.output_affine`):
 
 =========  ======  ===================================================================
 term       weight  meaning
@@ -65,7 +65,8 @@ class Batch:
     imu: (B, T, n_imu, 3) measured signals of ``segments``; imu_std: (n_imu, 3) channel scales;
     p: (B, 41) body parameters; height, mass: (B,); placement: (B, 21) IMU placement (may be a
     learnable tensor); zupt_speed: (B, T, 2) foot horizontal speed of a ZUPT filter for the
-    right and left foot IMU (NaN where unavailable) or None; dt: s.
+    right and left foot IMU (NaN where unavailable) or None; dt: s; out_scale/out_offset: the
+    network's output affine map per sequence (used by the trainer to decode, not by the losses).
     """
 
     imu: torch.Tensor
@@ -77,6 +78,8 @@ class Batch:
     placement: torch.Tensor
     dt: float
     zupt_speed: torch.Tensor | None = None
+    out_scale: torch.Tensor | None = None  # (B, 46) network output scale per sequence
+    out_offset: torch.Tensor | None = None  # (B, 46)
 
 
 def _relu2(x: torch.Tensor) -> torch.Tensor:

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -113,40 +114,49 @@ class SSPINNposeNet(nn.Module):
         return {"n_inputs": self.n_inputs, **asdict(self.config)}
 
 
-def output_scales(height: torch.Tensor, mass: torch.Tensor, gravity: float = 9.81) -> torch.Tensor:
-    """(..., 46) scale of each raw output: length ∝ height, torque ∝ m·g·h, typical rates.
+#: Blocks of the 46 outputs (see the module docstring).
+BLOCKS = {"q": slice(0, 8), "u": slice(8, 17), "qdd": slice(17, 26), "tau": slice(26, 32), "contact": slice(32, 46)}
 
-    ``height`` and ``mass`` are (...,) tensors (one per sequence).
+
+def output_affine(height: float, mass: float, leg_length: float, gravity: float = 9.81) -> tuple[np.ndarray, np.ndarray]:
+    """(scale, offset), each (46,): physical output = raw · scale + offset for one subject.
+
+    Lengths scale with height, torques with m·g·h (10 %BW·BH ≈ 120 N·m at 1.75 m, 70 kg), rates
+    and accelerations with typical gait magnitudes; pelvis_ty is offset by the standing hip
+    height ``leg_length`` and the ankle heights by the standing ankle height (≈ 0.039·height).
     """
-    ones = torch.ones_like(height)
-    h = height
-    torque = 0.1 * mass * gravity * height  # 10 %BW·BH ≈ 120 N·m for 1.75 m, 70 kg
-    q = [h * 0.05] + [ones * 0.5] * 7  # pelvis_ty offset handled in decode
-    u = [ones * 1.5, ones * 0.5] + [ones * 4.0] * 7
-    qdd = [ones * 10.0, ones * 10.0] + [ones * 50.0] * 7
-    tau = [torque] * N_TAU
-    ankle = [h * 0.2, h * 0.05, ones * 2.0, ones * 1.0, ones * 20.0, ones * 20.0, ones * 1.0]
-    return torch.stack(q + u + qdd + tau + ankle + ankle, dim=-1)
+    torque = 0.1 * mass * gravity * height
+    q = [0.05 * height] + [0.5] * 7
+    u = [1.5, 0.5] + [4.0] * 7
+    qdd = [10.0, 10.0] + [50.0] * 7
+    ankle = [0.2 * height, 0.05 * height, 2.0, 1.0, 20.0, 20.0, 1.0]
+    scale = np.array(q + u + qdd + [torque] * N_TAU + ankle + ankle)
+    offset = np.zeros(N_OUTPUTS)
+    offset[0] = leg_length
+    offset[32 + 1] = offset[32 + 7 + 1] = 0.039 * height
+    return scale, offset
 
 
-def decode(raw: torch.Tensor, height: torch.Tensor, mass: torch.Tensor, dt: float, leg_length: torch.Tensor) -> Estimate:
-    """Raw outputs (B, T, 46) → :class:`Estimate` for sequences of subjects (B,) with heights
-    (m), masses (kg) and leg lengths (m, hip to ground when standing); ``dt`` in s.
+def split_outputs(scaled, root_x):
+    """Blocks of physical outputs (..., 46) (NumPy or torch) as a dict of q (with the given
+    ``root_x`` as pelvis_tx), u, qdd, tau, ankle (..., 2, 6) and mu_hat (..., 2)."""
+    cat = torch.cat if isinstance(scaled, torch.Tensor) else np.concatenate
+    contact = scaled[..., BLOCKS["contact"]].reshape(*scaled.shape[:-1], 2, 7)
+    return {
+        "q": cat([root_x[..., None], scaled[..., BLOCKS["q"]]], -1),
+        "u": scaled[..., BLOCKS["u"]],
+        "qdd": scaled[..., BLOCKS["qdd"]],
+        "tau": scaled[..., BLOCKS["tau"]],
+        "ankle": contact[..., :6],
+        "mu_hat": contact[..., 6],
+    }
 
-    pelvis_ty is expressed as an offset from the standing hip height; ankle y as an offset from
-    the standing ankle height (≈ 0.039·height); pelvis_tx is the cumulative (trapezoidal)
-    integral of the estimated horizontal root velocity, starting at 0 in each sequence.
-    """
-    scaled = raw * output_scales(height, mass)[:, None, :]
-    q_rest = scaled[..., :8].clone()
-    q_rest[..., 0] = q_rest[..., 0] + leg_length[:, None]
-    u = scaled[..., 8:17]
-    qdd = scaled[..., 17:26]
-    tau = scaled[..., 26:32]
-    contact = scaled[..., 32:46].reshape(*scaled.shape[:-1], 2, 7)
-    vx = u[..., 0]
+
+def decode(raw: torch.Tensor, scale: torch.Tensor, offset: torch.Tensor, dt: float) -> Estimate:
+    """Raw outputs (B, T, 46) → :class:`Estimate`, with per-sequence ``scale``/``offset`` (B, 46)
+    from :func:`output_affine`; pelvis_tx is the cumulative (trapezoidal) integral of the
+    estimated horizontal root velocity, starting at 0 in each sequence."""
+    scaled = raw * scale[:, None, :] + offset[:, None, :]
+    vx = scaled[..., BLOCKS["u"].start]
     tx = torch.cat([torch.zeros_like(vx[:, :1]), torch.cumsum(0.5 * (vx[:, 1:] + vx[:, :-1]) * dt, dim=1)], dim=1)
-    q = torch.cat([tx[..., None], q_rest], dim=-1)
-    ankle = contact[..., :6].clone()
-    ankle[..., 1] = ankle[..., 1] + (0.039 * height)[:, None, None]
-    return Estimate(q=q, u=u, qdd=qdd, tau=tau, ankle=ankle, mu_hat=contact[..., 6])
+    return Estimate(**split_outputs(scaled, tx))

@@ -28,7 +28,7 @@ from sspinn.body import BodyParameters
 from sspinn.conventions import SEGMENTS
 from sspinn.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.losses import Batch, LossWeights, PhysicsLosses
-from sspinn.network import NetworkConfig, SSPINNposeNet, decode
+from sspinn.network import NetworkConfig, SSPINNposeNet, decode, output_affine
 
 #: Named IMU configurations of the paper (sparse sets keep λ_IMU's relative weight; see losses).
 IMU_CONFIGURATIONS: dict[str, tuple[str, ...]] = {
@@ -129,6 +129,8 @@ class PreparedRecording:
     p: np.ndarray  # (41,) body parameters from height/mass (what the estimator assumes)
     placement: np.ndarray  # (21,) nominal IMU placement
     zupt_speed: np.ndarray | None  # (T, 2) or None
+    out_scale: np.ndarray  # (46,) network output scales (see network.output_affine)
+    out_offset: np.ndarray  # (46,)
 
 
 def prepare(recordings: list[Recording], segments: tuple[str, ...], zupt: bool = True) -> list[PreparedRecording]:
@@ -138,7 +140,8 @@ def prepare(recordings: list[Recording], segments: tuple[str, ...], zupt: bool =
         sel = rec.select_imus(segments)
         speed = foot_zupt_speeds(sel) if zupt else None
         body = BodyParameters.from_anthropometry(rec.height, rec.mass)
-        out.append(PreparedRecording(sel, body.vector(), rec.placement.vector(), speed))
+        scale, offset = output_affine(rec.height, rec.mass, body.standing_hip_height, body.gravity)
+        out.append(PreparedRecording(sel, body.vector(), rec.placement.vector(), speed, scale, offset))
     return out
 
 
@@ -191,7 +194,7 @@ def make_batch(
     imu_std: torch.Tensor, device: torch.device, dtype: torch.dtype = torch.float32,
 ) -> tuple[torch.Tensor, Batch]:
     """Network inputs (B, T, F) and the loss :class:`Batch` for the chosen windows."""
-    feats, imus, ps, places, heights, masses, zupts = [], [], [], [], [], [], []
+    feats, imus, ps, places, heights, masses, zupts, scales, offsets = [], [], [], [], [], [], [], [], []
     for k, s in zip(which, starts):
         d = data[k]
         rec = d.recording
@@ -203,6 +206,8 @@ def make_batch(
         heights.append(rec.height)
         masses.append(rec.mass)
         zupts.append(d.zupt_speed[sl] if d.zupt_speed is not None else np.full((window, 2), np.nan))
+        scales.append(d.out_scale)
+        offsets.append(d.out_offset)
 
     def t(x: Any) -> torch.Tensor:
         return torch.as_tensor(np.asarray(x), dtype=dtype, device=device)
@@ -212,6 +217,7 @@ def make_batch(
         imu=t(imus), imu_std=imu_std.to(device=device, dtype=dtype), segments=segments, p=t(ps), height=t(heights),
         mass=t(masses), placement=t(places), dt=1.0 / SAMPLE_RATE_HZ,
         zupt_speed=zupt if torch.isfinite(zupt).any() else None,
+        out_scale=t(scales), out_offset=t(offsets),
     )
     return t(feats), batch
 
@@ -350,7 +356,7 @@ class Trainer:
                 x = x + torch.randn_like(x) * cfg.input_noise * self.noise_std
                 with autocast:
                     raw, _ = self.net(x)
-                est = decode(raw.float(), batch.height, batch.mass, batch.dt, leg_length(batch.p))
+                est = decode(raw.float(), batch.out_scale, batch.out_offset, batch.dt)
                 terms = self.losses(est, batch)
                 loss = terms["total"]
                 if not torch.isfinite(loss):
@@ -410,15 +416,6 @@ class Trainer:
         t = torch.tensor([float(flag)], device=self.device)
         dist.all_reduce(t, op=dist.ReduceOp.MAX)
         return bool(t.item())
-
-
-def leg_length(p: torch.Tensor) -> torch.Tensor:
-    """Standing hip height (m) from body-parameter vectors (..., 41): femur + tibia lengths +
-    ankle height (the foot's heel y offset)."""
-    from sspinn.body import PARAMETERS
-
-    i = PARAMETERS.index
-    return p[..., i("femur_r_length")] + p[..., i("tibia_r_length")] - p[..., i("foot_r_heel_y")]
 
 
 def _tensorboard(folder: Path):

@@ -70,6 +70,9 @@ def test_numba_kernels_agree(rng, body, contact):
         grf_ref, w_ref = dynamics.contact_forces(x["q"], x["u"], p, c)
         np.testing.assert_allclose(grf, grf_ref, rtol=1e-12, atol=1e-10)
         np.testing.assert_allclose(w, w_ref, rtol=0, atol=1e-12)
+        gc = np.empty((2, 6))
+        model_numba.contact_learned_from_ankles(x["q"], x["u"], x["ankle"], x["mu_hat"], p, c, gc, w)
+        np.testing.assert_allclose(gc, dynamics.contact_from_ankles(x["q"], x["u"], x["ankle"], x["mu_hat"], p, c), rtol=1e-12, atol=1e-10)
         qdd_ref = dynamics.forward_dynamics_with_contact(x["q"], x["u"], x["tau"], p, c)[0]
         np.testing.assert_allclose(simulation.accel(x["q"], x["u"], x["tau"], p, c, True), qdd_ref, rtol=1e-9, atol=1e-8)
 
