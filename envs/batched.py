@@ -1,0 +1,287 @@
+"""N sagittal walkers stepped together as torch tensors (differentiable, CPU or CUDA)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import gymnasium
+import numpy as np
+import torch
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+from envs import task
+from envs.sagittal_walker import CONTROL_DT, METHOD, SLIP_VELOCITY, SUBSTEPS, build_setup
+from sspinn.body import BodyParameters
+from sspinn.contact import ContactParameters
+from sspinn.conventions import N_Q, N_TAU
+from sspinn.simulation import step_torch
+
+
+class BatchedSagittalWalker(gymnasium.vector.VectorEnv):
+    """``num_envs`` copies of :class:`~envs.sagittal_walker.SagittalWalkerEnv` in one batch of torch
+    tensors.
+
+    Same task as the single environment — observation (22 entries, layout
+    :data:`envs.task.OBSERVATION_NAMES`), reward, termination, truncation, strength, passive joint
+    moments, initial-state distribution and physics step (``substeps`` × semi-implicit Euler at
+    ``0.01 s / substeps`` with the forward-simulation contact) — computed by the *same* functions of
+    :mod:`envs.task`; the physics is :func:`sspinn.simulation.step_torch` (generated array code),
+    called once per substep because the passive joint moments are re-evaluated at the start of every
+    substep, exactly as the single environment's compiled stepper does. From the same state and
+    action both environments agree to round-off in float64 (``tests/test_env.py``).
+
+    Everything returned is a torch tensor on ``device`` (observations in ``dtype``, rewards in
+    ``dtype``, terminated/truncated as bool), shapes ``(num_envs, ...)``.
+
+    **Gradients**: nothing is detached. If the actions (or a state passed to :meth:`set_state`)
+    require grad, observations and rewards are differentiable with respect to them through the
+    physics; over many steps the autograd graph grows, so detach the state (``env.q``, ``env.u``) when
+    a horizon ends. Auto-reset rows are replaced with :func:`torch.where`, which cuts their gradient.
+
+    **Auto-reset** (``auto_reset=True``, Gymnasium's ``SAME_STEP`` mode): an environment that
+    terminates or is truncated is reset inside the same :meth:`step`; the returned observation of that
+    row is already the first one of the new episode, the last observation of the finished episode is
+    in ``info["final_obs"]`` (all rows; meaningful where ``info["_final_obs"]`` is True), and
+    ``info`` quantities (speed, distance, cost of transport, ...) refer to the finished step. With
+    ``auto_reset=False`` (``DISABLED``) finished rows keep stepping until :meth:`reset` is called.
+
+    **Speed** (``benchmarks/bench_env.py``, 2-core CPU): ≈6.9 k environment steps/s at N = 4,096
+    (float32, 0.6 s per batched step), about the single environment's rate — far from 100×. The torch
+    path is bound by per-operation overhead: one substep is a few thousand small tensor operations of
+    the generated code (N = 1,024 and 4,096 take the same time per step), and 50 substeps make one
+    step. ``torch.compile(fullgraph=True)`` of a substep took 49 s to compile and was not faster on
+    this CPU. Only a GPU run with fused kernels could change the picture (not measured: no GPU here).
+
+    Args:
+        num_envs: batch size N.
+        device: torch device ("cpu", "cuda", ...).
+        dtype: torch.float32 (default, fast) or torch.float64.
+        auto_reset: see above.
+        seed: seed of the torch generator used for initial states and target speeds.
+        **kwargs: the task/physics arguments of :class:`~envs.sagittal_walker.SagittalWalkerEnv`
+            (height, mass, body, target_speed, max_torque, tracking_weight, tracking_width,
+            alive_bonus, effort_weight, min_height_fraction, max_tilt, joint_range,
+            joint_limit_stiffness, joint_damping, reset_noise_scale, max_episode_steps, substeps,
+            method, slip_velocity, contact), same defaults and units.
+
+    ``info`` of :meth:`step` (tensors (N,) unless stated): ``speed``, ``target_speed`` (m/s),
+    ``x_position``, ``distance`` (m), ``cost_of_transport`` (+inf below 1 cm of forward progress),
+    ``grf`` (N, 4) in N, ``torques`` (N, 6) in N·m, ``reward_tracking``, ``reward_alive``,
+    ``reward_effort``, ``physics_failure`` (bool).
+    """
+
+    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
+
+    def __init__(
+        self,
+        num_envs: int = 4096,
+        *,
+        device: str | torch.device = "cpu",
+        dtype: torch.dtype = torch.float32,
+        auto_reset: bool = True,
+        seed: int | None = None,
+        height: float = 1.75,
+        mass: float = 70.0,
+        body: BodyParameters | Mapping[str, Any] | None = None,
+        target_speed: float | Sequence[float] = 1.25,
+        max_torque: Mapping[str, float] | Sequence[float] | None = None,
+        tracking_weight: float = 1.0,
+        tracking_width: float = 0.25,
+        alive_bonus: float = 0.2,
+        effort_weight: float = 0.01,
+        min_height_fraction: float = 0.6,
+        max_tilt: float = 1.0,
+        joint_range: Mapping[str, Sequence[float]] | None = None,
+        joint_limit_stiffness: float = task.DEFAULT_LIMIT_STIFFNESS,
+        joint_damping: float = task.DEFAULT_JOINT_DAMPING,
+        reset_noise_scale: float = 0.005,
+        max_episode_steps: int = 1000,
+        substeps: int = SUBSTEPS,
+        method: str = METHOD,
+        slip_velocity: float = SLIP_VELOCITY,
+        contact: ContactParameters | None = None,
+    ) -> None:
+        self.num_envs = task.check_int("num_envs", num_envs, 1)
+        if dtype not in (torch.float32, torch.float64):
+            raise ValueError(f"dtype must be torch.float32 or torch.float64, got {dtype!r}")
+        if not isinstance(auto_reset, bool):
+            raise ValueError(f"auto_reset must be a bool, got {auto_reset!r}")
+        self.setup = build_setup(
+            height=height, mass=mass, body=body, target_speed=target_speed, max_torque=max_torque,
+            tracking_weight=tracking_weight, tracking_width=tracking_width, alive_bonus=alive_bonus,
+            effort_weight=effort_weight, min_height_fraction=min_height_fraction, max_tilt=max_tilt,
+            joint_range=joint_range, joint_limit_stiffness=joint_limit_stiffness, joint_damping=joint_damping,
+            reset_noise_scale=reset_noise_scale, max_episode_steps=max_episode_steps,
+            substeps=substeps, method=method, slip_velocity=slip_velocity, contact=contact,
+        )
+        self.device = torch.device(device)
+        self.dtype = dtype
+        self.auto_reset = auto_reset
+        self.metadata = {
+            **self.metadata,
+            "autoreset_mode": AutoresetMode.SAME_STEP if auto_reset else AutoresetMode.DISABLED,
+        }
+        self.body: BodyParameters = self.setup["body"]
+        self.contact: ContactParameters = self.setup["contact"]
+        self.config: task.TaskConfig = self.setup["config"]
+        self._substeps: int = self.setup["substeps"]
+        self._dt = CONTROL_DT / self._substeps
+        self._body_weight = self.body.body_weight
+        self._standing = self.setup["standing_height"]
+
+        def tensor(x: Any) -> torch.Tensor:
+            return torch.as_tensor(np.asarray(x, dtype=np.float64), dtype=dtype, device=self.device)
+
+        self._p = tensor(self.body.vector())
+        self._c = tensor(self.contact.vector())
+        self._tau_max = tensor(self.setup["tau_max"])
+        passive = self.setup["passive"]
+        self._lower, self._upper = tensor(passive[:N_TAU]), tensor(passive[N_TAU : 2 * N_TAU])
+        self._k, self._b = float(passive[12]), float(passive[13])
+
+        self.single_action_space = spaces.Box(-1.0, 1.0, (N_TAU,), dtype=np.float32)
+        self.single_observation_space = spaces.Box(-np.inf, np.inf, (task.OBS_SIZE,), dtype=np.float32)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+
+        self._generator = torch.Generator(device=self.device)
+        self._generator.manual_seed(int(seed) if seed is not None else int(torch.seed() % 2**63))
+        n = self.num_envs
+        self.q = torch.zeros(n, N_Q, dtype=dtype, device=self.device)
+        self.u = torch.zeros(n, N_Q, dtype=dtype, device=self.device)
+        self.grf = torch.zeros(n, 4, dtype=dtype, device=self.device)
+        self.target_speed = torch.zeros(n, dtype=dtype, device=self.device)
+        self._x0 = torch.zeros(n, dtype=dtype, device=self.device)
+        self._work = torch.zeros(n, dtype=dtype, device=self.device)
+        self._steps = torch.zeros(n, dtype=torch.int64, device=self.device)
+
+    # ------------------------------------------------------------------------------------------
+    def _uniform(self, shape: tuple[int, ...], low: float, high: float) -> torch.Tensor:
+        r = torch.rand(shape, generator=self._generator, dtype=self.dtype, device=self.device)
+        return low + (high - low) * r
+
+    def _initial_states(self, n: int, target: float | torch.Tensor | None) -> tuple[torch.Tensor, ...]:
+        """(q, u, target) of n fresh episodes (standing + noise, as the single environment)."""
+        noise = self.setup["reset_noise_scale"]
+        q = torch.zeros(n, N_Q, dtype=self.dtype, device=self.device)
+        q[:, 1] = self._standing
+        q[:, 1:] += self._uniform((n, N_Q - 1), -noise, noise)
+        u = self._uniform((n, N_Q), -noise, noise)
+        if target is None:
+            low, high = self.setup["target_range"]
+            speeds = self._uniform((n,), low, high) if low != high else torch.full((n,), low, dtype=self.dtype, device=self.device)
+        else:
+            speeds = torch.as_tensor(target, dtype=self.dtype, device=self.device).expand(n).clone()
+        return q, u, speeds
+
+    def _contact(self, q: torch.Tensor, u: torch.Tensor) -> torch.Tensor:
+        from sspinn import dynamics
+
+        return dynamics.contact_forces(q, u, self._p, self._c)[0]
+
+    def observe(self) -> torch.Tensor:
+        """Observation of the current state, (N, 22) in ``dtype``."""
+        return task.observation(self.q, self.u, self.grf, self.target_speed, self._body_weight)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[torch.Tensor, dict[str, Any]]:
+        """Reset all environments. ``seed`` reseeds the generator; ``options={"target_speed": v}``
+        (a number in m/s, or a tensor (N,)) fixes the target speeds of the new episodes."""
+        if seed is not None:
+            self._generator.manual_seed(int(seed))
+        target = None
+        if options is not None and "target_speed" in options:
+            value = options["target_speed"]
+            if isinstance(value, torch.Tensor):
+                if value.shape not in ((), (self.num_envs,)) or bool((value < 0).any()):
+                    raise ValueError(f"options['target_speed'] tensor must be >= 0 with shape () or ({self.num_envs},)")
+                target = value
+            else:
+                target = task.check_target_speed(value)
+        self.q, self.u, self.target_speed = self._initial_states(self.num_envs, target)
+        self.grf = self._contact(self.q, self.u)
+        self._x0 = self.q[:, 0].clone()
+        self._work = torch.zeros_like(self._x0)
+        self._steps = torch.zeros(self.num_envs, dtype=torch.int64, device=self.device)
+        return self.observe(), {"target_speed": self.target_speed.clone(), "x_position": self._x0.clone()}
+
+    def set_state(self, q: torch.Tensor, u: torch.Tensor, target_speed: torch.Tensor | float | None = None) -> None:
+        """Overwrite the states (N, 9) (and optionally the target speeds, m/s); contact forces are
+        recomputed, the episode counters are not reset."""
+        q = torch.as_tensor(q, dtype=self.dtype, device=self.device)
+        u = torch.as_tensor(u, dtype=self.dtype, device=self.device)
+        if q.shape != (self.num_envs, N_Q) or u.shape != (self.num_envs, N_Q):
+            raise ValueError(f"q and u must have shape ({self.num_envs}, {N_Q}), got {tuple(q.shape)} and {tuple(u.shape)}")
+        self.q, self.u = q, u
+        if target_speed is not None:
+            self.target_speed = torch.as_tensor(target_speed, dtype=self.dtype, device=self.device).expand(self.num_envs).clone()
+        self.grf = self._contact(self.q, self.u)
+
+    # ------------------------------------------------------------------------------------------
+    def step(self, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, dict[str, Any]]:
+        """Advance all environments by one control interval (0.01 s) under ``actions`` (N, 6) in
+        [−1, 1] (clipped); returns (obs, reward, terminated, truncated, info)."""
+        a = torch.as_tensor(actions, dtype=self.dtype, device=self.device).clamp(-1.0, 1.0)
+        if a.shape != (self.num_envs, N_TAU):
+            raise ValueError(f"actions must have shape ({self.num_envs}, {N_TAU}), got {tuple(a.shape)}")
+        tau = a * self._tau_max
+        q0, u0 = self.q, self.u
+        q, u, grf = q0, u0, self.grf
+        for _ in range(self._substeps):
+            passive = task.passive_torque(q[:, 3:], u[:, 3:], self._lower, self._upper, self._k, self._b)
+            q, u, grf = step_torch(
+                q, u, tau + passive, self._p, self._c, dt=self._dt, substeps=1, method=self.setup["method"]
+            )
+        finite = torch.isfinite(q).all(-1) & torch.isfinite(u).all(-1) & torch.isfinite(grf).all(-1)
+        if not bool(finite.all()):  # keep the last finite state of failed rows
+            q = torch.where(finite[:, None], q, q0)
+            u = torch.where(finite[:, None], u, u0)
+            grf = torch.where(finite[:, None], grf, self.grf)
+        self.q, self.u, self.grf = q, u, grf
+        speed = (q[:, 0] - q0[:, 0]) / CONTROL_DT
+        self._work = self._work + (tau * (q[:, 3:] - q0[:, 3:])).abs().sum(-1).detach()
+        self._steps = self._steps + 1
+        terminated = task.unhealthy(q, self._standing, self.config) | ~finite
+        total, tracking, alive, effort = task.reward(speed, self.target_speed, a, terminated, self.config)
+        truncated = (self._steps >= self.setup["max_episode_steps"]) & ~terminated
+        obs = self.observe()
+        distance = (q[:, 0] - self._x0).detach()
+        cot = torch.where(distance > 0.01, self._work / (self._body_weight * distance.clamp_min(0.01)), torch.inf)
+        info: dict[str, Any] = {
+            "speed": speed,
+            "target_speed": self.target_speed.clone(),
+            "x_position": q[:, 0],
+            "distance": distance,
+            "cost_of_transport": cot,
+            "grf": grf,
+            "torques": tau,
+            "reward_tracking": tracking,
+            "reward_alive": alive,
+            "reward_effort": effort,
+            "physics_failure": ~finite,
+        }
+        if self.auto_reset:
+            done = terminated | truncated
+            if bool(done.any()):
+                obs = self._reset_done(done, obs, info)
+        return obs, total, terminated, truncated, info
+
+    def _reset_done(self, done: torch.Tensor, obs: torch.Tensor, info: dict[str, Any]) -> torch.Tensor:
+        """Same-step auto-reset of the rows in ``done``; returns the observations to hand out."""
+        info["final_obs"] = obs
+        info["_final_obs"] = done
+        q_new, u_new, target_new = self._initial_states(self.num_envs, None)
+        rows = done[:, None]
+        self.q = torch.where(rows, q_new, self.q)
+        self.u = torch.where(rows, u_new, self.u)
+        self.target_speed = torch.where(done, target_new, self.target_speed)
+        self.grf = torch.where(rows, self._contact(self.q, self.u), self.grf)
+        self._x0 = torch.where(done, self.q[:, 0], self._x0)
+        self._work = torch.where(done, torch.zeros_like(self._work), self._work)
+        self._steps = torch.where(done, torch.zeros_like(self._steps), self._steps)
+        return self.observe()
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Nothing to release (no processes, no windows)."""

@@ -1,0 +1,335 @@
+"""The walking task, written once for both environments: observation, reward, termination,
+actuator strength, initial state and argument checking.
+
+Every function here is *array-generic*: it takes NumPy arrays (one state, shape ``(9,)``; the
+single environment) or torch tensors (a batch, shape ``(N, 9)``; the batched environment) and uses
+only operations that exist under the same name in both namespaces (``concatenate``, ``exp``,
+``abs``, ``isfinite``, ``.sum(-1)``, ``.any(-1)``, ...). :class:`~envs.sagittal_walker.SagittalWalkerEnv`
+and :class:`~envs.batched.BatchedSagittalWalker` call these functions; neither has its own copy.
+
+Units are SI (m, s, rad, N, N·m) except where stated: contact forces in the observation are in
+body weights (BW = m·g) and the actuator strength is in N·m per kg of body mass.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import sys
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, fields
+from types import ModuleType
+from typing import Any, Final
+
+import numpy as np
+
+from sspinn.body import BodyParameters, ParameterError
+from sspinn.contact import ContactParameters
+from sspinn.conventions import COORDINATES, GRF, JOINTS, N_GRF, N_Q, N_TAU
+
+# --------------------------------------------------------------------------------------------
+# Observation layout
+# --------------------------------------------------------------------------------------------
+#: Names of the observation entries, in order (see :data:`OBSERVATION_UNITS`).
+OBSERVATION_NAMES: Final[tuple[str, ...]] = (
+    *COORDINATES[1:],  # 0–7: pelvis_ty, pelvis_tilt, six joint angles
+    *(f"d_{name}" for name in COORDINATES),  # 8–16: all nine generalized speeds
+    *GRF,  # 17–20: ground reaction forces
+    "target_speed",  # 21
+)
+#: Units of the observation entries.
+OBSERVATION_UNITS: Final[tuple[str, ...]] = (
+    "m", "rad", *("rad",) * N_TAU, "m/s", "m/s", *("rad/s",) * (N_Q - 2), *("BW",) * N_GRF, "m/s",
+)
+OBS_SIZE: Final[int] = len(OBSERVATION_NAMES)
+#: Index of each observation entry by name.
+OBS_INDEX: Final[dict[str, int]] = {name: i for i, name in enumerate(OBSERVATION_NAMES)}
+
+# --------------------------------------------------------------------------------------------
+# Actuator strength
+# --------------------------------------------------------------------------------------------
+#: Default maximal joint torque per kg of body mass (N·m/kg) for each joint type; an action of ±1
+#: commands ± this value times the body mass. See the module docstring of
+#: :mod:`envs.sagittal_walker` for the sources and the approximations involved.
+DEFAULT_MAX_TORQUE: Final[dict[str, float]] = {"hip": 3.0, "knee": 3.0, "ankle": 3.0}
+
+#: Default joint ranges (rad) of the passive joint moments (see :func:`passive_torque`):
+#: (lower, upper) per joint type; knee flexion is negative. The sspinn model itself has no joint
+#: limits; without these a random policy spins the light feet at hundreds of rad/s.
+DEFAULT_JOINT_RANGE: Final[dict[str, tuple[float, float]]] = {
+    "hip": (-0.6, 2.0),
+    "knee": (-2.4, 0.05),
+    "ankle": (-0.9, 0.6),
+}
+#: Default stiffness of the quadratic soft joint limits, N·m/rad² (210 N·m — the default strength
+#: at 70 kg — is balanced 0.145 rad beyond a limit).
+DEFAULT_LIMIT_STIFFNESS: Final[float] = 10000.0
+#: Default viscous joint damping, N·m·s/rad.
+DEFAULT_JOINT_DAMPING: Final[float] = 1.0
+
+
+def _xp(x: Any) -> ModuleType:
+    """The array namespace of ``x``: torch for tensors, else NumPy (torch is not imported here)."""
+    torch = sys.modules.get("torch")
+    if torch is not None and isinstance(x, torch.Tensor):
+        return torch
+    return np
+
+
+@dataclass(frozen=True)
+class TaskConfig:
+    """Reward weights and termination thresholds (shared by the single and the batched env).
+
+    Reward per control step (``dt_control`` = 0.01 s)::
+
+        r = tracking_weight · exp(−((v − v*) / tracking_width)²)
+            + alive_bonus · [not terminated]
+            − effort_weight · Σ_j a_j²
+
+    with v the pelvis (hip joint centre) forward speed averaged over the step (m/s), v* the
+    target speed (m/s) and a ∈ [−1, 1]⁶ the action.
+
+    Attributes:
+        tracking_weight: weight of the speed-tracking term (reward units).
+        tracking_width: σ of the speed-tracking Gaussian, m/s (> 0).
+        alive_bonus: reward for every step that does not terminate the episode.
+        effort_weight: weight of Σ a² (dimensionless actions, so Σ a² ∈ [0, 6]).
+        min_height_fraction: the episode terminates when the hip height (pelvis_ty) falls below
+            this fraction of the standing hip height (leg length, m). In (0, 1).
+        max_tilt: |pelvis_tilt| limit, rad (trunk lean); beyond it the episode terminates.
+    """
+
+    tracking_weight: float = 1.0
+    tracking_width: float = 0.25
+    alive_bonus: float = 0.2
+    effort_weight: float = 0.01
+    min_height_fraction: float = 0.6
+    max_tilt: float = 1.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if not _is_real(value) or not math.isfinite(value):
+                raise ValueError(f"{f.name} must be a finite number, got {value!r}")
+        if self.tracking_width <= 0:
+            raise ValueError(f"tracking_width must be > 0 m/s, got {self.tracking_width}")
+        if not 0.0 < self.min_height_fraction < 1.0:
+            raise ValueError(f"min_height_fraction must lie in (0, 1), got {self.min_height_fraction}")
+        if self.max_tilt <= 0:
+            raise ValueError(f"max_tilt must be > 0 rad, got {self.max_tilt}")
+
+
+# --------------------------------------------------------------------------------------------
+# Observation, reward, termination (array-generic)
+# --------------------------------------------------------------------------------------------
+def observation(q: Any, u: Any, grf: Any, target_speed: Any, body_weight: float) -> Any:
+    """Observation (..., 22) from coordinates q (..., 9), speeds u (..., 9), contact forces grf
+    (..., 4) in N and the target speed (...,) in m/s; layout :data:`OBSERVATION_NAMES`. Keeps the
+    input's dtype (the environments cast to float32)."""
+    xp = _xp(q)
+    return xp.concatenate([q[..., 1:], u, grf / body_weight, target_speed[..., None]], axis=-1)
+
+
+def unhealthy(q: Any, standing_height: float, cfg: TaskConfig) -> Any:
+    """True where the episode must terminate: hip below ``cfg.min_height_fraction`` of the standing
+    hip height (m) or |pelvis_tilt| > ``cfg.max_tilt`` (rad). Written as negated ``>=``/``<=`` tests
+    so that NaN coordinates count as unhealthy too (the environments also check that the whole state
+    is finite, which the physics step reports)."""
+    xp = _xp(q)
+    return ~(q[..., 1] >= cfg.min_height_fraction * standing_height) | ~(xp.abs(q[..., 2]) <= cfg.max_tilt)
+
+
+def passive_torque(angle: Any, rate: Any, lower: Any, upper: Any, stiffness: Any, damping: Any) -> Any:
+    """Passive joint moment (N·m): quadratic soft limits outside [lower, upper] (rad) plus viscous
+    damping, ``k·(max(lower − θ, 0)² − max(θ − upper, 0)²) − b·θ̇`` with k in N·m/rad² and b in
+    N·m·s/rad.
+
+    Written with arithmetic operators and the built-in ``abs`` only, so the same function runs on
+    Python/numba scalars (compiled into :mod:`envs.physics`), NumPy arrays and torch tensors.
+    """
+    over = 0.5 * ((angle - upper) + abs(angle - upper))
+    under = 0.5 * ((lower - angle) + abs(lower - angle))
+    return stiffness * (under * under - over * over) - damping * rate
+
+
+def reward(speed: Any, target_speed: Any, action: Any, terminated: Any, cfg: TaskConfig) -> tuple[Any, Any, Any, Any]:
+    """(reward, tracking, alive, effort) per step; see :class:`TaskConfig` for the formula.
+
+    ``speed`` and ``target_speed`` in m/s (...,), ``action`` (..., 6) in [−1, 1], ``terminated``
+    boolean (...,). ``tracking`` ∈ (0, 1] and ``effort`` = Σ a² are the unweighted terms; ``alive`` is
+    1 or 0.
+    """
+    xp = _xp(action)
+    tracking = xp.exp(-(((speed - target_speed) / cfg.tracking_width) ** 2))
+    effort = (action * action).sum(-1)
+    alive = 1.0 - terminated * 1.0
+    total = cfg.tracking_weight * tracking + cfg.alive_bonus * alive - cfg.effort_weight * effort
+    return total, tracking, alive, effort
+
+
+# --------------------------------------------------------------------------------------------
+# Body, contact, strength, initial state
+# --------------------------------------------------------------------------------------------
+def _is_real(value: Any) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def make_body(body: BodyParameters | Mapping[str, Any] | None, height: float, mass: float) -> BodyParameters:
+    """Body parameters from a :class:`BodyParameters`, a mapping (``BodyParameters.from_dict``: height,
+    mass and optional segment overrides) or, when ``body`` is None, from ``height`` (m) and ``mass`` (kg)."""
+    if body is None:
+        for name, value in (("height", height), ("mass", mass)):
+            if not _is_real(value):
+                raise ValueError(f"{name} must be a number, got {type(value).__name__} {value!r}")
+        return BodyParameters.from_anthropometry(float(height), float(mass))
+    if isinstance(body, BodyParameters):
+        return body
+    if isinstance(body, Mapping):
+        return BodyParameters.from_dict(dict(body), source="body")
+    raise ValueError(f"body must be a BodyParameters, a mapping or None, got {type(body).__name__}")
+
+
+def make_contact(slip_velocity: float, contact: ContactParameters | None) -> ContactParameters:
+    """The forward-simulation contact parameters: ``contact`` (defaults of
+    :class:`ContactParameters` when None) with its slip velocity replaced by ``slip_velocity`` (m/s)."""
+    if not _is_real(slip_velocity) or not slip_velocity > 0 or not math.isfinite(slip_velocity):
+        raise ValueError(f"slip_velocity must be a positive number (m/s), got {slip_velocity!r}")
+    if contact is None:
+        contact = ContactParameters()
+    elif not isinstance(contact, ContactParameters):
+        raise ValueError(f"contact must be a ContactParameters or None, got {type(contact).__name__}")
+    return ContactParameters(**{**contact.__dict__, "slip_velocity": float(slip_velocity)})
+
+
+def max_torques(spec: Mapping[str, float] | Sequence[float] | None, body_mass: float) -> np.ndarray:
+    """Per-joint torque limits in N·m (6,) from N·m/kg values: None (defaults), a mapping by joint
+    type ("hip", "knee", "ankle", missing keys take the defaults) or six values in joint order."""
+    if spec is None:
+        spec = DEFAULT_MAX_TORQUE
+    if isinstance(spec, Mapping):
+        unknown = set(spec) - set(DEFAULT_MAX_TORQUE)
+        if unknown:
+            raise ValueError(f"max_torque: unknown joint type(s) {sorted(unknown)}; use {sorted(DEFAULT_MAX_TORQUE)}")
+        per_type = {**DEFAULT_MAX_TORQUE, **spec}
+        values = [per_type[j.split("_")[0]] for j in JOINTS]
+    elif isinstance(spec, Sequence) and not isinstance(spec, str):
+        values = list(spec)
+        if len(values) != N_TAU:
+            raise ValueError(f"max_torque needs {N_TAU} values (N·m/kg, order {JOINTS}), got {len(values)}")
+    else:
+        raise ValueError(f"max_torque must be a mapping, a sequence of {N_TAU} numbers or None, got {type(spec).__name__}")
+    for v in values:
+        if not _is_real(v) or not 0 < v < 20:
+            raise ValueError(f"max_torque values must be numbers in (0, 20) N·m/kg, got {v!r}")
+    return np.asarray(values, dtype=np.float64) * body_mass
+
+
+def passive_parameters(
+    joint_range: Mapping[str, Sequence[float]] | None, stiffness: float, damping: float
+) -> np.ndarray:
+    """The (14,) vector [lower (6, rad), upper (6, rad), stiffness (N·m/rad²), damping (N·m·s/rad)]
+    of :func:`passive_torque`, in joint order; ``joint_range`` maps joint types ("hip", "knee",
+    "ankle") to (lower, upper) in rad, missing types take :data:`DEFAULT_JOINT_RANGE`."""
+    ranges = dict(DEFAULT_JOINT_RANGE)
+    if joint_range is not None:
+        if not isinstance(joint_range, Mapping):
+            raise ValueError(f"joint_range must be a mapping {{'hip': (lo, hi), ...}} in rad or None, got {joint_range!r}")
+        unknown = set(joint_range) - set(ranges)
+        if unknown:
+            raise ValueError(f"joint_range: unknown joint type(s) {sorted(unknown)}; use {sorted(ranges)}")
+        for key, value in joint_range.items():
+            if not (isinstance(value, Sequence) and len(value) == 2 and all(_is_real(v) for v in value)):
+                raise ValueError(f"joint_range[{key!r}] must be a (low, high) pair of numbers in rad, got {value!r}")
+            if not value[0] < 0.0 < value[1]:
+                raise ValueError(f"joint_range[{key!r}] must contain the standing pose 0 rad, got {tuple(value)}")
+            ranges[key] = (float(value[0]), float(value[1]))
+    for name, value in (("joint_limit_stiffness", stiffness), ("joint_damping", damping)):
+        if not _is_real(value) or not 0 <= value < 1e6:
+            raise ValueError(f"{name} must be a number >= 0 (N·m/rad² or N·m·s/rad), got {value!r}")
+    lower = [ranges[j.split("_")[0]][0] for j in JOINTS]
+    upper = [ranges[j.split("_")[0]][1] for j in JOINTS]
+    return np.asarray([*lower, *upper, float(stiffness), float(damping)], dtype=np.float64)
+
+
+def target_speed_range(target_speed: float | Sequence[float]) -> tuple[float, float]:
+    """(low, high) in m/s from a fixed speed or a (low, high) range, with clear errors."""
+    if _is_real(target_speed):
+        low = high = float(target_speed)  # type: ignore[arg-type]
+    elif isinstance(target_speed, Sequence) and not isinstance(target_speed, str) and len(target_speed) == 2:
+        if not all(_is_real(v) for v in target_speed):
+            raise ValueError(f"target_speed range must hold two numbers (m/s), got {target_speed!r}")
+        low, high = float(target_speed[0]), float(target_speed[1])
+    else:
+        raise ValueError(f"target_speed must be a number or a (low, high) pair in m/s, got {target_speed!r}")
+    if not (math.isfinite(low) and math.isfinite(high)):
+        raise ValueError(f"target_speed must be finite, got {target_speed!r}")
+    if low < 0:
+        raise ValueError(f"target_speed must be >= 0 m/s (forward walking/running), got {target_speed!r}")
+    if low > high:
+        raise ValueError(f"target_speed range must have low <= high, got {target_speed!r}")
+    if high > 12.0:
+        raise ValueError(f"target_speed {high} m/s is beyond human sprinting speed (units: m/s)")
+    return low, high
+
+
+def check_target_speed(value: Any) -> float:
+    """A single target speed (m/s) from ``reset(options={"target_speed": ...})``."""
+    low, high = target_speed_range(value)
+    if low != high:
+        raise ValueError(f"options['target_speed'] must be one number (m/s), got {value!r}")
+    return low
+
+
+def standing_height(body: BodyParameters, contact: ContactParameters) -> float:
+    """Hip height (m) of the upright pose (all angles 0, feet flat) in which each foot carries half
+    the body weight in static equilibrium of the contact spring: the contact point (midway between
+    heel and toe for a flat foot) then lies ``d`` below the ground, ``BW·k·softplus(β·d)/β = BW/2``.
+    Uses the right leg's geometry (both legs are equal unless overridden)."""
+    beta, k = contact.transition, contact.stiffness
+    depth = math.log(math.expm1(0.5 * beta / k)) / beta  # softplus⁻¹(β/(2k)) / β, m
+    sole = -0.5 * (body.foot_r.heel[1] + body.foot_r.toe[1])  # ankle height above the contact point, m
+    return body.femur_r.length + body.tibia_r.length + sole - depth
+
+
+def check_int(name: str, value: Any, low: int) -> int:
+    """``value`` as an int ≥ ``low`` (rejects floats and bools)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
+        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+    return int(value)
+
+
+def check_physics(dt: float, substeps: int, method: str, methods: Sequence[str]) -> tuple[float, int, str]:
+    """Validate the control interval ``dt`` (s), the substeps per interval and the integrator name."""
+    if not _is_real(dt) or not 0 < dt <= 0.1:
+        raise ValueError(f"control dt must be a number in (0, 0.1] s, got {dt!r}")
+    substeps = check_int("substeps", substeps, 1)
+    if method not in methods:
+        raise ValueError(f"unknown integrator {method!r}; choose one of {', '.join(methods)}")
+    return float(dt), substeps, method
+
+
+__all__ = [
+    "DEFAULT_JOINT_DAMPING",
+    "DEFAULT_JOINT_RANGE",
+    "DEFAULT_LIMIT_STIFFNESS",
+    "DEFAULT_MAX_TORQUE",
+    "OBSERVATION_NAMES",
+    "OBSERVATION_UNITS",
+    "OBS_INDEX",
+    "OBS_SIZE",
+    "ParameterError",
+    "TaskConfig",
+    "check_int",
+    "check_physics",
+    "check_target_speed",
+    "make_body",
+    "passive_parameters",
+    "passive_torque",
+    "make_contact",
+    "max_torques",
+    "observation",
+    "reward",
+    "standing_height",
+    "target_speed_range",
+    "unhealthy",
+]
