@@ -7,6 +7,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -135,8 +136,10 @@ class StreamingEstimator:
         if sample.shape != (len(self.segments), 3) or not np.isfinite(sample).all():
             raise ValueError(f"expected a finite ({len(self.segments)}, 3) sample for IMUs {self.segments}, got {sample.shape}")
         x = input_features(sample[None], self.height, self.mass, self.placement, self.segments)
-        with torch.backends.mkldnn.flags(enabled=False):
-            raw, self.state = self.model(torch.as_tensor(x, dtype=torch.float32)[None], self.state)
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message="TF32 acceleration")  # torch's notice on toggling oneDNN
+            with torch.backends.mkldnn.flags(enabled=False):
+                raw, self.state = self.model(torch.as_tensor(x, dtype=torch.float32)[None], self.state)
         scaled = raw[0, -1].double().numpy() * self.scale + self.offset
         vx = scaled[BLOCKS["u"].start]
         if self.vx_previous is not None:  # trapezoidal integral, as in network.decode

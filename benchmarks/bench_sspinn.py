@@ -1,0 +1,154 @@
+"""SSPINNpose speed: streaming latency and training throughput, each against a named baseline.
+
+1. **Streaming latency** of the paper-size model (LSTM 2×512, dense 128, 7 IMUs) on one CPU
+   thread: per-sample wall time of :class:`sspinn.inference.StreamingEstimator.step` (network +
+   decoding + contact model), p50/p99 over many samples, next to the baseline "the same
+   ``nn.LSTM`` stepped one sample at a time with PyTorch's default (oneDNN) path and the
+   physics evaluated with the generated torch code". Paper: 3.5 ms; target ≤ 1 ms.
+2. **Training throughput** (windows/s, batch 32 × 256 samples for the paper model): one full
+   SSPINNpose step (forward, all physics losses, backward, Adam) next to a plain PyTorch
+   baseline of the same model (same network, an MSE loss on its raw outputs, no physics) —
+   the ratio is the cost of the physics.
+
+Usage: ``python benchmarks/bench_sspinn.py [--quick] [--json PATH]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import statistics
+import sys
+import time
+
+import numpy as np
+import torch
+
+from sspinn import dynamics
+from sspinn.body import BodyParameters, IMUPlacement
+from sspinn.contact import ContactParameters
+from sspinn.conventions import GRAVITY, SEGMENTS
+from sspinn.dataset import Recording
+from sspinn.inference import StreamingEstimator
+from sspinn.losses import PhysicsLosses
+from sspinn.network import NetworkConfig, SSPINNposeNet, decode, output_affine
+from sspinn.training import input_features, make_batch, prepare
+
+
+def fake_recording(n: int, rng: np.random.Generator) -> Recording:
+    imu = rng.normal(scale=1.0, size=(n, len(SEGMENTS), 3))
+    imu[:, :, 1] += GRAVITY
+    return Recording(name="bench", imu=imu, segments=SEGMENTS, height=1.75, mass=70.0)
+
+
+def percentiles(samples: list[float]) -> tuple[float, float]:
+    a = np.array(samples) * 1e3
+    return float(np.percentile(a, 50)), float(np.percentile(a, 99))
+
+
+def bench_streaming(config: NetworkConfig, n: int, rng: np.random.Generator) -> dict:
+    torch.set_num_threads(1)
+    rec = fake_recording(n + 50, rng)
+    n_inputs = input_features(rec.imu[:1], 1.75, 70.0, IMUPlacement.default().vector(), SEGMENTS).shape[1]
+    model = SSPINNposeNet(n_inputs, config).eval()
+    stream = StreamingEstimator(model, SEGMENTS, 1.75, 70.0)
+    for k in range(50):
+        stream.step(rec.imu[k])
+    ours = []
+    for k in range(50, 50 + n):
+        t0 = time.perf_counter()
+        stream.step(rec.imu[k])
+        ours.append(time.perf_counter() - t0)
+    # baseline: default oneDNN path, torch physics
+    body = BodyParameters.from_anthropometry(1.75, 70.0)
+    p = torch.as_tensor(body.vector())
+    c = torch.as_tensor(ContactParameters().vector())
+    scale, offset = (torch.as_tensor(a)[None] for a in output_affine(1.75, 70.0, body.standing_hip_height))
+    state = None
+    base = []
+    with torch.no_grad():
+        for k in range(50, 50 + n):
+            x = torch.as_tensor(input_features(rec.imu[k : k + 1], 1.75, 70.0, stream.placement, SEGMENTS), dtype=torch.float32)[None]
+            t0 = time.perf_counter()
+            raw, state = model(x, state)
+            est = decode(raw.double(), scale, offset, 0.01)
+            dynamics.contact_from_ankles(est.q, est.u, est.ankle_global(), est.mu_hat, p, c)
+            base.append(time.perf_counter() - t0)
+    # network alone, oneDNN off (what the streaming path uses)
+    net_only = []
+    state = None
+    with torch.no_grad(), torch.backends.mkldnn.flags(enabled=False):
+        for k in range(50, 50 + n):
+            x = torch.as_tensor(input_features(rec.imu[k : k + 1], 1.75, 70.0, stream.placement, SEGMENTS), dtype=torch.float32)[None]
+            t0 = time.perf_counter()
+            model(x, state)
+            net_only.append(time.perf_counter() - t0)
+    return {"ours_ms": percentiles(ours), "baseline_ms": percentiles(base), "network_only_ms": percentiles(net_only), "samples": n}
+
+
+def bench_training(config: NetworkConfig, batch: int, window: int, repeats: int, rng: np.random.Generator) -> dict:
+    torch.set_num_threads(2)
+    data = prepare([fake_recording(window * 4, rng) for _ in range(2)], SEGMENTS, zupt=False)
+    imu_std = torch.ones(len(SEGMENTS), 3)
+    n_inputs = input_features(data[0].recording.imu[:1], 1.75, 70.0, data[0].placement, SEGMENTS).shape[1]
+    losses = PhysicsLosses()
+    results = {}
+    for name in ("plain", "sspinn"):
+        torch.manual_seed(0)
+        model = SSPINNposeNet(n_inputs, config)
+        opt = torch.optim.Adam(model.parameters(), lr=1e-3)
+        times = []
+        for r in range(repeats + 1):
+            which = [int(i) for i in rng.integers(0, len(data), batch)]
+            starts = [int(s) for s in rng.integers(0, window * 3, batch)]
+            x, b = make_batch(data, which, starts, window, SEGMENTS, imu_std, torch.device("cpu"))
+            t0 = time.perf_counter()
+            raw, _ = model(x)
+            if name == "plain":
+                loss = raw.square().mean()
+            else:
+                est = decode(raw, b.out_scale, b.out_offset, b.dt)
+                loss = losses(est, b)["total"]
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            if r > 0:  # the first step warms up allocators
+                times.append(time.perf_counter() - t0)
+        results[name] = batch / statistics.median(times)
+    return {"plain_windows_per_s": results["plain"], "sspinn_windows_per_s": results["sspinn"], "batch": batch, "window": window}
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="tiny sizes for a smoke run")
+    ap.add_argument("--json", default=None, help="also write the results as JSON")
+    args = ap.parse_args(argv)
+    rng = np.random.default_rng(0)
+    paper = NetworkConfig()
+    cfg = NetworkConfig(hidden=32, layers=2, dense=16) if args.quick else paper
+    n, batch, window, repeats = (30, 4, 32, 2) if args.quick else (2000, 32, 256, 5)
+    threads_before = torch.get_num_threads()
+    print(f"sspinn SSPINNpose benchmark — torch {torch.__version__}, {platform.machine()}, model LSTM {cfg.layers}×{cfg.hidden}, dense {cfg.dense}")
+    s = bench_streaming(cfg, n, rng)
+    print(f"\n1. streaming latency per sample, 1 CPU thread, {s['samples']} samples (p50 / p99, ms)")
+    print(f"   sspinn StreamingEstimator (oneDNN off + numba physics)   {s['ours_ms'][0]:7.3f} / {s['ours_ms'][1]:7.3f}")
+    print(f"   baseline: default nn.LSTM path + torch physics           {s['baseline_ms'][0]:7.3f} / {s['baseline_ms'][1]:7.3f}")
+    print(f"   network alone (oneDNN off)                              {s['network_only_ms'][0]:7.3f} / {s['network_only_ms'][1]:7.3f}")
+    print(f"   speed-up vs baseline (p50): {s['baseline_ms'][0] / s['ours_ms'][0]:.1f}×;  paper 3.5 ms, target ≤ 1 ms (p50): "
+          f"{'met' if s['ours_ms'][0] <= 1.0 else 'NOT met'}")
+    t = bench_training(cfg, batch, window, repeats, rng)
+    print(f"\n2. training throughput, batch {t['batch']} × {t['window']} samples, 2 threads (windows/s)")
+    print(f"   plain PyTorch (same model, MSE on raw outputs)          {t['plain_windows_per_s']:9.1f}")
+    print(f"   sspinn (all physics losses)                             {t['sspinn_windows_per_s']:9.1f}")
+    print(f"   physics overhead: sspinn / plain = {t['sspinn_windows_per_s'] / t['plain_windows_per_s']:.2f}×")
+    torch.set_num_threads(threads_before)
+    result = {"streaming": s, "training": t, "config": cfg.__dict__, "quick": args.quick}
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(result, fh, indent=2)
+    return result
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
