@@ -12,9 +12,10 @@ What is measured:
    timed in alternating rounds (median of the rounds), so machine load affects them alike. The baseline
    needs ``pip install "gymnasium[mujoco]"`` (the ``bench`` extra); without it the script says so and
    reports no ratio. Target: ours ≥ Walker2d-v5.
-2. **Physics only**, one control interval (50 substeps) from a standing state: the environment's
-   allocation-free stepper :func:`envs.physics.advance` against :func:`sspinn.simulation.step` (which it
-   reproduces to round-off).
+2. **Physics only**, one control interval (50 substeps) from a standing state: the allocation-free
+   in-place stepper :func:`sspinn.simulation.advance` (the environment's call) and
+   :func:`sspinn.simulation.step` (the same stepper on copies of the state; the difference is the
+   wrapper's overhead).
 3. **Batched torch environment** (:class:`envs.batched.BatchedSagittalWalker`) at batch 4,096,
    float32, random actions, CPU (CUDA too when available): environment steps/s = batch × steps / time,
    and the ratio to the single environment. Target: ≥ 100× the single environment.
@@ -45,11 +46,11 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from envs.batched import BatchedSagittalWalker  # noqa: E402
-from envs.physics import METHODS, advance  # noqa: E402
 from envs.sagittal_walker import SagittalWalkerEnv  # noqa: E402
 from sspinn import kinematics, simulation  # noqa: E402
 from sspinn.body import BodyParameters  # noqa: E402
 from sspinn.contact import ContactParameters  # noqa: E402
+from sspinn.simulation import METHODS, advance  # noqa: E402
 
 TARGET_SINGLE_RATIO = 1.0
 TARGET_BATCH_RATIO = 100.0
@@ -114,17 +115,17 @@ def bench_physics(repeats: int) -> dict[str, float]:
     no_passive = np.zeros(14)
     method = METHODS.index("semi_implicit_euler")
 
-    def ours() -> None:
-        advance(q0.copy(), u0.copy(), tau, no_passive, env._p, env._c, 2e-4, 50, method, grf)
+    def in_place() -> None:
+        advance(q0.copy(), u0.copy(), tau, no_passive, env._p, env._c, 2e-4, 50, method, True, grf)
 
-    def reference() -> None:
+    def on_copies() -> None:
         simulation.step(q0, u0, tau, env._p, env._c, 2e-4, 50, "semi_implicit_euler", True)
 
-    ours()
-    reference()
-    samples: dict[str, list[float]] = {"envs.physics.advance": [], "sspinn.simulation.step": []}
+    in_place()
+    on_copies()
+    samples: dict[str, list[float]] = {"sspinn.simulation.advance": [], "sspinn.simulation.step": []}
     for _ in range(9):  # alternating rounds; the minimum is the least load-disturbed estimate
-        for name, fn in (("envs.physics.advance", ours), ("sspinn.simulation.step", reference)):
+        for name, fn in (("sspinn.simulation.advance", in_place), ("sspinn.simulation.step", on_copies)):
             t0 = time.perf_counter()
             for _ in range(repeats):
                 fn()
@@ -175,7 +176,8 @@ def _pd_landing(body: BodyParameters, vs: float, method: str, dt: float, sink: f
     for _ in range(int(round(duration / 0.01))):
         tau = -kp * (q[3:] - q_ref[3:]) - kd * u[3:]
         tau[[0, 3]] += 150 * (q[2] - q_ref[2]) + 8 * u[2]
-        if not advance(q, u, np.clip(tau, -limit, limit), np.zeros(14), p, c, dt, int(round(0.01 / dt)), METHODS.index(method), grf):
+        torque = np.clip(tau, -limit, limit)
+        if not advance(q, u, torque, np.zeros(14), p, c, dt, int(round(0.01 / dt)), METHODS.index(method), True, grf):
             return None
         out.append(grf.copy())
     return np.array(out)

@@ -10,10 +10,10 @@ import numpy as np
 from gymnasium import spaces
 
 from envs import task
-from envs.physics import METHODS, advance, contact_into
 from sspinn.body import BodyParameters
 from sspinn.contact import ContactParameters
 from sspinn.conventions import N_Q, N_TAU
+from sspinn.simulation import METHODS, advance, contact_into
 
 #: Control interval (s) and physics defaults; the choice is justified in the class docstring.
 CONTROL_DT = 0.01
@@ -113,7 +113,7 @@ class SagittalWalkerEnv(gymnasium.Env):
 
     The sspinn model has no joint limits, and 3 N·m/kg applied to a 1 kg foot spins it at hundreds
     of rad/s within a few steps. The environment therefore adds a passive moment to every joint
-    (:func:`envs.task.passive_torque`, as in the gait2d model family): quadratic soft limits
+    (:func:`sspinn.passive.passive_torque`, as in the gait2d model family): quadratic soft limits
     ``k·(max(lower − θ, 0)² − max(θ − upper, 0)²)`` with k = ``joint_limit_stiffness`` (10⁴ N·m/rad²;
     the full 210 N·m of a 70 kg body is balanced 0.145 rad beyond a limit) outside the ranges
     (rad) hip [−0.6, 2.0], knee [−2.4, 0.05], ankle [−0.9, 0.6] (``joint_range``), plus viscous
@@ -157,9 +157,8 @@ class SagittalWalkerEnv(gymnasium.Env):
       percentile 13.5 BW); beyond ≈6 BW the friction force chatters between substeps (bounded, no
       blow-up) until the impact is over.
     * Cost: ≈1.1–1.6 µs per model evaluation on the 2-core development machine (load-dependent),
-      i.e. 55–80 µs of physics per control step with :mod:`envs.physics` (81–125 µs with
-      :func:`sspinn.simulation.step`); a whole ``step`` took ≈175 µs (5.7 k steps/s against 2.5 k
-      for Walker2d-v5 in the same run, ``benchmarks/bench_env.py``).
+      i.e. 55–80 µs of physics per control step (:func:`sspinn.simulation.advance`); a whole ``step``
+      took ≈175 µs (5.7 k steps/s against 2.5 k for Walker2d-v5 in the same run, ``benchmarks/bench_env.py``).
 
     ``substeps``, ``method`` ("semi_implicit_euler" or "rk4") and ``slip_velocity`` can be changed;
     keep dt = 0.01 s / substeps below the limit above for the loads you expect.
@@ -308,7 +307,7 @@ class SagittalWalkerEnv(gymnasium.Env):
             raise ValueError(f"q and u must be finite arrays of shape ({N_Q},), got {q.shape} and {u.shape}")
         self._q[:] = q
         self._u[:] = u
-        contact_into(self._q, self._u, self._p, self._c, self._grf)
+        contact_into(self._q, self._u, self._p, self._c, True, self._grf)
 
     @property
     def target_speed(self) -> float:
@@ -347,7 +346,10 @@ class SagittalWalkerEnv(gymnasium.Env):
         np.multiply(a, self._tau_max, out=self._tau)
         q_before = self._q.copy()
         u_before = self._u.copy()
-        finite = advance(self._q, self._u, self._tau, self._passive, self._p, self._c, self._dt, self._substeps, self._method, self._grf)
+        finite = advance(
+            self._q, self._u, self._tau, self._passive, self._p, self._c, self._dt, self._substeps, self._method, True,
+            self._grf,
+        )
         if not finite:  # keep the last finite state; the episode ends
             self.set_state(q_before, u_before)
         self._work += float(np.abs(self._tau * (self._q[3:] - q_before[3:])).sum())

@@ -7,6 +7,10 @@ only operations that exist under the same name in both namespaces (``concatenate
 ``abs``, ``isfinite``, ``.sum(-1)``, ``.any(-1)``, ...). :class:`~envs.sagittal_walker.SagittalWalkerEnv`
 and :class:`~envs.batched.BatchedSagittalWalker` call these functions; neither has its own copy.
 
+The passive joint moments (soft joint limits and damping, :func:`passive_torque`,
+:func:`passive_parameters` and their defaults) are physiology of the body model: they live in
+:mod:`sspinn.passive` and are re-exported here.
+
 Units are SI (m, s, rad, N, N·m) except where stated: contact forces in the observation are in
 body weights (BW = m·g) and the actuator strength is in N·m per kg of body mass.
 """
@@ -26,6 +30,16 @@ import numpy as np
 from sspinn.body import BodyParameters, ParameterError
 from sspinn.contact import ContactParameters
 from sspinn.conventions import COORDINATES, GRF, JOINTS, N_GRF, N_Q, N_TAU
+
+# re-exported (see the module docstring); _is_real is the shared real-number check
+from sspinn.passive import (
+    DEFAULT_JOINT_DAMPING,
+    DEFAULT_JOINT_RANGE,
+    DEFAULT_LIMIT_STIFFNESS,
+    _is_real,
+    passive_parameters,
+    passive_torque,
+)
 
 # --------------------------------------------------------------------------------------------
 # Observation layout
@@ -52,20 +66,6 @@ OBS_INDEX: Final[dict[str, int]] = {name: i for i, name in enumerate(OBSERVATION
 #: commands ± this value times the body mass. See the module docstring of
 #: :mod:`envs.sagittal_walker` for the sources and the approximations involved.
 DEFAULT_MAX_TORQUE: Final[dict[str, float]] = {"hip": 3.0, "knee": 3.0, "ankle": 3.0}
-
-#: Default joint ranges (rad) of the passive joint moments (see :func:`passive_torque`):
-#: (lower, upper) per joint type; knee flexion is negative. The sspinn model itself has no joint
-#: limits; without these a random policy spins the light feet at hundreds of rad/s.
-DEFAULT_JOINT_RANGE: Final[dict[str, tuple[float, float]]] = {
-    "hip": (-0.6, 2.0),
-    "knee": (-2.4, 0.05),
-    "ankle": (-0.9, 0.6),
-}
-#: Default stiffness of the quadratic soft joint limits, N·m/rad² (210 N·m — the default strength
-#: at 70 kg — is balanced 0.145 rad beyond a limit).
-DEFAULT_LIMIT_STIFFNESS: Final[float] = 10000.0
-#: Default viscous joint damping, N·m·s/rad.
-DEFAULT_JOINT_DAMPING: Final[float] = 1.0
 
 
 def _xp(x: Any) -> ModuleType:
@@ -139,19 +139,6 @@ def unhealthy(q: Any, standing_height: float, cfg: TaskConfig) -> Any:
     return ~(q[..., 1] >= cfg.min_height_fraction * standing_height) | ~(xp.abs(q[..., 2]) <= cfg.max_tilt)
 
 
-def passive_torque(angle: Any, rate: Any, lower: Any, upper: Any, stiffness: Any, damping: Any) -> Any:
-    """Passive joint moment (N·m): quadratic soft limits outside [lower, upper] (rad) plus viscous
-    damping, ``k·(max(lower − θ, 0)² − max(θ − upper, 0)²) − b·θ̇`` with k in N·m/rad² and b in
-    N·m·s/rad.
-
-    Written with arithmetic operators and the built-in ``abs`` only, so the same function runs on
-    Python/numba scalars (compiled into :mod:`envs.physics`), NumPy arrays and torch tensors.
-    """
-    over = 0.5 * ((angle - upper) + abs(angle - upper))
-    under = 0.5 * ((lower - angle) + abs(lower - angle))
-    return stiffness * (under * under - over * over) - damping * rate
-
-
 def reward(speed: Any, target_speed: Any, action: Any, terminated: Any, cfg: TaskConfig) -> tuple[Any, Any, Any, Any]:
     """(reward, tracking, alive, effort) per step; see :class:`TaskConfig` for the formula.
 
@@ -170,10 +157,6 @@ def reward(speed: Any, target_speed: Any, action: Any, terminated: Any, cfg: Tas
 # --------------------------------------------------------------------------------------------
 # Body, contact, strength, initial state
 # --------------------------------------------------------------------------------------------
-def _is_real(value: Any) -> bool:
-    return isinstance(value, numbers.Real) and not isinstance(value, bool)
-
-
 def make_body(body: BodyParameters | Mapping[str, Any] | None, height: float, mass: float) -> BodyParameters:
     """Body parameters from a :class:`BodyParameters`, a mapping (``BodyParameters.from_dict``: height,
     mass and optional segment overrides) or, when ``body`` is None, from ``height`` (m) and ``mass`` (kg)."""
@@ -222,33 +205,6 @@ def max_torques(spec: Mapping[str, float] | Sequence[float] | None, body_mass: f
         if not _is_real(v) or not 0 < v < 20:
             raise ValueError(f"max_torque values must be numbers in (0, 20) N·m/kg, got {v!r}")
     return np.asarray(values, dtype=np.float64) * body_mass
-
-
-def passive_parameters(
-    joint_range: Mapping[str, Sequence[float]] | None, stiffness: float, damping: float
-) -> np.ndarray:
-    """The (14,) vector [lower (6, rad), upper (6, rad), stiffness (N·m/rad²), damping (N·m·s/rad)]
-    of :func:`passive_torque`, in joint order; ``joint_range`` maps joint types ("hip", "knee",
-    "ankle") to (lower, upper) in rad, missing types take :data:`DEFAULT_JOINT_RANGE`."""
-    ranges = dict(DEFAULT_JOINT_RANGE)
-    if joint_range is not None:
-        if not isinstance(joint_range, Mapping):
-            raise ValueError(f"joint_range must be a mapping {{'hip': (lo, hi), ...}} in rad or None, got {joint_range!r}")
-        unknown = set(joint_range) - set(ranges)
-        if unknown:
-            raise ValueError(f"joint_range: unknown joint type(s) {sorted(unknown)}; use {sorted(ranges)}")
-        for key, value in joint_range.items():
-            if not (isinstance(value, Sequence) and len(value) == 2 and all(_is_real(v) for v in value)):
-                raise ValueError(f"joint_range[{key!r}] must be a (low, high) pair of numbers in rad, got {value!r}")
-            if not value[0] < 0.0 < value[1]:
-                raise ValueError(f"joint_range[{key!r}] must contain the standing pose 0 rad, got {tuple(value)}")
-            ranges[key] = (float(value[0]), float(value[1]))
-    for name, value in (("joint_limit_stiffness", stiffness), ("joint_damping", damping)):
-        if not _is_real(value) or not 0 <= value < 1e6:
-            raise ValueError(f"{name} must be a number >= 0 (N·m/rad² or N·m·s/rad), got {value!r}")
-    lower = [ranges[j.split("_")[0]][0] for j in JOINTS]
-    upper = [ranges[j.split("_")[0]][1] for j in JOINTS]
-    return np.asarray([*lower, *upper, float(stiffness), float(damping)], dtype=np.float64)
 
 
 def target_speed_range(target_speed: float | Sequence[float]) -> tuple[float, float]:

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 
-from sspinn import dynamics, kinematics, simulation
+from sspinn import dynamics, kinematics, passive, simulation
+from sspinn.contact import ContactParameters
 from sspinn.conventions import GRAVITY, index
 from sspinn.dynamics import StateError
 from tests.conftest import random_inputs
@@ -101,6 +103,60 @@ def test_integrators_converge_at_their_order(body, method, order):
         for n in (25, 50)
     ]
     assert np.log2(errs[0] / errs[1]) == pytest.approx(order, abs=0.4)
+
+
+@pytest.mark.parametrize("method", simulation.METHODS)
+def test_numba_stepper_matches_the_generic_integrators(body, method):
+    """The in-place numba stepper (simulate → advance) against the generic integrator definitions of
+    sspinn.integrators (through step_torch, float64): 0.1 s with contact (≈1 BW peak), random torques,
+    and with passive joint moments (evaluated at the start of every substep on both sides)."""
+    contact = ContactParameters(slip_velocity=0.2)
+    q0 = on_ground(np.array([0, 0, 0.05, 0.2, -0.3, 0.1, -0.1, -0.2, 0.05]), body, clearance=0.002)
+    u0 = np.array([1.0, -0.5, 0.2, 0.5, -1.0, 0.5, -0.5, 0.5, -0.2])
+    dt, substeps, n = 1e-4, 10, 100
+    tau = np.random.default_rng(0).uniform(-30, 30, (n, 6))
+    traj = simulation.simulate(q0, u0, body, duration=n * dt * substeps, sample_dt=dt * substeps, substeps=substeps,
+                               torques=tau, contact=contact, method=method)
+    assert traj.grf[:, 1::2].max() > 0.5 * body.body_weight, "the feet must load the ground"
+    p, c = torch.tensor(body.vector()), torch.tensor(contact.vector())
+    q, u = torch.tensor(q0), torch.tensor(u0)
+    for k in range(n):
+        q, u, grf = simulation.step_torch(q, u, torch.tensor(tau[k]), p, c, dt=dt, substeps=substeps, method=method)
+        np.testing.assert_allclose(q.numpy(), traj.q[k + 1], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(u.numpy(), traj.u[k + 1], rtol=0, atol=1e-11)
+        np.testing.assert_allclose(grf.numpy(), traj.grf[k + 1], rtol=0, atol=1e-12 * body.body_weight)
+
+    params = passive.passive_parameters()
+    traj = simulation.simulate(q0, u0, body, duration=n * dt * substeps, sample_dt=dt * substeps, substeps=substeps,
+                               torques=tau, contact=contact, method=method, passive=params)
+    lower, upper = torch.tensor(params[:6]), torch.tensor(params[6:12])
+    q, u = torch.tensor(q0), torch.tensor(u0)
+    for k in range(n):
+        for _ in range(substeps):
+            moment = passive.passive_torque(q[3:], u[3:], lower, upper, params[12], params[13])
+            q, u, grf = simulation.step_torch(q, u, torch.tensor(tau[k]) + moment, p, c, dt=dt, method=method)
+    np.testing.assert_allclose(q.numpy(), traj.q[-1], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(u.numpy(), traj.u[-1], rtol=0, atol=1e-11)
+    q1, u1, grf1 = simulation.step(q0, u0, tau[0], body.vector(), contact.vector(), dt, substeps, method, passive=params)
+    np.testing.assert_array_equal(q1, traj.q[1])  # step and simulate run the same compiled stepper
+    np.testing.assert_array_equal(grf1, traj.grf[1])
+
+
+def test_passive_joint_moments():
+    """Damping only inside the range, quadratic soft limits beyond it; NumPy and torch alike."""
+    k, b = 1e4, 2.0
+    angle = np.array([-1.0, -0.6, 0.0, 2.0, 2.1])
+    rate = np.array([1.0, 0.0, -3.0, 0.0, 0.5])
+    expected = np.array([k * 0.4**2 - b, 0.0, 6.0, 0.0, -k * 0.1**2 - 1.0])
+    np.testing.assert_allclose(passive.passive_torque(angle, rate, -0.6, 2.0, k, b), expected, rtol=1e-12, atol=1e-9)
+    t = passive.passive_torque(torch.tensor(angle), torch.tensor(rate), -0.6, 2.0, k, b)
+    np.testing.assert_allclose(t.numpy(), expected, rtol=1e-12, atol=1e-9)
+    params = passive.passive_parameters({"knee": (-2.0, 0.1)}, stiffness=0.0, damping=0.5)
+    assert params.shape == (passive.N_PASSIVE,)
+    np.testing.assert_array_equal(params[[1, 4, 7, 10]], [-2.0, -2.0, 0.1, 0.1])
+    assert params[0] == passive.DEFAULT_JOINT_RANGE["hip"][0] and tuple(params[12:]) == (0.0, 0.5)
+    with pytest.raises(ValueError, match="joint_damping"):
+        passive.passive_parameters(damping=-1.0)
 
 
 def test_kane_residual_of_a_simulated_trajectory_vanishes_as_the_step_shrinks(body, contact):

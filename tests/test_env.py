@@ -13,7 +13,6 @@ from gymnasium.utils.env_checker import check_env
 import envs
 from envs import task
 from envs.batched import BatchedSagittalWalker
-from envs.physics import METHODS, advance
 from envs.sagittal_walker import SagittalWalkerEnv
 from sspinn import dynamics, simulation
 from sspinn.conventions import COORDINATES, GRF, JOINTS
@@ -162,21 +161,25 @@ def test_fall_terminates_and_alive_bonus_stops(env: SagittalWalkerEnv) -> None:
     assert terminated and not truncated and info["reward_alive"] == 0.0
 
 
-def test_fused_stepper_matches_sspinn_step() -> None:
-    """envs.physics.advance (allocation-free) against sspinn.simulation.step, passive moments off."""
+def test_env_step_is_sspinn_step_with_the_passive_moments() -> None:
+    """One env step = sspinn.simulation.step over the control interval with the env's torques and
+    passive parameters (the stepper itself is checked against the torch integrators in test_dynamics)."""
     e = SagittalWalkerEnv()
     e.reset(seed=4)
     q0, u0 = e.state
     u0 += np.random.default_rng(0).normal(0, 0.5, 9)
-    tau = np.array([40.0, -30.0, 20.0, -10.0, 25.0, -15.0])
-    no_passive = np.zeros(14)
-    for method in METHODS:
-        q, u, grf = q0.copy(), u0.copy(), np.zeros(4)
-        assert advance(q, u, tau, no_passive, e._p, e._c, 2e-4, 50, METHODS.index(method), grf)
-        q_ref, u_ref, grf_ref = simulation.step(q0, u0, tau, e._p, e._c, 2e-4, 50, method, True)
-        np.testing.assert_allclose(q, q_ref, rtol=0, atol=1e-11)
-        np.testing.assert_allclose(u, u_ref, rtol=0, atol=1e-9)
-        np.testing.assert_allclose(grf, grf_ref, rtol=1e-9, atol=1e-9)
+    e.set_state(q0, u0)
+    action = np.array([0.2, -0.15, 0.1, -0.05, 0.12, -0.07], dtype=np.float32)
+    *_, info = e.step(action)
+    q_ref, u_ref, grf_ref = simulation.step(
+        q0, u0, info["torques"], e._p, e._c, 0.01 / 50, 50, "semi_implicit_euler", True, passive=task.passive_parameters()
+    )
+    q, u = e.state
+    np.testing.assert_array_equal(q, q_ref)
+    np.testing.assert_array_equal(u, u_ref)
+    np.testing.assert_array_equal(info["grf"], grf_ref)
+    q_bare = simulation.step(q0, u0, info["torques"], e._p, e._c, 0.01 / 50, 50, "semi_implicit_euler", True)[0]
+    assert np.abs(q_bare - q).max() > 1e-6, "the passive moments must change the motion"
 
 
 def test_random_and_passive_episodes_stay_finite_and_energy_sane() -> None:

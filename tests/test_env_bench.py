@@ -29,7 +29,7 @@ def test_quick_env_benchmark_prints_tables(tmp_path: Path, capsys: pytest.Captur
     results = bench["main"](["--quick", "--json", str(json_path)])
     out = capsys.readouterr().out
     for text in ("Single environment", "SagittalWalker-v0 (gymnasium.make)", "Walker2d-v5", "Batched torch environment",
-                 "≥ 100×", "envs.physics.advance"):
+                 "≥ 100×", "sspinn.simulation.advance"):
         assert text in out
     assert results["single"]["rates"]["SagittalWalker-v0 (gymnasium.make)"] > 0
     assert all(r["env_steps_per_s"] > 0 for r in results["batched"].values())
