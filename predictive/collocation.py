@@ -1,0 +1,590 @@
+"""Predictive gait simulation by direct collocation (CasADi + IPOPT) on the sspinn 9-DOF model.
+
+Formulation (all units SI; signs of :mod:`sspinn.conventions`: hip flexion +, knee flexion −,
+ankle dorsiflexion +, a positive pelvis_tilt leans the trunk back):
+
+* **Grid.** ``N`` nodes ``t_k = k·h`` (``k = 0 … N−1``) spanning one gait cycle of duration ``T``
+  (``h = T/N``), or — with ``gait_cycle="half"`` — half a cycle (``h = T/(2N)``) with
+  left/right symmetry. Node ``N`` is node 0 of the next cycle, so periodicity needs no extra
+  variables: the state "before" node 0 is node ``N−1`` with pelvis_tx moved back by one
+  stride ``v·T`` (full cycle) or, for the half cycle, node ``N−1`` mirrored (left and right legs
+  swapped) and moved back by half a stride ``v·T/2``. The average speed is therefore exactly
+  ``v`` (Σ of the pelvis_tx increments equals ``v·T``). pelvis_tx(t_0) = 0 removes the
+  translation invariance.
+* **Variables per node.** q (9), u = q̇ (9), q̈ (9) and the joint torques τ (6); plus the
+  stride duration ``T``, fixed by default to a typical human value at the requested speed
+  (:func:`typical_stride_duration`) or free within bounds (``free_duration=True``). With the
+  torque effort below, a free duration drifts to implausibly short, shuffling strides (the
+  effort has no cost for fast leg swing or for step-to-step collisions), which is why the
+  default fixes it.
+* **Symmetry.** ``gait_cycle="half"`` (default) assumes the healthy, symmetric gait that the
+  comparison data show and halves the problem; it also kept IPOPT away from the asymmetric
+  local optima (one leg in long stance, the other hopping) that full-cycle solves found in
+  early versions of the objective. ``gait_cycle="full"`` assumes no symmetry (with the default
+  settings it reproduced the half-cycle solutions at 1.3 and 3.5 m/s).
+* **Dynamics.** Implicit, as equality constraints at every node:
+  ``M(q)·q̈ − f(q, u, τ, F(q, u), w(q)) = 0`` with :func:`sspinn.dynamics.kane_residual` and the
+  ground reaction forces ``F`` of the smooth contact model (:func:`sspinn.dynamics.contact_forces`)
+  with the **forward-simulation friction law** ``F_x = −μ·tanh(ẋ/v_s)·F_y``: it needs no extra
+  (learned) input, opposes sliding of the contact point so the stance foot cannot skate, is
+  smooth (C∞), and is the law the forward simulator uses, so solutions can be replayed there.
+  Its stiffness (small ``v_s``) restricts explicit integrators but not implicit collocation.
+  The residual is scaled by BW (pelvis_tx, pelvis_ty rows, N) and BW·H (rotational rows, N·m).
+* **Collocation: backward Euler** ``q_k − q_{k−1} = h·u_k``, ``u_k − u_{k−1} = h·q̈_k``. It is
+  first-order but L-stable, which suits the stiff spring-damper contact (100 BW/m, 300 /m
+  transition): the trapezoidal rule is only A-stable and does not damp the fast contact modes
+  on a coarse grid. Backward Euler is the common choice of the implicit gait2d predictive work
+  (van den Bogert et al. 2011, "Implicit methods for efficient musculoskeletal simulation and
+  optimal control"; Ackermann, Koelewijn), is robust from poor initial guesses, needs one
+  dynamics evaluation per node, and the dynamics hold *exactly* at the nodes. Its price is a
+  first-order discretisation error between the nodes (see
+  :meth:`GaitSolution.resampled_residual`).
+* **Objective** (dimensionless), per unit distance up to the constant factor 1/v:
+  ``mean_k Σ_j |τ_kj/τmax_j|^e  +  w_acc · mean_k Σ_i (q̈_ki·T²/(4π²))²`` with ``e = 2``
+  ("squared") or ``3`` ("cubed"), τmax = 0.1·BW·H (≈120 N·m for 1.75 m, 70 kg) for every joint,
+  except that the ankle's strength depends on its angle θ (muscle force–length relation):
+  plantarflexor torque (τ < 0) is divided by exp(k·θ), dorsiflexor torque by exp(−k·θ), with
+  k = 1 /rad (plantarflexors at half strength near 40° plantarflexion, as in human
+  torque–angle curves; the sign switch is blended by tanh(τ/(0.02·τmax))). Without it the
+  cheapest gait the optimiser found was toe-walking with the ankle on its plantarflexion limit
+  for the whole stance, reached or not depending on small changes of body size or guess; with
+  it, half- and full-cycle solves and both tested body sizes gave the same heel–toe gait.
+  Because the nodes are equally spaced in time, the mean over nodes is ∫effort dt / T, and
+  effort per distance = (∫effort dt)/(v·T) = mean/v: with the speed fixed the mean is the cost
+  of transport of this effort measure. The second term regularises accelerations and smooths the
+  motion (fewer impact spikes, no chattering): q̈·T²/(4π²) is the acceleration on the
+  normalised cycle (for q = A·sin(2πt/T) its amplitude is A, in rad or m), so the term does
+  not favour slow or fast strides when the duration is free.
+* **Bounds.** Joint ranges from :class:`sspinn.body.JointLimits` (default here:
+  :func:`default_joint_limits`, knee ≤ 0), pelvis height and trunk tilt ranges, |τ| ≤ 3·τmax,
+  duration bounds.
+* **Initial guess.** Data-free (:meth:`PredictiveGaitProblem.generic_guess`): pelvis_tx = v·t
+  at constant hip height and textbook-shaped joint-angle curves (sinusoidal hip, Gaussian
+  knee-flexion bump in swing), zero torques.
+* **Scaling.** Decision variables are scaled to O(1) (τ/τmax, q̈/10, u/5 for joint speeds,
+  u/2 for the trunk, u/max(v, 1) for pelvis_tx); the kinematic constraints are written as
+  velocity and acceleration differences divided by the same scales, the dynamics by BW or BW·H.
+
+The NLP is built from CasADi SX expressions (the whole problem is a few ten-thousand scalar
+operations) and solved by IPOPT with MUMPS and an exact Hessian.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from typing import Any, Literal
+
+import casadi as ca
+import numpy as np
+
+from predictive.solution import GaitSolution, mirror_states
+from sspinn import dynamics as dyn
+from sspinn.body import BodyParameters, JointLimits
+from sspinn.contact import ContactParameters
+from sspinn.conventions import JOINTS, N_Q, N_TAU
+
+Effort = Literal["squared", "cubed"]
+GaitCycle = Literal["full", "half"]
+
+#: IPOPT return statuses that count as a solved problem.
+SUCCESS_STATUSES = ("Solve_Succeeded",)
+
+
+class OCPError(RuntimeError):
+    """IPOPT did not solve the optimal control problem; ``status`` is IPOPT's return status and
+    ``solution`` the (non-optimal) last iterate, for inspection."""
+
+    def __init__(self, status: str, message: str, solution: GaitSolution | None = None) -> None:
+        super().__init__(message)
+        self.status = status
+        self.solution = solution
+
+
+def default_joint_limits() -> JointLimits:
+    """Human sagittal ranges of motion (rad): hip −30°…+90° (flexion +), knee −120°…0° (knee
+    flexion is negative; hyperextension excluded), ankle −40°…+30° (dorsiflexion +)."""
+    lo = {"hip": -math.radians(30), "knee": -math.radians(120), "ankle": -math.radians(40)}
+    hi = {"hip": math.radians(90), "knee": 0.0, "ankle": math.radians(30)}
+    return JointLimits(
+        lower={j: lo[j.split("_")[0]] for j in JOINTS},
+        upper={j: hi[j.split("_")[0]] for j in JOINTS},
+    )
+
+
+@dataclass(frozen=True)
+class OCPSettings:
+    """Settings of :func:`solve_predictive` (stored with every solution).
+
+    Attributes:
+        speed: average forward speed v, m/s (pelvis_tx advances v·T per cycle).
+        n_nodes: collocation nodes per simulated interval (the whole cycle, or half of it).
+        effort: "squared" or "cubed" exponent of the normalised torques.
+        gait_cycle: "full" (one periodic cycle, no symmetry assumed) or "half" (half a cycle,
+            the second half is the first with left and right swapped).
+        duration: stride (cycle) duration in s; None: :func:`typical_stride_duration` of the speed.
+            It is fixed unless ``free_duration``, and then it is only the initial guess.
+        free_duration: optimise the duration within ``duration_bounds``.
+        duration_bounds: (min, max) stride duration in s when free.
+        tau_max: normalising torque per joint type (hip, knee, ankle) in units of BW·H
+            (body weight × body height, N·m); also sets the bound |τ| ≤ tau_bound·τmax.
+        tau_bound: torque bound as a multiple of ``tau_max``.
+        w_acc: weight of the q̈ regularisation (dimensionless, see the module docstring).
+        ankle_strength_slope: k in the ankle's relative strength exp(±k·θ_ankle), 1/rad
+            (0: angle-independent strength; see the module docstring).
+        pelvis_height_bounds: pelvis_ty (hip joint centre height) range as fractions of H.
+        tilt_bounds: pelvis_tilt (trunk global angle) range, rad.
+        tol: IPOPT tolerance (scaled NLP error); constr_viol_tol is ``constr_tol``.
+        constr_tol: IPOPT constr_viol_tol (scaled units: BW, BW·H, scaled velocities).
+        max_iter: IPOPT iteration limit.
+    """
+
+    speed: float
+    n_nodes: int = 50
+    effort: Effort = "squared"
+    gait_cycle: GaitCycle = "half"
+    duration: float | None = None
+    free_duration: bool = False
+    duration_bounds: tuple[float, float] = (0.4, 2.0)
+    tau_max: tuple[float, float, float] = (0.1, 0.1, 0.1)
+    tau_bound: float = 3.0
+    w_acc: float = 0.1
+    ankle_strength_slope: float = 1.0
+    pelvis_height_bounds: tuple[float, float] = (0.3, 0.7)
+    tilt_bounds: tuple[float, float] = (-0.6, 0.6)
+    tol: float = 1e-6
+    constr_tol: float = 1e-8
+    max_iter: int = 3000
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.speed) and self.speed >= 0):
+            raise ValueError(f"speed must be a finite number >= 0 m/s, got {self.speed!r}")
+        if self.n_nodes < 4:
+            raise ValueError(f"n_nodes must be >= 4, got {self.n_nodes}")
+        if self.effort not in ("squared", "cubed"):
+            raise ValueError(f"effort must be 'squared' or 'cubed', got {self.effort!r}")
+        if self.gait_cycle not in ("full", "half"):
+            raise ValueError(f"gait_cycle must be 'full' or 'half', got {self.gait_cycle!r}")
+        lo, hi = self.duration_bounds
+        if not 0 < lo <= hi:
+            raise ValueError(f"duration_bounds must satisfy 0 < min <= max (s), got {self.duration_bounds}")
+        if self.duration is not None and not self.duration > 0:
+            raise ValueError(f"duration must be > 0 s, got {self.duration}")
+        if self.w_acc < 0:
+            raise ValueError(f"w_acc must be >= 0, got {self.w_acc}")
+
+    @property
+    def stride_duration(self) -> float:
+        """The fixed duration, or the initial guess of a free one, s."""
+        T = self.duration if self.duration is not None else typical_stride_duration(self.speed)
+        return float(np.clip(T, *self.duration_bounds)) if self.free_duration else float(T)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-native dict (tuples as lists), as stored in :attr:`GaitSolution.settings`."""
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> OCPSettings:
+        """Inverse of :meth:`to_dict` (e.g. ``OCPSettings.from_dict(solution.settings)``)."""
+        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in data.items()})
+
+
+# ---------------------------------------------------------------------------------------------
+# Index helpers
+# ---------------------------------------------------------------------------------------------
+def _joint_type_values(values: tuple[float, float, float]) -> np.ndarray:
+    """Per-joint values (JOINTS order) from per-type (hip, knee, ankle) values."""
+    table = dict(zip(("hip", "knee", "ankle"), values))
+    return np.array([table[j.split("_")[0]] for j in JOINTS])
+
+
+@dataclass
+class _Layout:
+    """Decision-vector layout: per node [q, u, a, tau] (scaled), then the duration T."""
+
+    n: int
+    per_node: int = 2 * N_Q + N_Q + N_TAU
+    slices: dict[str, slice] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.slices = {
+            "q": slice(0, N_Q),
+            "u": slice(N_Q, 2 * N_Q),
+            "a": slice(2 * N_Q, 3 * N_Q),
+            "tau": slice(3 * N_Q, 3 * N_Q + N_TAU),
+        }
+
+    @property
+    def size(self) -> int:
+        return self.n * self.per_node + 1
+
+    def split(self, z: Any) -> tuple[Any, Any]:
+        """(node matrix (per_node × n), T) from the flat decision vector (SX or ndarray)."""
+        nodes = z[: self.n * self.per_node]
+        if isinstance(nodes, np.ndarray):
+            return nodes.reshape(self.n, self.per_node).T, z[-1]
+        return ca.reshape(nodes, self.per_node, self.n), z[-1]
+
+
+# ---------------------------------------------------------------------------------------------
+# The problem
+# ---------------------------------------------------------------------------------------------
+class PredictiveGaitProblem:
+    """The collocation NLP for one body and settings; :meth:`solve` runs IPOPT.
+
+    Build once and call :meth:`solve` with different initial guesses if needed.
+    """
+
+    def __init__(
+        self,
+        settings: OCPSettings,
+        body: BodyParameters | None = None,
+        contact: ContactParameters | None = None,
+        joint_limits: JointLimits | None = None,
+    ) -> None:
+        self.settings = settings
+        self.body = body if body is not None else BodyParameters.from_anthropometry(1.75, 70.0)
+        self.contact = contact if contact is not None else ContactParameters()
+        self.joint_limits = joint_limits if joint_limits is not None else default_joint_limits()
+        self.bw = self.body.body_weight
+        self.height = self.body.height
+        self.tau_max = _joint_type_values(settings.tau_max) * self.bw * self.height  # N·m
+        self.layout = _Layout(settings.n_nodes)
+        # variable scales (physical = scale · scaled)
+        v = max(settings.speed, 1.0)
+        self.q_scale = np.ones(N_Q)
+        self.u_scale = np.array([v, 1.0, 2.0] + [5.0] * N_TAU)
+        self.a_scale = np.full(N_Q, 10.0)
+        self.res_scale = np.array([self.bw, self.bw] + [self.bw * self.height] * (N_Q - 2))
+        self._node_fun = self._build_node_function()
+        self._nlp, self._bounds = self._build_nlp()
+
+    # ----------------------------------------------------------------- building blocks
+    def _build_node_function(self) -> ca.Function:
+        """(q, u, a, tau) → (scaled Kane residual (9), grf (4) in N, w (2))."""
+        q, u, a, tau = (ca.SX.sym(name, n) for name, n in (("q", N_Q), ("u", N_Q), ("a", N_Q), ("tau", N_TAU)))
+        grf, w = dyn.contact_forces(q, u, self.body, self.contact)
+        r = dyn.kane_residual(q, u, a, tau, grf, w, self.body)
+        return ca.Function("node", [q, u, a, tau], [r / ca.DM(self.res_scale), grf, w])
+
+    @property
+    def _n_intervals_per_cycle(self) -> int:
+        return self.settings.n_nodes * (2 if self.settings.gait_cycle == "half" else 1)
+
+    def _previous_state(self, q_last: Any, u_last: Any, T: Any) -> tuple[Any, Any]:
+        """The state before node 0: the last node moved back by one stride (or mirrored and moved
+        back by half a stride)."""
+        s = self.settings
+        if s.gait_cycle == "half":
+            q_prev, u_prev = mirror_states(q_last), mirror_states(u_last)
+            shift = s.speed * T / 2
+        else:
+            q_prev, u_prev, shift = q_last, u_last, s.speed * T
+        q_prev = ca.vertcat(q_prev[0] - shift, q_prev[1:])
+        return q_prev, u_prev
+
+    def _build_nlp(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        s, lay = self.settings, self.layout
+        z = ca.SX.sym("z", lay.size)
+        nodes, T = lay.split(z)
+        sl = lay.slices
+        qs, us, as_, ts = (ca.DM(x) for x in (self.q_scale, self.u_scale, self.a_scale, self.tau_max))
+        q = [nodes[sl["q"], k] * qs for k in range(lay.n)]
+        u = [nodes[sl["u"], k] * us for k in range(lay.n)]
+        a = [nodes[sl["a"], k] * as_ for k in range(lay.n)]
+        tau = [nodes[sl["tau"], k] * ts for k in range(lay.n)]
+        h = T / self._n_intervals_per_cycle
+
+        g: list[Any] = []
+        effort = 0
+        reg = 0
+        exponent = 2 if s.effort == "squared" else 3
+        for k in range(lay.n):
+            if k == 0:
+                q_prev, u_prev = self._previous_state(q[-1], u[-1], T)
+            else:
+                q_prev, u_prev = q[k - 1], u[k - 1]
+            g.append(((q[k] - q_prev) / h - u[k]) / us)
+            g.append(((u[k] - u_prev) / h - a[k]) / as_)
+            res, _, _ = self._node_fun(q[k], u[k], a[k], tau[k])
+            g.append(res)
+            tn = nodes[sl["tau"], k]
+            if s.ankle_strength_slope:
+                tn = self._strength_scaled(tn, q[k])
+            effort += ca.sum1(tn**2) if exponent == 2 else ca.sum1(ca.fabs(tn) ** 3)
+            reg += ca.sumsqr(a[k] * (T**2 / (4 * math.pi**2)))
+        objective = (effort + s.w_acc * reg) / lay.n
+        nlp = {"x": z, "f": objective, "g": ca.vertcat(*g)}
+
+        # bounds (physical → scaled)
+        lo_j, hi_j = self.joint_limits.arrays()
+        q_lo = np.concatenate([[-np.inf, s.pelvis_height_bounds[0] * self.height, s.tilt_bounds[0]], lo_j])
+        q_hi = np.concatenate([[np.inf, s.pelvis_height_bounds[1] * self.height, s.tilt_bounds[1]], hi_j])
+        node_lo = np.concatenate([q_lo / self.q_scale, np.full(2 * N_Q, -np.inf), np.full(N_TAU, -s.tau_bound)])
+        node_hi = np.concatenate([q_hi / self.q_scale, np.full(2 * N_Q, np.inf), np.full(N_TAU, s.tau_bound)])
+        t_lo, t_hi = s.duration_bounds if s.free_duration else (s.stride_duration, s.stride_duration)
+        lbx = np.append(np.tile(node_lo, lay.n), t_lo)
+        ubx = np.append(np.tile(node_hi, lay.n), t_hi)
+        lbx[0] = ubx[0] = 0.0  # pelvis_tx(t_0) = 0
+        n_g = nlp["g"].shape[0]
+        bounds = {"lbx": lbx, "ubx": ubx, "lbg": np.zeros(n_g), "ubg": np.zeros(n_g)}
+        return nlp, bounds
+
+    def _strength_scaled(self, tn: Any, q: Any) -> Any:
+        """Normalised torques divided by the relative ankle strength exp(±k·θ_ankle): plantarflexor
+        torque (τ < 0) is weaker with the ankle plantarflexed (θ < 0), dorsiflexor torque the
+        other way round (muscle force–length relation); the sign is blended smoothly by tanh."""
+        k = self.settings.ankle_strength_slope
+        out = [tn[j] for j in range(N_TAU)]
+        for j in (2, 5):  # ankle_r, ankle_l in JOINTS order
+            theta = q[3 + j]
+            out[j] = tn[j] * ca.exp(k * theta * ca.tanh(tn[j] / 0.02))
+        return ca.vertcat(*out)
+
+    def _get_solver(self, ipopt_options: Mapping[str, Any] | None, verbose: bool) -> ca.Function:
+        s = self.settings
+        opts: dict[str, Any] = {
+            "tol": s.tol,
+            "constr_viol_tol": s.constr_tol,
+            "max_iter": s.max_iter,
+            "linear_solver": "mumps",
+            "mu_strategy": "adaptive",
+            "print_level": 5 if verbose else 0,
+            "sb": "no" if verbose else "yes",  # IPOPT's banner
+        }
+        opts.update(ipopt_options or {})
+        plugin_opts = {"ipopt": opts, "print_time": False, "error_on_fail": False}
+        return ca.nlpsol("predictive_gait", "ipopt", self._nlp, plugin_opts)
+
+    # ----------------------------------------------------------------- guesses
+    def generic_guess(self) -> np.ndarray:
+        """A data-free initial guess (scaled decision vector) from textbook gait shapes.
+
+        pelvis_tx = v·t, hip joint centre at a constant height, upright trunk, zero torques;
+        per leg (left half a cycle later), with s = t/T from the leg's heel strike and a stance
+        fraction σ (0.6 walking, 0.35 running, switched at 2 m/s): hip = h0 + A·cos(2πs),
+        the knee flexed by a Gaussian bump in mid-swing (and a smaller one in early stance), the
+        ankle briefly plantarflexed around toe-off. u and q̈ are backward differences of q.
+        For ``speed == 0`` the guess is quiet standing.
+        """
+        s = self.settings
+        T = s.stride_duration
+        n_cycle = self._n_intervals_per_cycle
+        t = np.arange(n_cycle) * T / n_cycle
+        leg = self.body.femur_r.length + self.body.tibia_r.length - self.body.foot_r.toe[1]
+        running = s.speed >= 2.0
+        moving = s.speed > 0
+        stance = 0.35 if running else 0.6
+        hip_amp, knee_stance, knee_swing, ankle_push = (0.45, 0.4, 1.6, 0.3) if running else (0.35, 0.15, 1.0, 0.3)
+        if not moving:
+            hip_amp = knee_stance = knee_swing = ankle_push = 0.0
+        q = np.zeros((n_cycle, N_Q))
+        q[:, 0] = s.speed * t
+        q[:, 1] = (0.92 if running else 0.97) * leg
+        q[:, 2] = -0.05 if running else 0.0
+
+        def bump(phase: np.ndarray, centre: float, width: float) -> np.ndarray:
+            d = (phase - centre + 0.5) % 1.0 - 0.5
+            return np.exp(-((d / width) ** 2))
+
+        for first, offset in ((3, 0.0), (6, 0.5)):
+            ph = (t / T + offset) % 1.0
+            swing_mid = stance + 0.4 * (1 - stance)
+            q[:, first] = 0.1 + hip_amp * np.cos(2 * np.pi * ph)
+            q[:, first + 1] = -0.05 - knee_stance * bump(ph, 0.15, 0.1) - knee_swing * bump(ph, swing_mid, 0.15)
+            q[:, first + 2] = 0.05 - ankle_push * bump(ph, stance, 0.08)
+        return self._pack_guess(t, q, T, n_cycle)
+
+    def guess_from_solution(self, sol: GaitSolution) -> np.ndarray:
+        """Initial guess (scaled decision vector) from a previous solution, resampled to this
+        grid by periodic linear interpolation over the normalised cycle; pelvis_tx is rescaled
+        to this problem's speed and the duration kept (clipped to the bounds)."""
+        s = self.settings
+        T = float(np.clip(sol.duration, *s.duration_bounds)) if s.free_duration else s.stride_duration
+        n_cycle = self._n_intervals_per_cycle
+        t = np.arange(n_cycle) * T / n_cycle
+        frac_src = sol.time / sol.duration
+        q = np.empty((n_cycle, N_Q))
+        for i in range(N_Q):
+            y = sol.q[:, i] - (sol.speed * sol.time if i == 0 else 0.0)
+            q[:, i] = np.interp(t / T, frac_src, y, period=1.0)
+        q[:, 0] += s.speed * t
+        tau = np.empty((n_cycle, N_TAU))
+        for j in range(N_TAU):
+            tau[:, j] = np.interp(t / T, frac_src, sol.tau[:, j], period=1.0)
+        return self._pack_guess(t, q, T, n_cycle, tau)
+
+    def _pack_guess(
+        self, t: np.ndarray, q: np.ndarray, T: float, n_cycle: int, tau: np.ndarray | None = None
+    ) -> np.ndarray:
+        s, lay = self.settings, self.layout
+        h = T / n_cycle
+        q_prev = np.roll(q, 1, axis=0)
+        q_prev[0, 0] -= s.speed * T
+        u = (q - q_prev) / h
+        a = (u - np.roll(u, 1, axis=0)) / h
+        tau = np.zeros((n_cycle, N_TAU)) if tau is None else tau
+        n = lay.n
+        nodes = np.concatenate(
+            [q[:n] / self.q_scale, u[:n] / self.u_scale, a[:n] / self.a_scale, tau[:n] / self.tau_max], axis=1
+        )
+        z0 = np.concatenate([nodes.ravel(), [T]])
+        return np.clip(z0, self._bounds["lbx"], self._bounds["ubx"])
+
+    # ----------------------------------------------------------------- solving
+    def solve(
+        self,
+        guess: GaitSolution | np.ndarray | None = None,
+        *,
+        ipopt_options: Mapping[str, Any] | None = None,
+        verbose: bool = False,
+        raise_on_failure: bool = True,
+    ) -> GaitSolution:
+        """Run IPOPT from ``guess`` (None: :meth:`generic_guess`; a :class:`GaitSolution`; or a
+        scaled decision vector) and return the solution.
+
+        Raises:
+            OCPError: if IPOPT's status is not ``Solve_Succeeded`` and ``raise_on_failure``.
+        """
+        if guess is None:
+            z0 = self.generic_guess()
+        elif isinstance(guess, GaitSolution):
+            z0 = self.guess_from_solution(guess)
+        else:
+            z0 = np.asarray(guess, dtype=float)
+            if z0.shape != (self.layout.size,):
+                raise ValueError(f"guess vector must have shape ({self.layout.size},), got {z0.shape}")
+        t0 = time.perf_counter()
+        solver = self._get_solver(ipopt_options, verbose)
+        build_time = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        result = solver(x0=z0, **self._bounds)
+        solve_time = time.perf_counter() - t0
+        stats = solver.stats()
+        status = str(stats.get("return_status", "unknown"))
+        sol = self._unpack(
+            np.asarray(result["x"]).ravel(),
+            status=status,
+            iterations=int(stats.get("iter_count", -1)),
+            solve_time=solve_time,
+            build_time=build_time,
+            objective=float(result["f"]),
+        )
+        if status not in SUCCESS_STATUSES and raise_on_failure:
+            raise OCPError(
+                status,
+                f"IPOPT did not solve the predictive gait problem (speed {self.settings.speed} m/s, "
+                f"{self.settings.n_nodes} nodes, {self.settings.gait_cycle} cycle): status {status!r} after "
+                f"{sol.iterations} iterations",
+                sol,
+            )
+        return sol
+
+    def _unpack(self, z: np.ndarray, **info: Any) -> GaitSolution:
+        s, lay = self.settings, self.layout
+        nodes, T = lay.split(z)
+        sl = lay.slices
+        q = (nodes[sl["q"]].T * self.q_scale).copy()
+        u = nodes[sl["u"]].T * self.u_scale
+        a = nodes[sl["a"]].T * self.a_scale
+        tau = nodes[sl["tau"]].T * self.tau_max
+        if s.gait_cycle == "half":
+            q2 = mirror_states(q.T).T
+            q2[:, 0] += s.speed * T / 2
+            q = np.vstack([q, q2])
+            u, a, tau = (np.vstack([x, mirror_states(x.T).T]) for x in (u, a, tau))
+        grf, w = dyn.contact_forces(q, u, self.body, self.contact)
+        n_cycle = q.shape[0]
+        return GaitSolution(
+            time=np.arange(n_cycle) * T / n_cycle,
+            q=q,
+            u=u,
+            qdd=a,
+            tau=tau,
+            grf=np.asarray(grf),
+            w=np.asarray(w),
+            speed=s.speed,
+            duration=float(T),
+            body_parameters=self.body.to_dict(),
+            settings=s.to_dict(),
+            contact=asdict(self.contact),
+            tau_max=self.tau_max.copy(),
+            **info,
+        )
+
+
+def typical_stride_duration(speed: float) -> float:
+    """A typical adult stride (gait-cycle) duration in s at ``speed`` in m/s: the line through
+    1.14 s at 1.3 m/s (Winter's normal walking: 1.14 s at 1.325 m/s) and 0.70 s at 3.5 m/s
+    (running at ≈170 steps/min), ``1.4 − 0.2·v``, clipped to [0.6, 1.4] s (1.4 s: standing)."""
+    return float(np.clip(1.4 - 0.2 * speed, 0.6, 1.4))
+
+
+def solve_predictive(
+    speed: float,
+    body: BodyParameters | None = None,
+    *,
+    n_nodes: int | None = None,
+    effort: Effort = "squared",
+    gait_cycle: GaitCycle = "half",
+    guess: GaitSolution | None = None,
+    duration: float | None = None,
+    free_duration: bool = False,
+    contact: ContactParameters | None = None,
+    joint_limits: JointLimits | None = None,
+    ipopt_options: Mapping[str, Any] | None = None,
+    verbose: bool = False,
+    raise_on_failure: bool = True,
+    **settings: Any,
+) -> GaitSolution:
+    """Predict a periodic gait cycle at average ``speed`` (m/s) by minimising joint-torque effort.
+
+    See the module docstring for the formulation. Example::
+
+        sol = solve_predictive(1.3)                 # walking, symmetric half cycle, 50 nodes
+        run = solve_predictive(3.5, n_nodes=50)     # running (flight phase emerges)
+        sol.save("results/ocp/walk_1.3")
+
+    Args:
+        speed: average forward speed, m/s (≥ 0; 0 gives quiet standing).
+        body: body parameters (default: 1.75 m, 70 kg, Winter scaling).
+        n_nodes: collocation nodes per simulated interval (default 50 for a half cycle, i.e. 100
+            per stride, and 100 for a full cycle).
+        effort: "squared" or "cubed" normalised-torque effort.
+        gait_cycle: "half" (half a cycle with left/right symmetry) or "full" (one periodic cycle).
+        guess: a previous :class:`GaitSolution` as initial guess (resampled to this grid);
+            default: the data-free :meth:`PredictiveGaitProblem.generic_guess`.
+        duration: stride duration, s (default :func:`typical_stride_duration` of the speed);
+            fixed unless ``free_duration``.
+        free_duration: optimise the stride duration within ``duration_bounds`` (a setting).
+        contact: contact-model parameters (default :class:`ContactParameters`).
+        joint_limits: joint ranges, rad (default :func:`default_joint_limits`).
+        ipopt_options: extra IPOPT options (override the defaults).
+        verbose: print IPOPT's iteration log.
+        raise_on_failure: raise :class:`OCPError` (naming IPOPT's status) unless the status is
+            ``Solve_Succeeded``; if False, return the last iterate with its status.
+        **settings: further :class:`OCPSettings` fields (e.g. ``duration_bounds``, ``w_acc``,
+            ``tau_max``, ``max_iter``).
+
+    Returns:
+        The solution over one whole cycle (the mirrored second half appended for
+        ``gait_cycle="half"``).
+
+    Raises:
+        OCPError: IPOPT did not return ``Solve_Succeeded`` (and ``raise_on_failure``).
+    """
+    if n_nodes is None:
+        n_nodes = 100 if gait_cycle == "full" else 50
+    cfg = OCPSettings(
+        speed=float(speed),
+        n_nodes=n_nodes,
+        effort=effort,
+        gait_cycle=gait_cycle,
+        duration=duration,
+        free_duration=free_duration,
+        **settings,
+    )
+    problem = PredictiveGaitProblem(cfg, body, contact, joint_limits)
+    return problem.solve(guess, ipopt_options=ipopt_options, verbose=verbose, raise_on_failure=raise_on_failure)

@@ -1,0 +1,287 @@
+"""The result of a predictive gait simulation, its persistence and its physical checks.
+
+Arrays are sampled at the collocation nodes of one whole gait cycle, ``time[k] = k·T/n``
+(``k = 0 … n−1``; node ``n`` would be node 0 of the next cycle). Units and signs are those of
+:mod:`sspinn.conventions`: q in m / rad (hip flexion +, knee flexion −, ankle dorsiflexion +),
+u in m/s / rad/s, q̈ in m/s² / rad/s², τ in N·m (positive τ_j increases coordinate j),
+GRF in N as [Fx_r, Fy_r, Fx_l, Fy_l], w the contact-point fraction (toe 0 … heel 1).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sspinn import dynamics as dyn
+from sspinn.body import BodyParameters
+from sspinn.contact import ContactParameters
+from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS, N_Q
+
+#: Permutation that swaps the right and left leg in q (and u, q̈).
+MIRROR_Q = np.array([0, 1, 2, 6, 7, 8, 3, 4, 5])
+#: The same for τ (joints only).
+MIRROR_TAU = np.array([3, 4, 5, 0, 1, 2])
+#: The same for the GRF vector [Fx_r, Fy_r, Fx_l, Fy_l].
+MIRROR_GRF = np.array([2, 3, 0, 1])
+
+#: Vertical GRF above which a foot counts as in contact, BW (the smooth contact model produces
+#: a small force a few millimetres above the ground).
+CONTACT_THRESHOLD_BW = 0.1
+
+_ARRAYS = ("time", "q", "u", "qdd", "tau", "grf", "w", "tau_max")
+
+
+def mirror_states(x: Any) -> Any:
+    """Swap right and left legs in a column vector (CasADi) or in the rows of a (9, …) or (6, …)
+    array: q, u, q̈ (9 rows) or τ (6 rows)."""
+    n = x.shape[0]
+    perm = MIRROR_Q if n == N_Q else MIRROR_TAU
+    if isinstance(x, np.ndarray):
+        return x[perm]
+    import casadi as ca
+
+    return ca.vertcat(*[x[int(i)] for i in perm])
+
+
+@dataclass
+class GaitSolution:
+    """One periodic gait cycle predicted by :func:`predictive.solve_predictive`.
+
+    Attributes:
+        time: (n,) node times, s, starting at 0.
+        q, u, qdd: (n, 9) coordinates, speeds, accelerations at the nodes.
+        tau: (n, 6) joint torques, N·m.
+        grf: (n, 4) ground reaction forces, N ([Fx_r, Fy_r, Fx_l, Fy_l]).
+        w: (n, 2) contact-point fractions (toe 0 … heel 1), right and left.
+        speed: average forward speed, m/s.
+        duration: stride (cycle) duration T, s.
+        body_parameters: the body used, as :meth:`BodyParameters.to_dict` (see :attr:`body`).
+        status: IPOPT return status (``Solve_Succeeded`` when solved).
+        iterations: IPOPT iterations.
+        solve_time: wall-clock time of the IPOPT call, s.
+        build_time: time to create the solver (symbolic setup and code), s.
+        objective: final objective value (dimensionless).
+        settings: the :class:`~predictive.collocation.OCPSettings` as a dict.
+        contact: the contact parameters as a dict.
+        tau_max: (6,) normalising torques, N·m.
+    """
+
+    time: np.ndarray
+    q: np.ndarray
+    u: np.ndarray
+    qdd: np.ndarray
+    tau: np.ndarray
+    grf: np.ndarray
+    w: np.ndarray
+    speed: float
+    duration: float
+    body_parameters: dict[str, Any]
+    status: str = "unknown"
+    iterations: int = -1
+    solve_time: float = float("nan")
+    build_time: float = float("nan")
+    objective: float = float("nan")
+    settings: dict[str, Any] = field(default_factory=dict)
+    contact: dict[str, Any] = field(default_factory=dict)
+    tau_max: np.ndarray = field(default_factory=lambda: np.ones(len(JOINTS)))
+
+    # ------------------------------------------------------------------ derived quantities
+    @property
+    def success(self) -> bool:
+        return self.status == "Solve_Succeeded"
+
+    @property
+    def stride_length(self) -> float:
+        """Distance travelled per cycle, m (speed × duration)."""
+        return self.speed * self.duration
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.time)
+
+    @property
+    def body(self) -> BodyParameters:
+        """The body parameters the solution was computed with."""
+        return BodyParameters.from_dict(self.body_parameters, source="GaitSolution.body_parameters")
+
+    @property
+    def contact_parameters(self) -> ContactParameters:
+        return ContactParameters(**self.contact) if self.contact else ContactParameters()
+
+    @property
+    def body_weight(self) -> float:
+        return self.body.body_weight
+
+    def grf_bw(self) -> np.ndarray:
+        """(n, 4) GRF in body weights."""
+        return self.grf / self.body_weight
+
+    def stance_fractions(self, threshold_bw: float = CONTACT_THRESHOLD_BW) -> dict[str, float]:
+        """Fractions of the cycle (at the nodes) with a foot loaded above ``threshold_bw``:
+        ``stance_r``, ``stance_l``, ``double_support`` and ``flight`` (no foot loaded)."""
+        fy = self.grf_bw()[:, [1, 3]] > threshold_bw
+        return {
+            "stance_r": float(fy[:, 0].mean()),
+            "stance_l": float(fy[:, 1].mean()),
+            "double_support": float((fy[:, 0] & fy[:, 1]).mean()),
+            "flight": float((~fy[:, 0] & ~fy[:, 1]).mean()),
+        }
+
+    def right_heel_strike(self, threshold_bw: float = CONTACT_THRESHOLD_BW) -> int:
+        """Index of the node at which the right vertical GRF rises above ``threshold_bw``
+        (first loaded node after an unloaded one; 0 if the foot never leaves the ground)."""
+        loaded = self.grf_bw()[:, 1] > threshold_bw
+        onsets = np.flatnonzero(loaded & ~np.roll(loaded, 1))
+        return int(onsets[0]) if len(onsets) else 0
+
+    # ------------------------------------------------------------------ residual checks
+    def node_residual(self) -> np.ndarray:
+        """(n, 9) Kane residual M q̈ − f at the nodes, evaluated with the **NumPy backend**, with
+        q̈ recomputed from the stored speeds as the backward difference (u_k − u_{k−1})/h that the
+        collocation uses, and GRF recomputed from the contact model. Scaled to BW for the two
+        translational rows and BW·H for the rotational rows (dimensionless)."""
+        h = self.duration / self.n_nodes
+        qdd = (self.u - np.roll(self.u, 1, axis=0)) / h
+        body = self.body
+        grf, w = dyn.contact_forces(self.q, self.u, body, self.contact_parameters)
+        r = dyn.kane_residual(self.q, self.u, qdd, self.tau, grf, w, body)
+        bw = body.body_weight
+        return r / np.array([bw, bw] + [bw * body.height] * (N_Q - 2))
+
+    def resampled_residual(self, rate_hz: float = 100.0) -> tuple[np.ndarray, np.ndarray]:
+        """Kane residual (scaled as in :meth:`node_residual`) of the motion resampled at
+        ``rate_hz``: q by a periodic cubic spline through the nodes, u and q̈ its derivatives,
+        τ linearly interpolated. Returns (times in s, residual (m, 9)). This measures how well a
+        smooth curve through the nodes obeys the dynamics between the nodes (discretisation
+        error of the first-order collocation), not the constraint satisfaction."""
+        from scipy.interpolate import CubicSpline
+
+        t_nodes = np.append(self.time, self.duration)
+        q_per = self.q.copy()
+        q_per[:, 0] -= self.speed * self.time
+        spline = CubicSpline(t_nodes, np.vstack([q_per, q_per[:1]]), bc_type="periodic", axis=0)
+        t = np.arange(0.0, self.duration, 1.0 / rate_hz)
+        q = spline(t)
+        u = spline(t, 1)
+        qdd = spline(t, 2)
+        q[:, 0] += self.speed * t
+        u[:, 0] += self.speed
+        tau = np.stack(
+            [np.interp(t, t_nodes, np.append(self.tau[:, j], self.tau[0, j])) for j in range(len(JOINTS))], axis=1
+        )
+        body = self.body
+        grf, w = dyn.contact_forces(q, u, body, self.contact_parameters)
+        r = dyn.kane_residual(q, u, qdd, tau, grf, w, body)
+        bw = body.body_weight
+        return t, r / np.array([bw, bw] + [bw * body.height] * (N_Q - 2))
+
+    def summary(self) -> dict[str, Any]:
+        """Key numbers: status, iterations, times, duration, stride length, residuals, stance."""
+        res = np.abs(self.node_residual())
+        _, res_100 = self.resampled_residual()
+        return {
+            "status": self.status,
+            "iterations": self.iterations,
+            "solve_time_s": round(self.solve_time, 3),
+            "build_time_s": round(self.build_time, 3),
+            "objective": self.objective,
+            "speed_mps": self.speed,
+            "duration_s": self.duration,
+            "stride_length_m": self.stride_length,
+            "node_residual_max_trans_bw": float(res[:, :2].max()),
+            "node_residual_max_rot_bwh": float(res[:, 2:].max()),
+            "resampled_100hz_residual_rms": float(np.sqrt(np.mean(res_100**2))),
+            "resampled_100hz_residual_max": float(np.abs(res_100).max()),
+            "peak_grf_y_bw": float(self.grf_bw()[:, [1, 3]].max()),
+            **self.stance_fractions(),
+        }
+
+    # ------------------------------------------------------------------ persistence
+    def save(self, path: str | Path) -> Path:
+        """Write ``<path>.npz`` (arrays) and ``<path>.json`` (scalars, settings, summary of
+        names and units). ``path`` may carry either suffix or none. Returns the npz path."""
+        base = _base(path)
+        base.parent.mkdir(parents=True, exist_ok=True)
+        np.savez(_with_ext(base, ".npz"), **{k: getattr(self, k) for k in _ARRAYS})
+        meta = {
+            "speed": self.speed,
+            "duration": self.duration,
+            "stride_length": self.stride_length,
+            "body_parameters": self.body_parameters,
+            "status": self.status,
+            "iterations": self.iterations,
+            "solve_time": self.solve_time,
+            "build_time": self.build_time,
+            "objective": self.objective,
+            "settings": self.settings,
+            "contact": self.contact,
+            "columns": {
+                "q": list(COORDINATES),
+                "u": list(COORDINATES),
+                "qdd": list(COORDINATES),
+                "tau": list(JOINTS),
+                "grf": list(GRF),
+                "w": ["w_r", "w_l"],
+            },
+            "units": {
+                "time": "s",
+                "q": "m, rad",
+                "u": "m/s, rad/s",
+                "qdd": "m/s^2, rad/s^2",
+                "tau": "N*m",
+                "grf": "N",
+                "w": "1 (toe 0 ... heel 1)",
+                "gravity": GRAVITY,
+            },
+        }
+        _with_ext(base, ".json").write_text(json.dumps(meta, indent=2, default=_json_default))
+        return _with_ext(base, ".npz")
+
+    @classmethod
+    def load(cls, path: str | Path) -> GaitSolution:
+        """Read a solution written by :meth:`save`."""
+        base = _base(path)
+        npz_path, json_path = _with_ext(base, ".npz"), _with_ext(base, ".json")
+        for p in (npz_path, json_path):
+            if not p.exists():
+                raise FileNotFoundError(f"gait solution file {p} not found (save() writes .npz + .json)")
+        meta = json.loads(json_path.read_text())
+        with np.load(npz_path) as data:
+            arrays = {k: data[k] for k in _ARRAYS}
+        fields = (
+            "speed",
+            "duration",
+            "body_parameters",
+            "status",
+            "iterations",
+            "solve_time",
+            "build_time",
+            "objective",
+            "settings",
+            "contact",
+        )
+        return cls(**arrays, **{k: meta[k] for k in fields})
+
+
+def _base(path: str | Path) -> Path:
+    """The path without a .npz/.json suffix (other dots, as in ``walk_1.3``, are kept)."""
+    path = Path(path)
+    return path.with_suffix("") if path.suffix in (".npz", ".json") else path
+
+
+def _with_ext(base: Path, ext: str) -> Path:
+    return base.with_name(base.name + ext)
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, tuple):
+        return list(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
