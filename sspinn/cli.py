@@ -46,7 +46,8 @@ def _train(args: argparse.Namespace, finetune: bool) -> int:
         config.learn_placement = args.learn_placement or config.learn_placement
     train = load_recordings(args.data, "train", args.periods, args.height, args.mass)
     trainer = Trainer(config, args.out)
-    trainer.fit(train, resume=args.resume, init_from=getattr(args, "model", None))
+    resume = args.resume or (args.auto_resume and (args.out / "checkpoint.pt").exists())
+    trainer.fit(train, resume=resume, init_from=None if resume else getattr(args, "model", None))
     print(f"trained {trainer.step} steps → {args.out / 'model.pt'}")
     return 0
 
@@ -116,6 +117,7 @@ def main(argv: list[str] | None = None) -> int:
         _data_args(p)
         p.add_argument("--out", type=Path, required=True, help="run folder (checkpoints, TensorBoard, model.pt)")
         p.add_argument("--resume", action="store_true", help="continue from <out>/checkpoint.pt")
+        p.add_argument("--auto-resume", action="store_true", help="continue from <out>/checkpoint.pt if it exists, else start")
         p.add_argument("--steps", type=int, default=None)
         p.add_argument("--seed", type=int, default=None)
         p.add_argument("--device", default=None, help="cpu, cuda or auto")

@@ -40,6 +40,11 @@ def test_train_resume_evaluate_infer_export(tiny):
     assert state["step"] == 4
     assert main(["train", "--config", str(cfg), "--data", str(data), "--out", str(run), "--resume", "--steps", "6"]) == 0
     assert torch.load(run / "checkpoint.pt", weights_only=False)["step"] == 6
+    assert main(["train", "--config", str(cfg), "--data", str(data), "--out", str(run), "--auto-resume", "--steps", "7"]) == 0
+    assert torch.load(run / "checkpoint.pt", weights_only=False)["step"] == 7
+    fresh = root / "fresh"
+    assert main(["train", "--config", str(cfg), "--data", str(data), "--out", str(fresh), "--auto-resume", "--steps", "2"]) == 0
+    assert torch.load(fresh / "checkpoint.pt", weights_only=False)["step"] == 2
     assert main(["evaluate", "--model", str(run / "model.pt"), "--data", str(data), "--out", str(root / "report"), "--skip", "10"]) == 0
     assert (root / "report" / "report.md").exists() and (root / "report" / "c.png").exists()
     assert main(["infer", "--model", str(run / "model.pt"), "--data", str(data), "--out", str(root / "infer")]) == 0
