@@ -114,6 +114,11 @@ class SSPINNposeNet(nn.Module):
         return {"n_inputs": self.n_inputs, **asdict(self.config)}
 
 
+#: Typical magnitudes of the generalized speeds (m/s, m/s, then rad/s) and accelerations
+#: (m/s², m/s², then rad/s²) in gait: the output scales, also used to normalise losses.
+TYPICAL_U: tuple[float, ...] = (1.5, 0.5) + (4.0,) * 7
+TYPICAL_QDD: tuple[float, ...] = (10.0, 10.0) + (50.0,) * 7
+
 #: Blocks of the 46 outputs (see the module docstring).
 BLOCKS = {"q": slice(0, 8), "u": slice(8, 17), "qdd": slice(17, 26), "tau": slice(26, 32), "contact": slice(32, 46)}
 
@@ -127,8 +132,8 @@ def output_affine(height: float, mass: float, leg_length: float, gravity: float 
     """
     torque = 0.1 * mass * gravity * height
     q = [0.05 * height] + [0.5] * 7
-    u = [1.5, 0.5] + [4.0] * 7
-    qdd = [10.0, 10.0] + [50.0] * 7
+    u = list(TYPICAL_U)
+    qdd = list(TYPICAL_QDD)
     ankle = [0.2 * height, 0.05 * height, 2.0, 1.0, 20.0, 20.0, 1.0]
     scale = np.array(q + u + qdd + [torque] * N_TAU + ankle + ankle)
     offset = np.zeros(N_OUTPUTS)
