@@ -13,6 +13,7 @@ import json
 import sys
 from pathlib import Path
 
+from predictive import tracking_cli
 from predictive.analysis import DEFAULT_DATA_DIR, compare_with_reference, load_winter, plot_gait
 from predictive.collocation import OCPError, solve_predictive
 from predictive.solution import GaitSolution
@@ -38,6 +39,7 @@ def _parser() -> argparse.ArgumentParser:
     solve.add_argument("--mass", type=float, default=70.0, help="body mass, kg")
     solve.add_argument("--data-dir", type=Path, default=DEFAULT_DATA_DIR, help="folder holding winter_walking/")
     solve.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
+    tracking_cli.add_parser(sub)  # track-imu: IMU tracking of an averaged stride (predictive/tracking_cli.py)
     return parser
 
 
@@ -91,6 +93,8 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     if args.command == "solve":
         return _solve(args)
+    if args.command == tracking_cli.COMMAND:
+        return tracking_cli.run(args)
     raise AssertionError(args.command)  # argparse enforces the sub-commands
 
 

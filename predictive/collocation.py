@@ -13,7 +13,9 @@ ankle dorsiflexion +, a positive pelvis_tilt leans the trunk back):
   translation invariance.
 * **Variables per node.** q (9), u = q̇ (9), q̈ (9) and the joint torques τ (6); plus the
   stride duration ``T``, fixed by default to a typical human value at the requested speed
-  (:func:`typical_stride_duration`) or free within bounds (``free_duration=True``). With the
+  (:func:`typical_stride_duration`) or free within bounds (``free_duration=True``), and the
+  average speed ``v``, fixed to ``speed`` by default or free within ``speed_bounds``
+  (``free_speed=True``, used when tracking data whose speed is unknown). With the
   torque effort below, a free duration drifts to implausibly short, shuffling strides (the
   effort has no cost for fast leg swing or for step-to-step collisions), which is why the
   default fixes it.
@@ -64,6 +66,10 @@ ankle dorsiflexion +, a positive pelvis_tilt leans the trunk back):
 * **Scaling.** Decision variables are scaled to O(1) (τ/τmax, q̈/10, u/5 for joint speeds,
   u/2 for the trunk, u/max(v, 1) for pelvis_tx); the kinematic constraints are written as
   velocity and acceleration differences divided by the same scales, the dynamics by BW or BW·H.
+
+Extension (:mod:`predictive.tracking`): subclasses add objective terms by overriding
+:meth:`PredictiveGaitProblem._objective`, which receives the node expressions
+(:class:`NodeExpressions`) of the already built constraints.
 
 The NLP is built from CasADi SX expressions (the whole problem is a few ten-thousand scalar
 operations) and solved by IPOPT with MUMPS and an exact Hessian.
@@ -119,7 +125,8 @@ class OCPSettings:
     """Settings of :func:`solve_predictive` (stored with every solution).
 
     Attributes:
-        speed: average forward speed v, m/s (pelvis_tx advances v·T per cycle).
+        speed: average forward speed v, m/s (pelvis_tx advances v·T per cycle); with
+            ``free_speed`` only the initial guess.
         n_nodes: collocation nodes per simulated interval (the whole cycle, or half of it).
         effort: "squared" or "cubed" exponent of the normalised torques.
         gait_cycle: "full" (one periodic cycle, no symmetry assumed) or "half" (half a cycle,
@@ -128,6 +135,8 @@ class OCPSettings:
             It is fixed unless ``free_duration``, and then it is only the initial guess.
         free_duration: optimise the duration within ``duration_bounds``.
         duration_bounds: (min, max) stride duration in s when free.
+        free_speed: optimise the average speed within ``speed_bounds``.
+        speed_bounds: (min, max) average speed in m/s when free.
         tau_max: normalising torque per joint type (hip, knee, ankle) in units of BW·H
             (body weight × body height, N·m); also sets the bound |τ| ≤ tau_bound·τmax.
         tau_bound: torque bound as a multiple of ``tau_max``.
@@ -148,6 +157,8 @@ class OCPSettings:
     duration: float | None = None
     free_duration: bool = False
     duration_bounds: tuple[float, float] = (0.4, 2.0)
+    free_speed: bool = False
+    speed_bounds: tuple[float, float] = (0.0, 10.0)
     tau_max: tuple[float, float, float] = (0.1, 0.1, 0.1)
     tau_bound: float = 3.0
     w_acc: float = 0.1
@@ -170,6 +181,8 @@ class OCPSettings:
         lo, hi = self.duration_bounds
         if not 0 < lo <= hi:
             raise ValueError(f"duration_bounds must satisfy 0 < min <= max (s), got {self.duration_bounds}")
+        if not 0 <= self.speed_bounds[0] <= self.speed_bounds[1]:
+            raise ValueError(f"speed_bounds must satisfy 0 <= min <= max (m/s), got {self.speed_bounds}")
         if self.duration is not None and not self.duration > 0:
             raise ValueError(f"duration must be > 0 s, got {self.duration}")
         if self.w_acc < 0:
@@ -202,7 +215,8 @@ def _joint_type_values(values: tuple[float, float, float]) -> np.ndarray:
 
 @dataclass
 class _Layout:
-    """Decision-vector layout: per node [q, u, a, tau] (scaled), then the duration T."""
+    """Decision-vector layout: per node [q, u, a, tau] (scaled), then the duration T (s) and the
+    average speed v (m/s)."""
 
     n: int
     per_node: int = 2 * N_Q + N_Q + N_TAU
@@ -218,14 +232,43 @@ class _Layout:
 
     @property
     def size(self) -> int:
-        return self.n * self.per_node + 1
+        return self.n * self.per_node + 2
 
     def split(self, z: Any) -> tuple[Any, Any]:
         """(node matrix (per_node × n), T) from the flat decision vector (SX or ndarray)."""
         nodes = z[: self.n * self.per_node]
+        T = z[self.n * self.per_node]
         if isinstance(nodes, np.ndarray):
-            return nodes.reshape(self.n, self.per_node).T, z[-1]
-        return ca.reshape(nodes, self.per_node, self.n), z[-1]
+            return nodes.reshape(self.n, self.per_node).T, T
+        return ca.reshape(nodes, self.per_node, self.n), T
+
+    def speed(self, z: Any) -> Any:
+        """The average speed v (m/s) from the flat decision vector."""
+        return z[self.n * self.per_node + 1]
+
+
+@dataclass(frozen=True)
+class NodeExpressions:
+    """Symbolic (CasADi SX) quantities at the collocation nodes, handed to
+    :meth:`PredictiveGaitProblem._objective`. Lists have one entry per node (column vectors).
+
+    Attributes:
+        q, u, a: coordinates (m, rad), speeds (m/s, rad/s), accelerations (m/s², rad/s²).
+        tau: joint torques, N·m.
+        tau_scaled: τ/τmax (dimensionless decision variables).
+        grf: ground reaction forces [Fx_r, Fy_r, Fx_l, Fy_l], N (contact model).
+        T: cycle duration, s.
+        v: average speed, m/s.
+    """
+
+    q: list[Any]
+    u: list[Any]
+    a: list[Any]
+    tau: list[Any]
+    tau_scaled: list[Any]
+    grf: list[Any]
+    T: Any
+    v: Any
 
 
 # ---------------------------------------------------------------------------------------------
@@ -273,15 +316,15 @@ class PredictiveGaitProblem:
     def _n_intervals_per_cycle(self) -> int:
         return self.settings.n_nodes * (2 if self.settings.gait_cycle == "half" else 1)
 
-    def _previous_state(self, q_last: Any, u_last: Any, T: Any) -> tuple[Any, Any]:
-        """The state before node 0: the last node moved back by one stride (or mirrored and moved
-        back by half a stride)."""
+    def _previous_state(self, q_last: Any, u_last: Any, T: Any, v: Any) -> tuple[Any, Any]:
+        """The state before node 0: the last node moved back by one stride v·T (or mirrored and
+        moved back by half a stride)."""
         s = self.settings
         if s.gait_cycle == "half":
             q_prev, u_prev = mirror_states(q_last), mirror_states(u_last)
-            shift = s.speed * T / 2
+            shift = v * T / 2
         else:
-            q_prev, u_prev, shift = q_last, u_last, s.speed * T
+            q_prev, u_prev, shift = q_last, u_last, v * T
         q_prev = ca.vertcat(q_prev[0] - shift, q_prev[1:])
         return q_prev, u_prev
 
@@ -289,6 +332,7 @@ class PredictiveGaitProblem:
         s, lay = self.settings, self.layout
         z = ca.SX.sym("z", lay.size)
         nodes, T = lay.split(z)
+        v = lay.speed(z)
         sl = lay.slices
         qs, us, as_, ts = (ca.DM(x) for x in (self.q_scale, self.u_scale, self.a_scale, self.tau_max))
         q = [nodes[sl["q"], k] * qs for k in range(lay.n)]
@@ -298,24 +342,19 @@ class PredictiveGaitProblem:
         h = T / self._n_intervals_per_cycle
 
         g: list[Any] = []
-        effort = 0
-        reg = 0
-        exponent = 2 if s.effort == "squared" else 3
+        grf = []
         for k in range(lay.n):
             if k == 0:
-                q_prev, u_prev = self._previous_state(q[-1], u[-1], T)
+                q_prev, u_prev = self._previous_state(q[-1], u[-1], T, v)
             else:
                 q_prev, u_prev = q[k - 1], u[k - 1]
             g.append(((q[k] - q_prev) / h - u[k]) / us)
             g.append(((u[k] - u_prev) / h - a[k]) / as_)
-            res, _, _ = self._node_fun(q[k], u[k], a[k], tau[k])
+            res, grf_k, _ = self._node_fun(q[k], u[k], a[k], tau[k])
             g.append(res)
-            tn = nodes[sl["tau"], k]
-            if s.ankle_strength_slope:
-                tn = self._strength_scaled(tn, q[k])
-            effort += ca.sum1(tn**2) if exponent == 2 else ca.sum1(ca.fabs(tn) ** 3)
-            reg += ca.sumsqr(a[k] * (T**2 / (4 * math.pi**2)))
-        objective = (effort + s.w_acc * reg) / lay.n
+            grf.append(grf_k)
+        tau_scaled = [nodes[sl["tau"], k] for k in range(lay.n)]
+        objective = self._objective(NodeExpressions(q=q, u=u, a=a, tau=tau, tau_scaled=tau_scaled, grf=grf, T=T, v=v))
         nlp = {"x": z, "f": objective, "g": ca.vertcat(*g)}
 
         # bounds (physical → scaled)
@@ -325,12 +364,33 @@ class PredictiveGaitProblem:
         node_lo = np.concatenate([q_lo / self.q_scale, np.full(2 * N_Q, -np.inf), np.full(N_TAU, -s.tau_bound)])
         node_hi = np.concatenate([q_hi / self.q_scale, np.full(2 * N_Q, np.inf), np.full(N_TAU, s.tau_bound)])
         t_lo, t_hi = s.duration_bounds if s.free_duration else (s.stride_duration, s.stride_duration)
-        lbx = np.append(np.tile(node_lo, lay.n), t_lo)
-        ubx = np.append(np.tile(node_hi, lay.n), t_hi)
+        v_lo, v_hi = s.speed_bounds if s.free_speed else (s.speed, s.speed)
+        lbx = np.concatenate([np.tile(node_lo, lay.n), [t_lo, v_lo]])
+        ubx = np.concatenate([np.tile(node_hi, lay.n), [t_hi, v_hi]])
         lbx[0] = ubx[0] = 0.0  # pelvis_tx(t_0) = 0
         n_g = nlp["g"].shape[0]
         bounds = {"lbx": lbx, "ubx": ubx, "lbg": np.zeros(n_g), "ubg": np.zeros(n_g)}
         return nlp, bounds
+
+    def _effort_terms(self, x: NodeExpressions) -> tuple[Any, Any]:
+        """(effort, acceleration regularisation), both averaged over the nodes (dimensionless):
+        mean_k Σ_j |τ_kj/τmax_j|^e (ankle strength-scaled) and mean_k Σ_i (q̈_ki·T²/(4π²))²."""
+        s = self.settings
+        effort = 0
+        reg = 0
+        for k in range(self.layout.n):
+            tn = x.tau_scaled[k]
+            if s.ankle_strength_slope:
+                tn = self._strength_scaled(tn, x.q[k])
+            effort += ca.sum1(tn**2) if s.effort == "squared" else ca.sum1(ca.fabs(tn) ** 3)
+            reg += ca.sumsqr(x.a[k] * (x.T**2 / (4 * math.pi**2)))
+        return effort / self.layout.n, reg / self.layout.n
+
+    def _objective(self, x: NodeExpressions) -> Any:
+        """The NLP objective (dimensionless): effort + w_acc · regularisation (module docstring).
+        Subclasses override this to add terms (e.g. tracking errors)."""
+        effort, reg = self._effort_terms(x)
+        return effort + self.settings.w_acc * reg
 
     def _strength_scaled(self, tn: Any, q: Any) -> Any:
         """Normalised torques divided by the relative ankle strength exp(±k·θ_ankle): plantarflexor
@@ -430,7 +490,7 @@ class PredictiveGaitProblem:
         nodes = np.concatenate(
             [q[:n] / self.q_scale, u[:n] / self.u_scale, a[:n] / self.a_scale, tau[:n] / self.tau_max], axis=1
         )
-        z0 = np.concatenate([nodes.ravel(), [T]])
+        z0 = np.concatenate([nodes.ravel(), [T, s.speed]])
         return np.clip(z0, self._bounds["lbx"], self._bounds["ubx"])
 
     # ----------------------------------------------------------------- solving
@@ -441,9 +501,13 @@ class PredictiveGaitProblem:
         ipopt_options: Mapping[str, Any] | None = None,
         verbose: bool = False,
         raise_on_failure: bool = True,
+        fixed_speed: float | None = None,
     ) -> GaitSolution:
         """Run IPOPT from ``guess`` (None: :meth:`generic_guess`; a :class:`GaitSolution`; or a
         scaled decision vector) and return the solution.
+
+        ``fixed_speed`` (m/s) fixes the average speed for this solve only, e.g. the first step of
+        a continuation of a ``free_speed`` problem (solve at a fixed speed, then free it).
 
         Raises:
             OCPError: if IPOPT's status is not ``Solve_Succeeded`` and ``raise_on_failure``.
@@ -456,11 +520,17 @@ class PredictiveGaitProblem:
             z0 = np.asarray(guess, dtype=float)
             if z0.shape != (self.layout.size,):
                 raise ValueError(f"guess vector must have shape ({self.layout.size},), got {z0.shape}")
+        bounds = self._bounds
+        if fixed_speed is not None:
+            bounds = {k: v.copy() for k, v in bounds.items()}
+            bounds["lbx"][-1] = bounds["ubx"][-1] = fixed_speed
+            z0 = z0.copy()
+            z0[-1] = fixed_speed
         t0 = time.perf_counter()
         solver = self._get_solver(ipopt_options, verbose)
         build_time = time.perf_counter() - t0
         t0 = time.perf_counter()
-        result = solver(x0=z0, **self._bounds)
+        result = solver(x0=z0, **bounds)
         solve_time = time.perf_counter() - t0
         stats = solver.stats()
         status = str(stats.get("return_status", "unknown"))
@@ -485,6 +555,7 @@ class PredictiveGaitProblem:
     def _unpack(self, z: np.ndarray, **info: Any) -> GaitSolution:
         s, lay = self.settings, self.layout
         nodes, T = lay.split(z)
+        v = float(lay.speed(z))
         sl = lay.slices
         q = (nodes[sl["q"]].T * self.q_scale).copy()
         u = nodes[sl["u"]].T * self.u_scale
@@ -492,7 +563,7 @@ class PredictiveGaitProblem:
         tau = nodes[sl["tau"]].T * self.tau_max
         if s.gait_cycle == "half":
             q2 = mirror_states(q.T).T
-            q2[:, 0] += s.speed * T / 2
+            q2[:, 0] += v * T / 2
             q = np.vstack([q, q2])
             u, a, tau = (np.vstack([x, mirror_states(x.T).T]) for x in (u, a, tau))
         grf, w = dyn.contact_forces(q, u, self.body, self.contact)
@@ -505,7 +576,7 @@ class PredictiveGaitProblem:
             tau=tau,
             grf=np.asarray(grf),
             w=np.asarray(w),
-            speed=s.speed,
+            speed=v,
             duration=float(T),
             body_parameters=self.body.to_dict(),
             settings=s.to_dict(),

@@ -1,0 +1,83 @@
+"""``python -m agents {train,evaluate,record}``: see :mod:`agents`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command-line interface."""
+    parser = argparse.ArgumentParser(prog="python -m agents", description="SB3 agents for sspinn/SagittalWalker-v0")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("train", help="train an agent from a YAML config")
+    p.add_argument("--config", required=True, help="YAML file (configs/agents/*.yaml)")
+    p.add_argument("--algo", choices=("ppo", "sac", "td3"), help="must match the config's algo if given")
+    p.add_argument("--out", required=True, help="run directory (checkpoints, logs, best model)")
+    p.add_argument("--resume", action="store_true", help="continue from the latest checkpoint in --out")
+    p.add_argument("--total-timesteps", type=int, help="override total_timesteps")
+    p.add_argument("--seed", type=int, help="override seed")
+
+    for name, text in (("evaluate", "deterministic evaluation: JSON, plot, animation"),
+                       ("record", "render one deterministic episode to a GIF or MP4")):
+        p = sub.add_parser(name, help=text)
+        p.add_argument("--checkpoint", required=True, help="SB3 .zip (its run's config.yaml is found next to it)")
+        p.add_argument("--target-speed", type=float, help="m/s (default: the config's evaluation target)")
+        p.add_argument("--seed", type=int, default=0, help="first episode seed")
+        p.add_argument("--max-steps", type=int, help="episode length in control steps (default: the env's)")
+        if name == "evaluate":
+            p.add_argument("--episodes", type=int, default=5, help="episodes (seeds seed, seed+1, ...)")
+            p.add_argument("--out", required=True, help="output folder (metrics.json, traces.png, episode.gif)")
+            p.add_argument("--no-video", action="store_true", help="skip the animation")
+        else:
+            p.add_argument("--out", required=True, help="output file, .gif or .mp4")
+        p.add_argument("--fps", type=int, default=25, help="animation frame rate (the env runs at 100 Hz)")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    from agents.config import ConfigError, load_config
+
+    try:
+        if args.command == "train":
+            from agents.train import train
+
+            config = load_config(args.config)
+            if args.algo is not None and args.algo != config.algo:
+                raise ConfigError(f"--algo {args.algo} but {args.config} has algo: {config.algo}")
+            overrides = {k: v for k, v in (("total_timesteps", args.total_timesteps), ("seed", args.seed))
+                         if v is not None}
+            if overrides:
+                config = config.with_overrides(**overrides)
+            train(config, args.out, resume=args.resume)
+        elif args.command == "evaluate":
+            from agents.evaluate import evaluate
+
+            report = evaluate(args.checkpoint, args.out, episodes=args.episodes, seed=args.seed,
+                              target_speed=args.target_speed, max_steps=args.max_steps,
+                              video=not args.no_video, fps=args.fps)
+            s = report["summary"]
+            cot = s["mean_cost_of_transport"]
+            print(f"{s['episodes']} episodes at {report['target_speed']:.2f} m/s: distance {s['mean_distance_m']:.2f} m "
+                  f"(min {s['min_distance_m']:.2f}), speed {s['mean_speed_m_s']:.2f} m/s "
+                  f"(|error| {s['mean_abs_speed_error_m_s']:.3f}), CoT {'n/a' if cot is None else f'{cot:.2f}'}, "
+                  f"falls {s['falls']}, cadence {s['mean_cadence_steps_per_min']:.0f} steps/min, "
+                  f"foot slide {s['mean_foot_slide_m']:.2f} m; written to {args.out}")
+        else:
+            from agents.evaluate import record
+
+            result = record(args.checkpoint, args.out, seed=args.seed, target_speed=args.target_speed,
+                            max_steps=args.max_steps, fps=args.fps)
+            print(f"distance {result.distance:.2f} m in {result.duration:.2f} s, fell: {result.fell}; wrote {args.out}")
+    except (ConfigError, FileNotFoundError, FileExistsError, ValueError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

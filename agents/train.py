@@ -1,0 +1,258 @@
+"""Train an SB3 agent (PPO, SAC or TD3) on ``sspinn/SagittalWalker-v0``, top to bottom.
+
+    python -m agents train --algo ppo --config configs/agents/ppo.yaml --out runs/ppo
+    python -m agents train --config configs/agents/ppo.yaml --out runs/ppo --resume
+
+:func:`train` reads like a CleanRL script: seed → vectorised environments → VecNormalize →
+model (new, or the latest checkpoint when resuming) → callbacks (checkpoints, evaluations) →
+``learn`` → save. The files it writes are listed in :mod:`agents.checkpoints`.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import gymnasium
+import numpy as np
+import stable_baselines3
+import torch
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.noise import NormalActionNoise
+from stable_baselines3.common.utils import set_random_seed
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv, VecNormalize
+
+from agents.checkpoints import (
+    CHECKPOINT_DIR,
+    CHECKPOINT_PREFIX,
+    CONFIG_FILE,
+    LoadedAgent,
+    checkpoint_steps,
+    latest_checkpoint,
+    replay_buffer_path,
+    vecnormalize_path,
+)
+from agents.config import ACTIVATIONS, ALGORITHMS, AgentConfig, save_config
+from agents.rollout import run_episode, summarize
+
+#: Info fields of the environment written to the Monitor CSV of every training episode.
+MONITOR_INFO_KEYS: tuple[str, ...] = ("distance", "cost_of_transport")
+EVAL_COLUMNS: tuple[str, ...] = (
+    "timesteps", "wall_s", "mean_return", "mean_distance_m", "min_distance_m", "mean_speed_m_s",
+    "mean_abs_speed_error_m_s", "mean_cost_of_transport", "falls", "episodes", "mean_foot_slide_m",
+    "mean_cadence_steps_per_min",
+)
+
+
+def make_env(config: AgentConfig, render_mode: str | None = None, **overrides: Any) -> gymnasium.Env:
+    """One environment with the configuration's constructor arguments (``overrides`` win)."""
+    return gymnasium.make(config.env.make_id, **{**config.env.kwargs, **overrides}, render_mode=render_mode)
+
+
+def make_training_envs(config: AgentConfig, run_dir: Path, seed: int, append_monitor: bool = False) -> VecEnv:
+    """``n_envs`` seeded environments (seeds ``seed``, ``seed + 1``, ...) with Monitor CSV logs."""
+    vec_cls = SubprocVecEnv if config.env.vec_env == "subproc" else DummyVecEnv
+    return make_vec_env(
+        config.env.make_id,
+        n_envs=config.env.n_envs,
+        seed=seed,
+        vec_env_cls=vec_cls,
+        env_kwargs=dict(config.env.kwargs),
+        monitor_dir=str(run_dir / "monitor"),
+        monitor_kwargs={"info_keywords": MONITOR_INFO_KEYS, "override_existing": not append_monitor},
+    )
+
+
+def policy_kwargs(config: AgentConfig) -> dict[str, Any]:
+    """SB3 ``policy_kwargs``: separate actor and critic networks of ``net_arch``, activation, init."""
+    p = config.policy
+    arch = list(p.net_arch)
+    kwargs: dict[str, Any] = {
+        "net_arch": {"pi": arch, "vf": arch} if config.algo == "ppo" else {"pi": arch, "qf": arch},
+        "activation_fn": getattr(torch.nn, ACTIVATIONS[p.activation]),
+    }
+    if p.log_std_init is not None:
+        kwargs["log_std_init"] = p.log_std_init
+    if p.ortho_init is not None:
+        kwargs["ortho_init"] = p.ortho_init
+    return kwargs
+
+
+def algorithm_kwargs(config: AgentConfig, n_actions: int) -> dict[str, Any]:
+    """SB3 keyword arguments from ``hyperparameters``; a number as ``action_noise`` becomes
+    Gaussian exploration noise of that standard deviation (normalised action units)."""
+    kwargs = dict(config.hyperparameters)
+    noise = kwargs.get("action_noise")
+    if isinstance(noise, (int, float)):
+        kwargs["action_noise"] = NormalActionNoise(np.zeros(n_actions), float(noise) * np.ones(n_actions))
+    return kwargs
+
+
+class WalkerEvalCallback(BaseCallback):
+    """Every ``eval_freq`` timesteps: deterministic episodes on fixed seeds at the evaluation
+    target speed; logs distance, speed, speed error, cost of transport and falls (TensorBoard
+    ``eval/*`` and ``evaluations.csv``) and saves the best model (mean return) with its
+    VecNormalize statistics."""
+
+    def __init__(self, config: AgentConfig, run_dir: Path, vec_normalize: VecNormalize | None) -> None:
+        super().__init__(verbose=config.logging.verbose)
+        self.config = config
+        self.run_dir = run_dir
+        self.vec_normalize = vec_normalize
+        self.eval_env = make_env(config)
+        self.csv_path = run_dir / "evaluations.csv"
+        self.best_return = -math.inf
+        self.next_eval = 0
+        self.start = time.perf_counter()
+        self.start_steps = 0
+        if self.csv_path.is_file():  # resuming: keep the best score so far
+            with self.csv_path.open() as fh:
+                returns = [float(row["mean_return"]) for row in csv.DictReader(fh)]
+            self.best_return = max(returns, default=-math.inf)
+
+    def _on_training_start(self) -> None:
+        freq = self.config.logging.eval_freq
+        self.next_eval = (self.num_timesteps // freq + 1) * freq
+        self.start = time.perf_counter()
+        self.start_steps = self.num_timesteps
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps >= self.next_eval:
+            self.next_eval += self.config.logging.eval_freq
+            self.evaluate()
+        return True
+
+    def current_policy(self) -> LoadedAgent:
+        """The model being trained with a frozen copy of the current observation statistics."""
+        agent = LoadedAgent(model=self.model, config=self.config)
+        if self.vec_normalize is not None and self.vec_normalize.norm_obs:
+            agent.obs_mean = self.vec_normalize.obs_rms.mean.copy()
+            agent.obs_var = self.vec_normalize.obs_rms.var.copy()
+            agent.clip_obs = self.vec_normalize.clip_obs
+            agent.epsilon = self.vec_normalize.epsilon
+        return agent
+
+    def evaluate(self) -> dict[str, Any]:
+        """Run the evaluation episodes now; log, append to the CSV, save if best."""
+        lg = self.config.logging
+        policy = self.current_policy()
+        results = [
+            run_episode(policy, self.eval_env, lg.eval_seed + i, self.config.env.target_speed)
+            for i in range(lg.eval_episodes)
+        ]
+        summary = summarize(results)
+        wall = time.perf_counter() - self.start
+        row = {"timesteps": self.num_timesteps, "wall_s": round(wall, 1), **summary}
+        for key, value in summary.items():
+            if value is not None:
+                self.logger.record(f"eval/{key}", value)
+        self.logger.record("eval/steps_per_s", (self.num_timesteps - self.start_steps) / max(wall, 1e-9))
+        new_file = not self.csv_path.is_file()
+        with self.csv_path.open("a", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=EVAL_COLUMNS, extrasaction="ignore")
+            if new_file:
+                writer.writeheader()
+            writer.writerow(row)
+        if summary["mean_return"] > self.best_return:
+            self.best_return = summary["mean_return"]
+            self.model.save(self.run_dir / "best_model.zip")
+            if self.vec_normalize is not None:
+                self.vec_normalize.save(str(vecnormalize_path(self.run_dir / "best_model.zip")))
+        print(
+            f"[eval] {self.num_timesteps:>10d} steps  {wall:7.0f} s  return {summary['mean_return']:7.1f}  "
+            f"distance {summary['mean_distance_m']:5.2f} m (min {summary['min_distance_m']:5.2f})  "
+            f"speed {summary['mean_speed_m_s']:4.2f} m/s  falls {summary['falls']}/{summary['episodes']}",
+            flush=True,
+        )
+        return row
+
+    def _on_training_end(self) -> None:
+        self.eval_env.close()
+
+
+def train(config: AgentConfig, out: str | Path, resume: bool = False) -> BaseAlgorithm:
+    """Train according to ``config`` into the run directory ``out`` and return the model.
+
+    With ``resume``, the latest checkpoint in ``<out>/checkpoints`` and its VecNormalize statistics
+    are loaded and training continues up to ``total_timesteps`` (``reset_num_timesteps=False``, so
+    step counts, schedules and TensorBoard curves carry on). Without it, ``out`` must not hold
+    checkpoints already.
+    """
+    # 1. run directory, threads, seeds (a resumed run continues from seed + steps done, so that its
+    #    environments do not replay the initial states of the first part)
+    run_dir = Path(out)
+    checkpoint = latest_checkpoint(run_dir)
+    if resume and checkpoint is None:
+        raise FileNotFoundError(f"--resume: no checkpoint in {run_dir / CHECKPOINT_DIR}")
+    if not resume and checkpoint is not None:
+        raise FileExistsError(f"{run_dir} already holds checkpoints; use --resume or another --out")
+    run_dir.mkdir(parents=True, exist_ok=True)
+    save_config(config, run_dir / CONFIG_FILE)
+    torch.set_num_threads(config.logging.torch_threads)
+    seed = config.seed + (checkpoint_steps(checkpoint) if resume else 0)
+    set_random_seed(seed)
+    algo_cls = getattr(stable_baselines3, ALGORITHMS[config.algo])
+    tensorboard_log = str(run_dir / "tb") if config.logging.tensorboard else None
+
+    # 2. vectorised environments, observation/reward normalisation (statistics restored on resume)
+    venv: VecEnv = make_training_envs(config, run_dir, seed, append_monitor=resume)
+    norm = config.normalize
+    vec_normalize: VecNormalize | None = None
+    if resume and (norm.obs or norm.reward):
+        stats = vecnormalize_path(checkpoint)
+        if not stats.is_file():
+            raise FileNotFoundError(f"--resume: {stats} (VecNormalize statistics of {checkpoint.name}) is missing")
+        vec_normalize = VecNormalize.load(str(stats), venv)
+        vec_normalize.training = True
+    elif norm.obs or norm.reward:
+        vec_normalize = VecNormalize(
+            venv, norm_obs=norm.obs, norm_reward=norm.reward, clip_obs=norm.clip_obs,
+            clip_reward=norm.clip_reward, gamma=config.gamma,
+        )
+    if vec_normalize is not None:
+        venv = vec_normalize
+
+    # 3. the model: new, or the latest checkpoint (with its replay buffer, if one was kept)
+    if resume:
+        model = algo_cls.load(checkpoint, env=venv, device="cpu", tensorboard_log=tensorboard_log)
+        buffer = replay_buffer_path(checkpoint)
+        if hasattr(model, "load_replay_buffer") and buffer.is_file():
+            model.load_replay_buffer(buffer)
+        print(f"resuming from {checkpoint} at {model.num_timesteps} timesteps", flush=True)
+    else:
+        model = algo_cls(
+            "MlpPolicy", venv, seed=seed, device="cpu", tensorboard_log=tensorboard_log,
+            policy_kwargs=policy_kwargs(config), verbose=config.logging.verbose,
+            **algorithm_kwargs(config, venv.action_space.shape[0]),
+        )
+
+    # 4. callbacks: periodic checkpoints (+ VecNormalize, replay buffer) and evaluations
+    callbacks: list[BaseCallback] = [
+        CheckpointCallback(
+            save_freq=max(config.logging.checkpoint_freq // config.env.n_envs, 1),
+            save_path=str(run_dir / CHECKPOINT_DIR),
+            name_prefix=CHECKPOINT_PREFIX,
+            save_replay_buffer=config.logging.keep_replay_buffer,
+            save_vecnormalize=vec_normalize is not None,
+        )
+    ]
+    if config.logging.eval_freq > 0:
+        callbacks.append(WalkerEvalCallback(config, run_dir, vec_normalize))
+
+    # 5. learn, then save the final model and statistics
+    model.learn(
+        total_timesteps=config.total_timesteps if not resume else max(config.total_timesteps - model.num_timesteps, 0),
+        callback=callbacks,
+        tb_log_name="run",
+        reset_num_timesteps=not resume,
+    )
+    model.save(run_dir / "final_model.zip")
+    if vec_normalize is not None:
+        vec_normalize.save(str(vecnormalize_path(run_dir / "final_model.zip")))
+    venv.close()
+    return model

@@ -1,0 +1,684 @@
+"""Tracking gait simulations: the predictive collocation problem plus tracking terms.
+
+Two modes, both built on :class:`~predictive.collocation.PredictiveGaitProblem` (same grid,
+backward-Euler collocation, implicit dynamics, contact model, bounds and effort; see its module
+docstring) by overriding its objective:
+
+* :func:`solve_tracking` — track any named signals (kinematics, GRFs, torques, IMU channels;
+  :data:`SIGNAL_KINDS`) given at the nodes, e.g. an averaged real stride's joint angles and GRFs.
+* :func:`solve_imu_tracking` — the label-free optimal-control baseline of SSPINNpose (Dorschky
+  et al. 2019, J Biomech 95:109278): track the sagittal signals (acc_x, acc_y, gyr_z) of the
+  IMUs of an averaged stride with virtual IMUs (:func:`sspinn.kinematics.virtual_imu`), speed
+  free; outputs angles, torques, GRFs and speed.
+
+Formulation (in addition to :mod:`predictive.collocation`):
+
+* **Full gait cycle**, periodic (node ``N`` = node 0 moved forward by ``v·T``), no left/right
+  symmetry (the tracked data are one stride and may be one-sided). The duration ``T`` is fixed
+  to the data's stride duration; the average speed ``v`` is fixed or free (a decision variable
+  within ``speed_bounds``; for IMU tracking it is only tied to the data through the periodicity
+  of the foot placements, since accelerometers do not see a constant velocity).
+* **Time alignment.** Node ``k`` is at ``t_k = k·T/N``; data given over one stride starting at
+  ``t = 0`` (e.g. right heel strike) are resampled to these times by periodic linear
+  interpolation, so node 0 is the data's first sample.
+* **Objective** (dimensionless)::
+
+      J = (1/S) Σ_s w_s · mean_k ((y_s(x_k) − d_sk) / σ_sk)²
+          + effort_weight · mean_k Σ_j |τ_kj/τmax_j|^e + w_acc · mean_k Σ_i (q̈_ki·T²/(4π²))²
+
+  over the S tracked signals ``y_s`` (simulated at node k from q, u, q̈, τ and the contact GRF),
+  their data ``d_sk`` and normalising scales ``σ_sk``: by default the standard deviation of the
+  data over the cycle (floored, :data:`MIN_SCALES`), or a given scalar / per-node value (e.g.
+  the across-trial standard deviation, as Dorschky et al. normalised by the intertrial variance).
+  The effort and regularisation terms are those of the predictive problem.
+* **Virtual IMUs** use the node's q, u and q̈, where u_k and q̈_k are backward differences: the
+  simulated accelerometer lags the node time by ≈ h (one node interval) and the gyroscope by
+  ≈ h/2; with 100 nodes per stride this is ≈ 1 % of the cycle and is not corrected.
+* **Solving IMU tracking** (:func:`solve_imu_tracking`). Scales: the across-trial standard
+  deviation per sample when the averaged stride comes with ``variance.csv``, else each
+  channel's standard deviation over the cycle. Weights: IMU channels 1, effort 0.01, w_acc 0.001
+  (the predictive w_acc = 0.1 penalises the very accelerations that are tracked). Initial guess:
+  the predictive gait at a label-free speed guess from the stride duration
+  (:func:`speed_from_stride_duration`) on the same grid, **rolled to start at its right heel
+  strike** like the data (:func:`roll_cycle`; unrolled, its heel strike lay at 5–33 % of the
+  cycle and IPOPT ended in poor local optima, e.g. standing). Speed continuation: one solve at
+  the fixed guessed speed, then the speed is freed (without it, a walking guess sometimes
+  drifted to standing). Optionally a multi-start over several speed guesses, the lowest
+  objective winning (label-free). With these, starts from 0.9–1.5 m/s reached the same solution
+  on the real data; the data-free :meth:`~PredictiveGaitProblem.generic_guess` is less robust.
+
+Signal names (units SI; signs of :mod:`sspinn.conventions`): the coordinates except pelvis_tx
+(``hip_r`` …, rad; ``pelvis_ty``, m), speeds ``d_<coordinate>`` (``d_pelvis_tx`` is the forward
+velocity), accelerations ``dd_<coordinate>``, torques ``tau_<joint>`` (N·m), GRFs ``grf_x_r`` …
+(N) and IMU channels ``<segment>_acc_x|acc_y|gyr_z`` (m/s², rad/s) — the column names of
+:class:`sspinn.dataset.Recording` labels and IMU data.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from predictive.collocation import GaitCycle, NodeExpressions, OCPSettings, PredictiveGaitProblem, solve_predictive
+from predictive.solution import GaitSolution
+from sspinn import kinematics
+from sspinn.body import BodyParameters, IMUPlacement, JointLimits
+from sspinn.contact import ContactParameters
+from sspinn.conventions import COORDINATES, GRAVITY, GRF, IMU_CHANNELS, JOINTS, N_GRF, N_Q, N_TAU, SEGMENTS, imu_columns
+from sspinn.dataset import Recording
+
+#: Lower bounds of the default normalising scales (the data's standard deviation over the cycle),
+#: per signal kind, SI units: a nearly constant signal is not weighted without limit.
+MIN_SCALES: dict[str, float] = {
+    "angle": math.radians(1.0),
+    "position": 0.005,
+    "speed": 0.05,
+    "acceleration": 0.5,
+    "torque": 1.0,
+    "grf": 10.0,
+    "acc": 0.1,
+    "gyr": 0.05,
+}
+
+
+def _signal_table() -> dict[str, tuple[str, str, int]]:
+    """name → (source, kind, index): source one of q, u, a, tau, grf, imu (index into the
+    flattened (7, 3) virtual-IMU matrix)."""
+    table: dict[str, tuple[str, str, int]] = {}
+    for i, c in enumerate(COORDINATES):
+        if c != "pelvis_tx":
+            table[c] = ("q", "position" if c == "pelvis_ty" else "angle", i)
+        table[f"d_{c}"] = ("u", "speed", i)
+        table[f"dd_{c}"] = ("a", "acceleration", i)
+    for j, name in enumerate(JOINTS):
+        table[f"tau_{name}"] = ("tau", "torque", j)
+    for g, name in enumerate(GRF):
+        table[name] = ("grf", "grf", g)
+    for i, name in enumerate(imu_columns()):
+        table[name] = ("imu", name.rsplit("_", 2)[-2], i)
+    return table
+
+
+#: Every trackable signal: name → (source, kind, index); see the module docstring.
+SIGNAL_KINDS: dict[str, tuple[str, str, int]] = _signal_table()
+
+
+@dataclass(frozen=True)
+class TrackedSignal:
+    """One tracked signal at the collocation nodes.
+
+    Attributes:
+        name: a key of :data:`SIGNAL_KINDS` (e.g. ``"hip_r"``, ``"grf_y_r"``, ``"tibia_r_gyr_z"``).
+        target: (n_nodes,) data at the node times t_k = k·T/n, SI units.
+        scale: normalising scale σ (same unit as the target, > 0): a scalar or (n_nodes,).
+        weight: weight w_s of the signal in the objective (≥ 0).
+    """
+
+    name: str
+    target: np.ndarray
+    scale: float | np.ndarray
+    weight: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.name not in SIGNAL_KINDS:
+            raise ValueError(f"unknown tracked signal {self.name!r}; expected one of {', '.join(SIGNAL_KINDS)}")
+        target = np.asarray(self.target, dtype=float)
+        scale = np.broadcast_to(np.asarray(self.scale, dtype=float), target.shape)
+        if target.ndim != 1 or not np.all(np.isfinite(target)):
+            raise ValueError(f"{self.name}: target must be a finite 1-D array, got shape {target.shape}")
+        if not (np.all(np.isfinite(scale)) and np.all(scale > 0)):
+            raise ValueError(f"{self.name}: scale must be finite and > 0")
+        if not (math.isfinite(self.weight) and self.weight >= 0):
+            raise ValueError(f"{self.name}: weight must be finite and >= 0, got {self.weight}")
+        object.__setattr__(self, "target", target)
+        object.__setattr__(self, "scale", np.array(scale))
+
+    @property
+    def kind(self) -> str:
+        return SIGNAL_KINDS[self.name][1]
+
+
+def default_scale(name: str, target: np.ndarray) -> float:
+    """The default normalising scale: the target's standard deviation over the cycle, floored at
+    :data:`MIN_SCALES` of the signal's kind."""
+    return float(max(np.std(target), MIN_SCALES[SIGNAL_KINDS[name][1]]))
+
+
+def signal_function(names: Sequence[str], body: BodyParameters, placement: IMUPlacement | None = None) -> ca.Function:
+    """CasADi function (q (9), u (9), q̈ (9), τ (6), grf (4)) → the named signals (S,), SI units.
+
+    ``placement`` is needed only for IMU channels. Evaluated symbolically in the NLP and
+    numerically (``.map``) to report the tracked signals of a solution.
+    """
+    q, u, a = (ca.SX.sym(n, N_Q) for n in ("q", "u", "a"))
+    tau, grf = ca.SX.sym("tau", N_TAU), ca.SX.sym("grf", N_GRF)
+    sources: dict[str, Any] = {"q": q, "u": u, "a": a, "tau": tau, "grf": grf}
+    if any(SIGNAL_KINDS[n][0] == "imu" for n in names):
+        if placement is None:
+            raise ValueError("IMU signals need an IMU placement")
+        imu = kinematics.virtual_imu(q, u, a, placement, body)  # (7, 3): [acc_x, acc_y, gyr_z] per segment
+        sources["imu"] = ca.vertcat(*[imu[s, c] for s in range(len(SEGMENTS)) for c in range(len(IMU_CHANNELS))])
+    out = [sources[SIGNAL_KINDS[n][0]][SIGNAL_KINDS[n][2]] for n in names]
+    return ca.Function("signals", [q, u, a, tau, grf], [ca.vertcat(*out)], ["q", "u", "a", "tau", "grf"], ["y"])
+
+
+@dataclass(frozen=True)
+class TrackingSettings(OCPSettings):
+    """:class:`OCPSettings` of a tracking problem (stored with the solution).
+
+    Attributes (in addition to :class:`OCPSettings`; ``gait_cycle`` must be "full"):
+        effort_weight: weight of the torque effort term (dimensionless; the tracking term is a
+            mean normalised squared error, ≈ 1 when the errors are one scale σ).
+    """
+
+    gait_cycle: GaitCycle = "full"
+    effort_weight: float = 1.0
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.gait_cycle != "full":
+            raise ValueError(f"tracking needs gait_cycle='full' (no symmetry assumed), got {self.gait_cycle!r}")
+        if not (math.isfinite(self.effort_weight) and self.effort_weight >= 0):
+            raise ValueError(f"effort_weight must be finite and >= 0, got {self.effort_weight}")
+
+
+class TrackingGaitProblem(PredictiveGaitProblem):
+    """The predictive collocation NLP with the tracking term of the module docstring added.
+
+    Build once; :meth:`solve` (inherited) runs IPOPT and returns a :class:`GaitSolution`;
+    :meth:`result` adds the simulated and target signals.
+    """
+
+    def __init__(
+        self,
+        settings: TrackingSettings,
+        signals: Sequence[TrackedSignal],
+        body: BodyParameters | None = None,
+        contact: ContactParameters | None = None,
+        joint_limits: JointLimits | None = None,
+        placement: IMUPlacement | None = None,
+    ) -> None:
+        if not isinstance(settings, TrackingSettings):
+            raise TypeError("TrackingGaitProblem needs TrackingSettings")
+        if not signals:
+            raise ValueError("no signals to track")
+        names = [s.name for s in signals]
+        if len(set(names)) != len(names):
+            raise ValueError(f"tracked signals must be unique, got {names}")
+        for sig in signals:
+            if sig.target.shape != (settings.n_nodes,):
+                raise ValueError(f"{sig.name}: target has {sig.target.shape[0]} values, expected n_nodes = {settings.n_nodes}")
+        body = body if body is not None else BodyParameters.from_anthropometry(1.75, 70.0)
+        self.signals = tuple(signals)
+        self.placement = placement
+        self.signal_fun = signal_function(names, body, placement)
+        self.targets = np.stack([s.target for s in self.signals], axis=1)  # (n, S)
+        self.scales = np.stack([s.scale for s in self.signals], axis=1)  # (n, S)
+        self.weights = np.array([s.weight for s in self.signals])
+        super().__init__(settings, body, contact, joint_limits)
+
+    def _tracking_term(self, x: NodeExpressions) -> Any:
+        """(1/S) Σ_s w_s · mean_k ((y_sk − d_sk)/σ_sk)² (dimensionless)."""
+        n, n_signals = self.targets.shape
+        total = 0
+        for k in range(n):
+            y = self.signal_fun(x.q[k], x.u[k], x.a[k], x.tau[k], x.grf[k])
+            err = (y - ca.DM(self.targets[k])) / ca.DM(self.scales[k])
+            total += ca.dot(ca.DM(self.weights), err**2)
+        return total / (n * n_signals)
+
+    def _objective(self, x: NodeExpressions) -> Any:
+        effort, reg = self._effort_terms(x)
+        s = self.settings
+        return self._tracking_term(x) + s.effort_weight * effort + s.w_acc * reg  # type: ignore[attr-defined]
+
+    def solve_with_speed_continuation(
+        self,
+        guess: GaitSolution | None = None,
+        *,
+        ipopt_options: Mapping[str, Any] | None = None,
+        verbose: bool = False,
+        raise_on_failure: bool = True,
+    ) -> GaitSolution:
+        """For a free-speed problem: solve first with the speed fixed to the initial guess
+        ``settings.speed``, then with the speed free from that solution. Without the first step,
+        IPOPT sometimes drifted from a walking guess to standing (speed 0, a poor local optimum)
+        on the real IMU data. The returned solution's iterations and times are the sums of both
+        steps."""
+        kw: dict[str, Any] = {"ipopt_options": ipopt_options, "verbose": verbose}
+        first = self.solve(guess, raise_on_failure=False, fixed_speed=self.settings.speed, **kw)
+        second = self.solve(first, raise_on_failure=raise_on_failure, **kw)
+        return dataclasses.replace(
+            second,
+            iterations=first.iterations + second.iterations,
+            solve_time=first.solve_time + second.solve_time,
+            build_time=first.build_time + second.build_time,
+        )
+
+    def simulated(self, sol: GaitSolution) -> np.ndarray:
+        """(n, S) the tracked signals of a solution of this problem, SI units."""
+        fun = self.signal_fun.map(sol.n_nodes)
+        y = fun(sol.q.T, sol.u.T, sol.qdd.T, sol.tau.T, sol.grf.T)
+        return np.asarray(y).T
+
+    def result(self, sol: GaitSolution) -> TrackingResult:
+        """The solution with its tracked signals."""
+        return TrackingResult(
+            solution=sol,
+            names=tuple(s.name for s in self.signals),
+            target=self.targets.copy(),
+            simulated=self.simulated(sol),
+            scale=self.scales.copy(),
+            weight=self.weights.copy(),
+        )
+
+
+@dataclass
+class TrackingResult:
+    """A tracking solution and its tracked signals at the nodes (SI units).
+
+    Attributes:
+        solution: the gait (angles, torques, GRFs, speed) over one cycle.
+        names: tracked signal names (S).
+        target, simulated, scale: (n, S) data, simulation and normalising scale.
+        weight: (S,) weights.
+        info: how it was obtained (e.g. starts and times of :func:`solve_imu_tracking`).
+    """
+
+    solution: GaitSolution
+    names: tuple[str, ...]
+    target: np.ndarray
+    simulated: np.ndarray
+    scale: np.ndarray
+    weight: np.ndarray
+    info: dict[str, Any] = field(default_factory=dict)
+
+    def residuals(self) -> dict[str, dict[str, float]]:
+        """Per signal: ``rmse`` (signal units), ``rmse_normalised`` (RMS of error/σ) and the
+        data's standard deviation ``data_std`` over the cycle."""
+        err = self.simulated - self.target
+        return {
+            name: {
+                "rmse": float(np.sqrt(np.mean(err[:, i] ** 2))),
+                "rmse_normalised": float(np.sqrt(np.mean((err[:, i] / self.scale[:, i]) ** 2))),
+                "data_std": float(np.std(self.target[:, i])),
+            }
+            for i, name in enumerate(self.names)
+        }
+
+    def save(self, path: str | Path) -> Path:
+        """Write the solution (``<path>.npz/.json``, see :meth:`GaitSolution.save`), the tracked
+        signals to ``<path>_tracked.npz`` and the residuals and info to ``<path>_tracked.json``;
+        returns the solution's npz path."""
+        npz = self.solution.save(path)
+        np.savez(
+            npz.with_name(npz.name[: -len(".npz")] + "_tracked.npz"),
+            names=np.array(self.names),
+            target=self.target,
+            simulated=self.simulated,
+            scale=self.scale,
+            weight=self.weight,
+        )
+        summary = {"residuals": self.residuals(), "info": self.info}
+        npz.with_name(npz.name[: -len(".npz")] + "_tracked.json").write_text(json.dumps(summary, indent=2, default=str))
+        return npz
+
+
+# ---------------------------------------------------------------------------------------------
+# Data → tracked signals
+# ---------------------------------------------------------------------------------------------
+def stride_duration(recording: Recording) -> float:
+    """The stride duration of an averaged-stride recording (``provenance['stride_duration_s']``,
+    s), else the recording's duration."""
+    return float(recording.provenance.get("stride_duration_s", recording.duration))
+
+
+def recording_signal(recording: Recording, name: str) -> np.ndarray:
+    """(n_samples,) one named signal of a recording (IMU channel or label column), SI units."""
+    if SIGNAL_KINDS.get(name, ("",))[0] == "imu":
+        seg, ch = name.rsplit("_", 2)[0], "_".join(name.rsplit("_", 2)[1:])
+        if seg not in recording.segments:
+            raise KeyError(f"{recording.name}: no IMU on {seg}; available: {list(recording.segments)}")
+        return recording.imu[:, recording.segments.index(seg), IMU_CHANNELS.index(ch)]
+    if recording.labels is None:
+        raise KeyError(f"{recording.name}: no labels, so no {name!r}")
+    return recording.labels.column(name)
+
+
+def resample_periodic(values: np.ndarray, time: np.ndarray, duration: float, n_nodes: int) -> np.ndarray:
+    """Values sampled at ``time`` (s, within one period starting at 0) at the node times
+    k·duration/n_nodes, by periodic linear interpolation (period ``duration``)."""
+    keep = time < duration - 1e-9
+    return np.interp(np.arange(n_nodes) * duration / n_nodes, time[keep], np.asarray(values)[keep], period=duration)
+
+
+def signals_from_recording(
+    recording: Recording,
+    names: Sequence[str],
+    n_nodes: int,
+    *,
+    duration: float | None = None,
+    scales: Mapping[str, float | np.ndarray] | None = None,
+    weights: Mapping[str, float] | None = None,
+) -> list[TrackedSignal]:
+    """Tracked signals from the first stride of a recording (starting at t = 0).
+
+    Args:
+        recording: e.g. :func:`sspinn.readers.read_averaged_stride`.
+        names: signal names (:data:`SIGNAL_KINDS`; IMU channels or label columns).
+        n_nodes: collocation nodes per cycle.
+        duration: stride duration, s (default :func:`stride_duration`).
+        scales: per-signal scale (scalar, or (n_nodes,) at the nodes); default :func:`default_scale`.
+        weights: per-signal weight (default 1).
+    """
+    T = stride_duration(recording) if duration is None else duration
+    scales = scales or {}
+    weights = weights or {}
+    out = []
+    for name in names:
+        target = resample_periodic(recording_signal(recording, name), recording.time, T, n_nodes)
+        scale = scales.get(name, default_scale(name, target))
+        out.append(TrackedSignal(name, target, scale, float(weights.get(name, 1.0))))
+    return out
+
+
+def averaged_stride_scales(
+    folder: str | Path, names: Sequence[str], n_nodes: int, mass: float | None = None
+) -> dict[str, np.ndarray]:
+    """Across-trial standard deviations of an averaged stride (``variance.csv`` next to
+    ``signals.csv``, as in ``../shared/data/dorschky_P03_walking``) at the node times, floored at
+    :data:`MIN_SCALES`: the normalisation of Dorschky et al. (2019), who divided the tracking
+    errors by the intertrial variance.
+
+    ``names`` are IMU channels (``<segment>_acc_x`` …) or GRFs (``grf_x_r`` …, converted from BW
+    to N with ``mass`` in kg). The file's N rows span one stride (``meta.json``'s
+    ``stride_duration_s``) and are interpolated periodically to ``n_nodes`` nodes.
+    """
+    folder = Path(folder)
+    path = folder / "variance.csv"
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no across-trial variance for this averaged stride")
+    with path.open() as fh:
+        header = [c.strip() for c in fh.readline().strip().split(",")]
+    var = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    n_file = var.shape[0]
+    frac = np.arange(n_nodes) / n_nodes
+    out: dict[str, np.ndarray] = {}
+    for name in names:
+        if name not in header:
+            raise KeyError(f"{path}: no column {name!r}")
+        std = np.sqrt(np.clip(var[:, header.index(name)], 0.0, None))
+        if name in GRF:
+            if mass is None:
+                raise ValueError(f"{name}: the mass is needed to convert BW to N")
+            std = std * mass * GRAVITY
+        std = np.interp(frac, np.arange(n_file) / n_file, std, period=1.0)
+        out[name] = np.maximum(std, MIN_SCALES[SIGNAL_KINDS[name][1]])
+    return out
+
+
+def signals_from_solution(
+    sol: GaitSolution, names: Sequence[str], placement: IMUPlacement | None = None
+) -> list[TrackedSignal]:
+    """Tracked signals computed from a gait solution at its own nodes (for synthetic tests):
+    the signals of :func:`signal_function` with the solution's body, scales
+    :func:`default_scale`."""
+    fun = signal_function(names, sol.body, placement).map(sol.n_nodes)
+    y = np.asarray(fun(sol.q.T, sol.u.T, sol.qdd.T, sol.tau.T, sol.grf.T)).T
+    return [TrackedSignal(n, y[:, i], default_scale(n, y[:, i])) for i, n in enumerate(names)]
+
+
+# ---------------------------------------------------------------------------------------------
+# Solvers
+# ---------------------------------------------------------------------------------------------
+def solve_tracking(
+    signals: Sequence[TrackedSignal],
+    duration: float,
+    speed: float,
+    body: BodyParameters | None = None,
+    *,
+    free_speed: bool = False,
+    speed_continuation: bool = True,
+    effort_weight: float = 1.0,
+    guess: GaitSolution | None = None,
+    placement: IMUPlacement | None = None,
+    contact: ContactParameters | None = None,
+    joint_limits: JointLimits | None = None,
+    ipopt_options: Mapping[str, Any] | None = None,
+    verbose: bool = False,
+    raise_on_failure: bool = True,
+    **settings: Any,
+) -> TrackingResult:
+    """Track ``signals`` (each given at ``n`` nodes over one cycle) over a full periodic cycle.
+
+    Args:
+        signals: the tracked signals (:func:`signals_from_recording`); their length is the number
+            of collocation nodes.
+        duration: stride duration T, s (fixed).
+        speed: average speed, m/s: fixed, or the initial guess when ``free_speed``.
+        body: body parameters (default 1.75 m, 70 kg).
+        free_speed: optimise the speed within ``speed_bounds`` (a setting, default 0–10 m/s).
+        speed_continuation: with ``free_speed``, solve first at the fixed initial speed and then
+            free it (:meth:`TrackingGaitProblem.solve_with_speed_continuation`).
+        effort_weight: weight of the torque effort (see the module docstring).
+        guess: initial guess (default: the data-free generic guess at ``speed``).
+        placement: IMU placement (needed for IMU channels).
+        **settings: further :class:`TrackingSettings` fields (``w_acc``, ``speed_bounds``, …).
+
+    Raises:
+        predictive.collocation.OCPError: IPOPT failed and ``raise_on_failure``.
+    """
+    n_nodes = len(signals[0].target) if signals else 0
+    cfg = TrackingSettings(
+        speed=float(speed),
+        n_nodes=n_nodes,
+        duration=float(duration),
+        free_speed=free_speed,
+        effort_weight=effort_weight,
+        **settings,
+    )
+    problem = TrackingGaitProblem(cfg, signals, body, contact, joint_limits, placement)
+    kw: dict[str, Any] = {"ipopt_options": ipopt_options, "verbose": verbose, "raise_on_failure": raise_on_failure}
+    if free_speed and speed_continuation:
+        sol = problem.solve_with_speed_continuation(guess, **kw)
+    else:
+        sol = problem.solve(guess, **kw)
+    return problem.result(sol)
+
+
+def speed_from_stride_duration(duration: float) -> float:
+    """A label-free speed guess (m/s) from the stride duration (s): the inverse of
+    :func:`predictive.collocation.typical_stride_duration` (T = 1.4 − 0.2·v), clipped to 0.5–3.5."""
+    return float(np.clip((1.4 - duration) / 0.2, 0.5, 3.5))
+
+
+def predictive_guess(
+    speed: float,
+    duration: float,
+    body: BodyParameters,
+    *,
+    n_nodes: int = 50,
+    cache_dir: str | Path | None = None,
+    verbose: bool = False,
+) -> GaitSolution:
+    """The predictive (effort-minimising, symmetric half-cycle) gait at ``speed`` (m/s) with the
+    stride ``duration`` (s), used as initial guess for tracking. With ``cache_dir`` the solution
+    is stored there and reused when the speed, duration, node count and body match."""
+    path = None
+    if cache_dir is not None:
+        name = f"predictive_v{speed:.3f}_T{duration:.4f}_H{body.height:.3f}_M{body.mass:.1f}_n{n_nodes}"
+        path = Path(cache_dir) / name
+        if path.with_name(name + ".npz").exists():
+            cached = GaitSolution.load(path)
+            same = (
+                cached.success
+                and cached.body == body
+                and cached.settings.get("n_nodes") == n_nodes
+                and math.isclose(cached.speed, speed, abs_tol=1e-9)
+                and math.isclose(cached.duration, duration, abs_tol=1e-9)
+            )
+            if same:
+                return cached
+    sol = solve_predictive(speed, body, n_nodes=n_nodes, duration=duration, verbose=verbose)
+    if path is not None:
+        sol.save(path)
+    return sol
+
+
+def roll_cycle(sol: GaitSolution, start: int) -> GaitSolution:
+    """The same periodic cycle started at node ``start``: node k of the result is node
+    (start + k) mod n of ``sol``; pelvis_tx continues across the wrap by one stride (v·T) and is
+    shifted to start at 0. Times, speed and duration are unchanged."""
+    n = sol.n_nodes
+    idx = (np.arange(n) + start) % n
+    q = sol.q[idx].copy()
+    q[np.arange(n) + start % n >= n, 0] += sol.stride_length
+    q[:, 0] -= q[0, 0]
+    return dataclasses.replace(sol, q=q, u=sol.u[idx], qdd=sol.qdd[idx], tau=sol.tau[idx], grf=sol.grf[idx], w=sol.w[idx])
+
+
+#: IMU channels tracked by default: every sagittal channel of every IMU.
+IMU_SIGNALS: tuple[str, ...] = tuple(imu_columns())
+
+
+def solve_imu_tracking(
+    recording: Recording,
+    body: BodyParameters | None = None,
+    *,
+    n_nodes: int = 100,
+    imu_weight: float = 1.0,
+    effort_weight: float = 0.01,
+    w_acc: float = 0.001,
+    speed_guess: float | Sequence[float] | None = None,
+    free_speed: bool = True,
+    guess: GaitSolution | str = "predictive",
+    guess_cache: str | Path | None = None,
+    imu_scales: Mapping[str, float | np.ndarray] | str = "auto",
+    placement: IMUPlacement | None = None,
+    ipopt_options: Mapping[str, Any] | None = None,
+    verbose: bool = False,
+    raise_on_failure: bool = False,
+    **settings: Any,
+) -> TrackingResult:
+    """Label-free gait estimation from one averaged stride of IMU data (Dorschky et al. 2019).
+
+    Tracks acc_x, acc_y and gyr_z of every IMU of ``recording`` with virtual IMUs at
+    ``placement`` (default: ``recording.placement``, i.e. the positions of the data's meta), plus
+    effort, over a full periodic cycle of the data's stride duration with the speed free. Only
+    the IMU data (and their across-trial variance), the stride duration and height/mass are
+    used — no labels.
+
+    Args:
+        recording: one averaged stride starting at right heel strike
+            (:func:`sspinn.readers.read_averaged_stride` with ``periods=1``).
+        body: body parameters (default: Winter scaling from the recording's height and mass).
+        n_nodes: collocation nodes per stride.
+        imu_weight: weight of every IMU channel.
+        effort_weight: weight of the torque effort (dimensionless, see the module docstring).
+        w_acc: weight of the q̈ regularisation (the predictive default 0.1 competes with the
+            tracked accelerations; 0.1 led to slow-walking local optima in tests).
+        speed_guess: initial speed(s), m/s (default: the label-free
+            :func:`speed_from_stride_duration`). Several values: a multi-start — one solve from
+            each, the successful one with the lowest objective is returned (label-free choice);
+            all are listed in ``result.info["starts"]``.
+        free_speed: optimise the speed (else it is fixed to the (first) speed guess).
+        guess: "predictive" (:func:`predictive_guess` at each speed guess on the same grid,
+            ``n_nodes/2`` nodes per half cycle, cached in ``guess_cache``, started at its right
+            heel strike like the data: :func:`roll_cycle`), "generic" (data-free textbook shapes)
+            or a :class:`GaitSolution` (used as it is).
+        imu_scales: "variance" (across-trial standard deviation per sample,
+            :func:`averaged_stride_scales`, from ``variance.csv`` in the recording's source
+            folder, as Dorschky et al.), "std" (each channel's standard deviation over the
+            cycle, :func:`default_scale`), "auto" (variance if that file exists, else std) or a
+            mapping channel → scale.
+        **settings: further :class:`TrackingSettings` fields.
+
+    Returns:
+        The tracking result; ``result.solution`` holds angles, torques, GRFs and the speed;
+        ``result.info`` the scaling used, the starts, ``wall_time_s`` (everything: predictive
+        guesses, NLP construction, all IPOPT runs) and ``ipopt_time_s`` (all IPOPT runs).
+    """
+    t_start = time.perf_counter()
+    body = body if body is not None else BodyParameters.from_anthropometry(recording.height, recording.mass)
+    duration = stride_duration(recording)
+    if speed_guess is None:
+        speeds = [speed_from_stride_duration(duration)]
+    else:
+        speeds = [float(v) for v in np.atleast_1d(np.asarray(speed_guess, dtype=float))]
+    names = [f"{s}_{c}" for s in recording.segments for c in IMU_CHANNELS]
+    scales, scaling = _imu_scales(recording, names, n_nodes, imu_scales)
+    signals = signals_from_recording(
+        recording, names, n_nodes, duration=duration, scales=scales, weights={n: imu_weight for n in names}
+    )
+    if isinstance(guess, str) and guess not in ("predictive", "generic"):
+        raise ValueError(f"guess must be 'predictive', 'generic' or a GaitSolution, got {guess!r}")
+    results: list[TrackingResult] = []
+    for v0 in speeds:
+        if guess == "predictive":
+            predicted = predictive_guess(v0, duration, body, n_nodes=max(n_nodes // 2, 4), cache_dir=guess_cache)
+            guess_sol: GaitSolution | None = roll_cycle(predicted, predicted.right_heel_strike())
+        else:
+            guess_sol = guess if isinstance(guess, GaitSolution) else None
+        results.append(
+            solve_tracking(
+                signals,
+                duration,
+                v0,
+                body,
+                free_speed=free_speed,
+                effort_weight=effort_weight,
+                w_acc=w_acc,
+                guess=guess_sol,
+                placement=placement if placement is not None else recording.placement,
+                ipopt_options=ipopt_options,
+                verbose=verbose,
+                raise_on_failure=raise_on_failure,
+                **settings,
+            )
+        )
+    best = min(results, key=lambda r: (not r.solution.success, r.solution.objective))
+    best.info = {
+        "scaling": scaling,
+        "guess": guess if isinstance(guess, str) else "solution",
+        "starts": [
+            {
+                "speed_guess": v0,
+                "status": r.solution.status,
+                "objective": r.solution.objective,
+                "speed": r.solution.speed,
+                "iterations": r.solution.iterations,
+                "solve_time_s": r.solution.solve_time,
+                "chosen": r is best,
+            }
+            for v0, r in zip(speeds, results)
+        ],
+        "ipopt_time_s": float(sum(r.solution.solve_time for r in results)),
+        "wall_time_s": time.perf_counter() - t_start,
+    }
+    return best
+
+
+def _imu_scales(
+    recording: Recording, names: Sequence[str], n_nodes: int, imu_scales: Mapping[str, float | np.ndarray] | str
+) -> tuple[Mapping[str, float | np.ndarray] | None, str]:
+    """(scales for :func:`signals_from_recording`, name of the scaling) from ``imu_scales``."""
+    if not isinstance(imu_scales, str):
+        return imu_scales, "given"
+    source = recording.provenance.get("source")
+    has_variance = source is not None and (Path(source) / "variance.csv").exists()
+    if imu_scales == "variance" or (imu_scales == "auto" and has_variance):
+        if not has_variance:
+            raise FileNotFoundError(f"{recording.name}: no variance.csv in the recording's source folder {source!r}")
+        return averaged_stride_scales(Path(source), names, n_nodes), "variance"
+    if imu_scales in ("std", "auto"):
+        return None, "std"
+    raise ValueError(f"imu_scales must be 'auto', 'variance', 'std' or a mapping, got {imu_scales!r}")

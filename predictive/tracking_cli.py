@@ -1,0 +1,124 @@
+"""The ``track-imu`` sub-command of ``python -m predictive``: IMU tracking of an averaged stride.
+
+``python -m predictive track-imu --data ../shared/data/dorschky_P03_walking --out results/ocp/imu_tracking``
+
+Reads the averaged stride (:func:`sspinn.readers.read_averaged_stride`; body height and mass are
+not recorded there, so 1.75 m / 70 kg are assumed unless given), solves
+:func:`predictive.tracking.solve_imu_tracking` (labels unused), compares the estimate with the
+labels (:func:`predictive.label_comparison.compare_with_labels`) and prints the table next to the
+paper's OCP figures. Writes ``<out>.npz/.json`` (the solution), ``<out>_tracked.npz/.json``
+(tracked signals, residuals, starts, times), ``<out>_metrics.json``, ``<out>_table.md`` and
+``<out>.png`` (angles, moments, GRF versus the labels over the cycle). Predictive initial guesses
+are cached in ``<out>_guesses/``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+from typing import Any
+
+#: Sub-command name.
+COMMAND = "track-imu"
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Register the ``track-imu`` sub-command on an ``argparse`` sub-parsers object."""
+    p = sub.add_parser(COMMAND, help="IMU tracking (label-free OCP baseline) of an averaged stride, compared with its labels")
+    p.add_argument("--data", type=Path, required=True, help="averaged-stride folder (signals.csv, meta.json)")
+    p.add_argument("--out", type=Path, required=True, help="output path without suffix")
+    p.add_argument("--nodes", type=int, default=100, help="collocation nodes per stride")
+    p.add_argument("--height", type=float, default=1.75, help="assumed body height, m (not in the data)")
+    p.add_argument("--mass", type=float, default=70.0, help="assumed body mass, kg (not in the data)")
+    p.add_argument("--effort-weight", type=float, default=0.01, help="weight of the torque effort")
+    p.add_argument("--w-acc", type=float, default=0.001, help="weight of the acceleration regularisation")
+    p.add_argument("--imu-weight", type=float, default=1.0, help="weight of every IMU channel")
+    p.add_argument("--scales", choices=("auto", "variance", "std"), default="auto",
+                   help="normalisation of the tracking errors: across-trial variance (auto: when variance.csv exists)"
+                   " or each channel's std over the cycle")
+    p.add_argument("--speed-guess", type=float, nargs="+", default=None,
+                   help="initial speed(s), m/s; several: multi-start, lowest objective wins (default: from the stride"
+                   " duration, label-free)")
+    p.add_argument("--fixed-speed", action="store_true", help="fix the speed to the (first) guess instead of optimising it")
+    p.add_argument("--guess", choices=("predictive", "generic"), default="predictive", help="initial guess")
+    p.add_argument("--align", choices=("data", "heel_strike"), default="data",
+                   help="time alignment with the labels (data: node 0 = first data sample)")
+    p.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the sub-command; returns the exit code (1 if IPOPT failed on every start)."""
+    from predictive.label_comparison import compare_with_labels, plot_against_labels, write_comparison
+    from predictive.tracking import solve_imu_tracking
+    from sspinn.body import BodyParameters
+    from sspinn.readers import read_averaged_stride
+
+    t0 = time.perf_counter()
+    recording = read_averaged_stride(args.data, height=args.height, mass=args.mass, periods=1)
+    body = BodyParameters.from_anthropometry(args.height, args.mass)
+    result = solve_imu_tracking(
+        recording,
+        body,
+        n_nodes=args.nodes,
+        imu_weight=args.imu_weight,
+        effort_weight=args.effort_weight,
+        w_acc=args.w_acc,
+        speed_guess=args.speed_guess,
+        free_speed=not args.fixed_speed,
+        guess=args.guess,
+        guess_cache=args.out.with_name(args.out.name + "_guesses"),
+        imu_scales=args.scales,
+        verbose=args.verbose,
+    )
+    sol = result.solution
+    wall = time.perf_counter() - t0
+    n_starts = len(result.info["starts"])
+    detail = (
+        f"all of it (reading, {n_starts} predictive guess(es), NLP build, {n_starts} IPOPT run(s)); "
+        f"IPOPT {result.info['ipopt_time_s']:.1f} s; chosen run {sol.iterations} it., {sol.solve_time:.1f} s; "
+        "2 shared CPU cores"
+    )
+    comparison = compare_with_labels(sol, recording, align=args.align, solve_time_s=wall, solve_time_detail=detail)
+    npz = result.save(args.out)
+    png = plot_against_labels(sol, recording, args.out.with_name(args.out.name + ".png"), result)
+    table = comparison.table()
+    header = (
+        f"IMU tracking of {recording.name}: {args.nodes} nodes, scaling {result.info['scaling']}, "
+        f"effort weight {args.effort_weight}, assumed {args.height} m / {args.mass} kg; status {sol.status}"
+    )
+    starts = "\n".join(
+        f"- start {s['speed_guess']:.3f} m/s: {s['status']}, objective {s['objective']:.4g}, speed {s['speed']:.3f} m/s"
+        f"{' (chosen)' if s['chosen'] else ''}"
+        for s in result.info["starts"]
+    )
+    alignment = (
+        f"time alignment: {args.align} (shift {comparison.shift_applied_pct:+.1f} % cycle); right heel strike "
+        f"(vertical GRF > 0.1 BW) at {comparison.heel_strike_model_pct:.1f} % (model) vs "
+        f"{comparison.heel_strike_labels_pct:.1f} % (labels)"
+    )
+    text = f"{header}\n\n{table}\n\n{alignment}\n\n{starts}\n"
+    args.out.with_name(args.out.name + "_table.md").write_text(text)
+    metrics = write_comparison(
+        comparison,
+        args.out.with_name(args.out.name + "_metrics.json"),
+        extra={"tracking_info": result.info, "residuals": result.residuals(), "settings": sol.settings},
+    )
+    print(text)
+    print(f"wrote {npz}, {metrics}, {png}")
+    return 0 if sol.success else 1
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Stand-alone entry point (the same as ``python -m predictive track-imu``)."""
+    parser = argparse.ArgumentParser(prog="python -m predictive")
+    add_parser(parser.add_subparsers(dest="command", required=True))
+    return run(parser.parse_args(argv))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
+
+
+__all__ = ["COMMAND", "add_parser", "main", "run"]
