@@ -13,7 +13,7 @@ import json
 import sys
 from pathlib import Path
 
-from predictive import tracking_cli
+from predictive import synth_cli, tracking_cli
 from predictive.analysis import DEFAULT_DATA_DIR, compare_with_reference, load_winter, plot_gait
 from predictive.collocation import OCPError, solve_predictive
 from predictive.solution import GaitSolution
@@ -40,6 +40,7 @@ def _parser() -> argparse.ArgumentParser:
     solve.add_argument("--data-dir", type=Path, default=DEFAULT_DATA_DIR, help="folder holding winter_walking/")
     solve.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
     tracking_cli.add_parser(sub)  # track-imu: IMU tracking of an averaged stride (predictive/tracking_cli.py)
+    synth_cli.add_parser(sub)  # synth: physically exact synthetic dataset (predictive/synth_cli.py)
     return parser
 
 
@@ -95,6 +96,8 @@ def main(argv: list[str] | None = None) -> int:
         return _solve(args)
     if args.command == tracking_cli.COMMAND:
         return tracking_cli.run(args)
+    if args.command == synth_cli.COMMAND:
+        return synth_cli.run(args)
     raise AssertionError(args.command)  # argparse enforces the sub-commands
 
 
