@@ -38,8 +38,16 @@ the equations of motion. :func:`simulate_chain` builds them stride by stride (re
   solution and often has joints on their bounds (a straight knee): IPOPT's default bound push
   (1e-2) and initial barrier (0.1) move it far from the guess and cost hundreds of iterations,
   so the first attempt uses ``bound_push = bound_frac = 1e-8`` and a monotone barrier from
-  1e-4 (15–30 iterations per stride in tests); a failed stride is retried with IPOPT's defaults
-  and the reference guess.
+  1e-4 (an unperturbed walking stride: ~20 instead of ~140 iterations); a failed stride is
+  retried with IPOPT's defaults and the reference guess. Strides whose speed or duration differ
+  from the reference need a new contact timing and take more (about 90 iterations, 3 s per
+  stride on a shared 2-core CPU, for the default 2 % variability). Giving the GRF their own
+  variables (lifted contact) and sampling the guess at the reference's own pace instead of
+  stretching it were tried and did not reduce the iterations.
+* **Stride boundary.** Phase 0 of the references (the stride boundary) lies 12 % of the cycle
+  before the right foot's contact onset: mid-flight when running, left single support when
+  walking. A boundary at an impact made the terminal velocity target very sensitive to timing
+  (about 30 % more iterations when running).
 """
 
 from __future__ import annotations
@@ -59,7 +67,7 @@ from predictive.solution import GaitSolution
 from sspinn import dynamics as dyn
 from sspinn.body import N_PARAMETERS, BodyParameters, JointLimits
 from sspinn.contact import ContactParameters
-from sspinn.conventions import N_GRF, N_Q, N_TAU
+from sspinn.conventions import N_Q, N_TAU
 
 #: IPOPT statuses accepted for a stride (the node residual is checked separately).
 ACCEPTED_STATUSES: Final = ("Solve_Succeeded",)
@@ -78,7 +86,7 @@ WARM_START_IPOPT: Final[dict[str, Any]] = {
 #: Stride boundary relative to the right foot's contact onset, fraction of the cycle.
 DEFAULT_BOUNDARY: Final = -0.12
 
-_BASE_NODE: Final = 3 * N_Q + N_TAU  # q_rel, u, q̈, τ (scaled); then the GRF / BW when lifted
+_PER_NODE: Final = 3 * N_Q + N_TAU  # q_rel, u, q̈, τ (scaled)
 _NODE_PAR: Final = 3 + N_TAU  # active, 1/N, T, effort weights
 
 
@@ -116,8 +124,6 @@ class StrideSettings:
         max_iter: IPOPT iteration limit per attempt.
         residual_tol: largest accepted Kane residual at a node, BW / BW·H (checked with NumPy).
         buckets: node-count buckets of the compiled NLPs.
-        lift_contact: make the GRF decision variables tied to the contact model by equality
-            constraints (see the module docstring) instead of substituting the model.
     """
 
     h: float = 0.01
@@ -137,9 +143,6 @@ class StrideSettings:
     max_iter: int = 1000
     residual_tol: float = 1e-7
     buckets: tuple[int, ...] = DEFAULT_BUCKETS
-    lift_contact: bool = True
-    guess_stretch: bool = True
-    guess_grf: str = "reference"
 
     def __post_init__(self) -> None:
         if not self.h > 0:
@@ -297,7 +300,6 @@ class StrideProblem:
         self.ipopt_options = dict(ipopt_options or {})
         self.params = _ParamLayout(len(self.buckets), self.n)
         self.a_scale = np.full(N_Q, 10.0)
-        self.per_node = _BASE_NODE + (N_GRF if settings.lift_contact else 0)
         t0 = time.perf_counter()
         self._solver = self._build()
         self.build_time = time.perf_counter() - t0
@@ -311,7 +313,7 @@ class StrideProblem:
         parameters (active, 1/N, T, effort weights (6)).
         """
         s = self.settings
-        z, zp = ca.SX.sym("z", self.per_node), ca.SX.sym("zp", 2 * N_Q)
+        z, zp = ca.SX.sym("z", _PER_NODE), ca.SX.sym("zp", 2 * N_Q)
         body = ca.SX.sym("body", N_PARAMETERS)
         res_scale, tau_max, us = ca.SX.sym("res_scale", N_Q), ca.SX.sym("tau_max", N_TAU), ca.SX.sym("us", N_Q)
         x0 = ca.SX.sym("x0")
@@ -319,22 +321,13 @@ class StrideProblem:
         active, inv_n, T, c = npar[0], npar[1], npar[2], npar[3:]
         as_ = ca.DM(self.a_scale)
         q_rel, u, a = z[0:N_Q], z[N_Q : 2 * N_Q] * us, z[2 * N_Q : 3 * N_Q] * as_
-        tn = z[3 * N_Q : _BASE_NODE]
+        tn = z[3 * N_Q :]
         q = ca.vertcat(q_rel[0] + x0, q_rel[1:])
         q_prev_rel, u_prev = zp[0:N_Q], zp[N_Q:] * us
         grf, w = dyn.contact_forces(q, u, body, self.contact)
-        bw = res_scale[0]
-        if s.lift_contact:  # GRF as variables, tied to the contact model by a constraint
-            f_lifted = z[_BASE_NODE:]
-            res = dyn.kane_residual(q, u, a, tn * tau_max, f_lifted * bw, w, body) / res_scale
-            extra_active, extra_copy = [f_lifted - grf / bw], [f_lifted]
-        else:
-            res = dyn.kane_residual(q, u, a, tn * tau_max, grf, w, body) / res_scale
-            extra_active, extra_copy = [], []
-        g_active = ca.vertcat(((q_rel - q_prev_rel) / s.h - u) / us, ((u - u_prev) / s.h - a) / as_, res, *extra_active)
-        g_copy = ca.vertcat(
-            (q_rel - q_prev_rel) / (s.h * us), (u - u_prev) / (s.h * as_), z[2 * N_Q : 3 * N_Q], *extra_copy
-        )
+        res = dyn.kane_residual(q, u, a, tn * tau_max, grf, w, body) / res_scale
+        g_active = ca.vertcat(((q_rel - q_prev_rel) / s.h - u) / us, ((u - u_prev) / s.h - a) / as_, res)
+        g_copy = ca.vertcat((q_rel - q_prev_rel) / (s.h * us), (u - u_prev) / (s.h * as_), z[2 * N_Q : 3 * N_Q])
         te = self._strength_scaled(tn, q) if s.ankle_strength_slope else tn
         effort = ca.dot(c, te**2) + s.w_acc * ca.sumsqr(a * (T**2 / (4 * math.pi**2)))
         g = active * g_active + (1 - active) * g_copy
@@ -345,8 +338,8 @@ class StrideProblem:
         s, lay, n = self.settings, self.params, self.n
         P = ca.MX.sym("P", lay.size)
         par = {name: P[sl] for name, sl in lay.slices.items()}
-        z = ca.MX.sym("z", n * self.per_node)
-        Z = ca.reshape(z, self.per_node, n)
+        z = ca.MX.sym("z", n * _PER_NODE)
+        Z = ca.reshape(z, _PER_NODE, n)
         us = par["u_scale"]
         zp0 = ca.vertcat(0, par["q_prev"][1:], par["u_prev"] / us)
         Zp = ca.horzcat(zp0, Z[0 : 2 * N_Q, 0 : n - 1]) if n > 1 else zp0
@@ -407,7 +400,6 @@ class StrideProblem:
         u_ref: np.ndarray,
         guess_q: np.ndarray,
         guess_tau: np.ndarray,
-        guess_grf: np.ndarray | None = None,
     ) -> StrideResult:
         """Solve the horizon ``plans`` (one per bucket) from the fixed previous state.
 
@@ -419,8 +411,6 @@ class StrideProblem:
             guess_q: (Σ n_nodes, 9) initial guess of q (absolute pelvis_tx); u and q̈ of the
                 guess are its backward differences from the previous state.
             guess_tau: (Σ n_nodes, 6) initial guess of τ, N·m.
-            guess_grf: (Σ n_nodes, 4) initial guess of the GRF (N) when the contact is lifted;
-                default: the contact model's forces of the guess.
         """
         s = self.settings
         if len(plans) != len(self.buckets):
@@ -430,7 +420,9 @@ class StrideProblem:
             raise ValueError(f"strides of {counts} nodes do not fit the buckets {self.buckets}")
         n_active = sum(counts)
         if guess_q.shape != (n_active, N_Q) or guess_tau.shape != (n_active, N_TAU):
-            raise ValueError(f"guess must be ({n_active}, 9) and ({n_active}, 6), got {guess_q.shape}, {guess_tau.shape}")
+            raise ValueError(
+                f"guess must be ({n_active}, 9) and ({n_active}, 6), got {guess_q.shape}, {guess_tau.shape}"
+            )
         v_max = max(p.speed for p in plans)
         sc = self.scales(body, v_max)
         sigma_u = np.array([s.sigma_u_tx * max(v_max, 1.0), s.sigma_u_ty] + [s.sigma_u_joint] * (N_Q - 2))
@@ -458,17 +450,17 @@ class StrideProblem:
                 "node": node,
             }
         )
-        z0 = self._pack_guess(q_prev, u_prev, guess_q, guess_tau, guess_grf, body, sc, active)
+        z0 = self._pack_guess(q_prev, u_prev, guess_q, guess_tau, sc, active)
         lbx, ubx = self._bounds(body)
         t0 = time.perf_counter()
         out = self._solver(x0=np.clip(z0, lbx, ubx), p=params, lbx=lbx, ubx=ubx, lbg=0.0, ubg=0.0)
         solve_time = time.perf_counter() - t0
         stats = self._solver.stats()
-        nodes = np.asarray(out["x"]).reshape(self.n, self.per_node)[active]
+        nodes = np.asarray(out["x"]).reshape(self.n, _PER_NODE)[active]
         q = nodes[:, :N_Q].copy()
         q[:, 0] += q_prev[0]
         u = nodes[:, N_Q : 2 * N_Q] * sc["u_scale"]
-        tau = nodes[:, 3 * N_Q : _BASE_NODE] * sc["tau_max"]
+        tau = nodes[:, 3 * N_Q :] * sc["tau_max"]
         qdd = np.diff(np.vstack([u_prev, u]), axis=0) / s.h
         result = StrideResult(
             q=q,
@@ -494,8 +486,6 @@ class StrideProblem:
         q_hi = np.concatenate([[np.inf, s.pelvis_height_bounds[1] * H, s.tilt_bounds[1]], hi_j])
         lo = np.concatenate([q_lo, np.full(2 * N_Q, -np.inf), np.full(N_TAU, -s.tau_bound)])
         hi = np.concatenate([q_hi, np.full(2 * N_Q, np.inf), np.full(N_TAU, s.tau_bound)])
-        if s.lift_contact:
-            lo, hi = np.append(lo, np.full(N_GRF, -np.inf)), np.append(hi, np.full(N_GRF, np.inf))
         return np.tile(lo, self.n), np.tile(hi, self.n)
 
     def _pack_guess(
@@ -504,24 +494,17 @@ class StrideProblem:
         u_prev: np.ndarray,
         q: np.ndarray,
         tau: np.ndarray,
-        grf: np.ndarray | None,
-        body: BodyParameters,
         sc: Mapping[str, np.ndarray],
         active: np.ndarray,
     ) -> np.ndarray:
         """Scaled decision vector: the guess at the active nodes, copies of the stride's last
-        node (q̈ = τ = 0, GRF = 0) at the inactive ones."""
+        node (q̈ = τ = 0) at the inactive ones."""
         h = self.settings.h
         u = np.diff(np.vstack([q_prev, q]), axis=0) / h
         a = np.diff(np.vstack([u_prev, u]), axis=0) / h
         q_rel = q - np.array([q_prev[0]] + [0.0] * (N_Q - 1))
-        parts = [q_rel, u / sc["u_scale"], a / self.a_scale, tau / sc["tau_max"]]
-        if self.settings.lift_contact:
-            if grf is None:
-                grf = np.asarray(dyn.contact_forces(q, u, body, self.contact)[0])
-            parts.append(grf / body.body_weight)
-        act = np.concatenate(parts, axis=1)
-        nodes = np.zeros((self.n, self.per_node))
+        act = np.concatenate([q_rel, u / sc["u_scale"], a / self.a_scale, tau / sc["tau_max"]], axis=1)
+        nodes = np.zeros((self.n, _PER_NODE))
         nodes[active] = act
         idx = np.flatnonzero(active)
         for k in np.flatnonzero(~active):
@@ -654,22 +637,18 @@ class PeriodicReference:
         lam = (speed - a.speed) / (b.speed - a.speed)
         return tuple((1 - lam) * xa + lam * xb for xa, xb in zip(a.at(phase), b.at(phase)))
 
-    def stride(
-        self, speed: float, n_nodes: int, h: float, x_prev: float = 0.0, stretch: bool = True
-    ) -> ReferenceStride:
+    def stride(self, speed: float, n_nodes: int, h: float, x_prev: float = 0.0) -> ReferenceStride:
         """Reference stride of ``n_nodes`` nodes at ``speed`` (m/s), step ``h`` (s), after a
         previous state at pelvis_tx = ``x_prev`` (m).
 
-        With ``stretch`` the reference cycle is stretched to the stride (node k at phase k/n);
-        without, it runs at its own pace (node k at time k·h of a cycle of the nominal duration,
-        continued periodically), which keeps the flight phases ballistic and the contacts
-        consistent for a first guess of a stride longer or shorter than the reference.
+        The reference cycle is stretched to the stride: node k lies at phase k/n, so the last
+        node is the state just before the next stride's boundary.
 
         Returns:
             The nodes' q, u, τ and GRF and the state before the first node on the same reference
             (pelvis_tx = x_prev).
         """
-        T = n_nodes * h if stretch else self.nominal_duration(speed)
+        T = n_nodes * h
         phase = np.arange(-1, n_nodes) * h / T
         q, u_phase, tau, grf = self._blend(speed, phase)
         q[:, 0] += x_prev - q[0, 0] + speed * h * np.arange(n_nodes + 1)
@@ -833,24 +812,20 @@ def simulate_chain(
     records: list[StrideRecord] = []
     for k, plan in enumerate(plans):
         horizon = padded[k : k + 1 + lookahead]
-        guess: dict[str, list[np.ndarray]] = {"q": [], "tau": [], "grf": []}
-        plain: dict[str, list[np.ndarray]] = {"q": [], "tau": [], "grf": []}
+        guess: dict[str, list[np.ndarray]] = {"q": [], "tau": []}
+        plain: dict[str, list[np.ndarray]] = {"q": [], "tau": []}
         x_last, q_last = q_prev[0], q_prev
         target = first
         for i, p in enumerate(horizon):
-            target = reference.stride(p.speed, p.n_nodes, h, x_last)  # stretched: ends at the boundary
-            ref = reference.stride(p.speed, p.n_nodes, h, x_last, stretch=s.guess_stretch)
-            plain["q"].append(_blend_into(ref.q, ref.q_prev, q_prev) if i == 0 else ref.q)
-            plain["tau"].append(ref.tau)
-            plain["grf"].append(ref.grf)
+            target = reference.stride(p.speed, p.n_nodes, h, x_last)
+            plain["q"].append(_blend_into(target.q, target.q_prev, q_prev) if i == 0 else target.q)
+            plain["tau"].append(target.tau)
             if i == 0 and carried is not None:
                 guess["q"].append(carried[0])
                 guess["tau"].append(carried[1])
-                guess["grf"].append(np.asarray(dyn.contact_forces(carried[0], np.gradient(carried[0], h, axis=0), body, solvers.contact)[0]))
             else:
-                guess["q"].append(_blend_into(ref.q, ref.q_prev, q_last))
-                guess["tau"].append(ref.tau)
-                guess["grf"].append(ref.grf)
+                guess["q"].append(_blend_into(target.q, target.q_prev, q_last))
+                guess["tau"].append(target.tau)
             x_last, q_last = guess["q"][-1][-1, 0], guess["q"][-1][-1]
         counts = [p.n_nodes for p in horizon]
         attempts = [(True, guess), (False, plain)]
@@ -859,9 +834,8 @@ def simulate_chain(
         for warm, g in attempts:
             n_try += 1
             problem = solvers.get(counts, warm=warm)
-            grf_guess = np.vstack(g["grf"]) if s.guess_grf == "reference" else None
             result = problem.solve(
-                body, q_prev, u_prev, horizon, target.q[-1], target.u[-1], np.vstack(g["q"]), np.vstack(g["tau"]), grf_guess
+                body, q_prev, u_prev, horizon, target.q[-1], target.u[-1], np.vstack(g["q"]), np.vstack(g["tau"])
             )
             total_iter += result.iterations
             total_time += result.solve_time

@@ -47,7 +47,9 @@ def run(args: argparse.Namespace) -> int:
     for split, names in dataset.splits.items():
         subjects = sorted({info["recordings"][n]["subject"] for n in names})
         print(f"  {split:<5}       {len(names)} recording(s), subjects {', '.join(subjects)}")
-    print(f"data          {info['n_recordings']} recordings, {info['total_duration_s']:.1f} s, {res['samples']} samples at 100 Hz")
+    print(
+        f"data          {info['n_recordings']} recordings, {info['total_duration_s']:.1f} s, {res['samples']} samples at 100 Hz"
+    )
     print(f"time          {elapsed:.1f} s (solver build {solver['build_time_s']:.1f} s)")
     if solver["strides_solved"]:
         print(

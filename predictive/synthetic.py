@@ -15,7 +15,10 @@ Method
    get a further ×(1 ± 10 %); thigh and shank lengths ×(1 ± 5 %) and the foot geometry (heel, toe,
    CoM) ×(1 ± 5 %); CoM shifted along the segment by ± 3 % and across it by ± 1 % of the segment
    length; and every leg quantity an extra ± 2 % per side (left/right asymmetry). All are uniform
-   deviations (half-widths given). These spreads are design choices of the order of the
+   deviations (half-widths given); combined, a leg segment's mass deviates by up to about ± 20 %
+   (HAT ± 6 %) and, through mass × length² × its own factor, its inertia by up to about ± 45 %
+   (extremes of 2,000 draws; the per-parameter deviations of every subject are in ``dataset.json``,
+   ``info.subjects.<id>.body_deviation``). These spreads are design choices of the order of the
    differences between published anthropometric tables (e.g. thigh mass 10.0 % of body mass in
    Dempster/Winter but 14.2 % in de Leva 1996, J Biomech 29:1223–1230; CoM positions differing
    by a few % of the segment length) and of the prediction errors of such tables for
@@ -79,6 +82,7 @@ from predictive.collocation import OCPError, solve_predictive, typical_stride_du
 from predictive.solution import GaitSolution
 from predictive.stride_chain import (
     DEFAULT_BOUNDARY,
+    WARM_START_IPOPT,
     ChainError,
     ChainResult,
     PeriodicReference,
@@ -219,7 +223,9 @@ class SynthConfig:
         if len(self.program_names) != len(self.programs) or len(set(self.program_names)) != len(self.programs):
             raise ValueError(f"program_names must name each program once, got {self.program_names}")
         if not 1 <= self.programs_per_subject <= len(self.programs):
-            raise ValueError(f"programs_per_subject must be in 1..{len(self.programs)}, got {self.programs_per_subject}")
+            raise ValueError(
+                f"programs_per_subject must be in 1..{len(self.programs)}, got {self.programs_per_subject}"
+            )
         if not self.duration_s > 0:
             raise ValueError(f"duration_s must be > 0, got {self.duration_s}")
         if self.workers < 1:
@@ -246,7 +252,9 @@ class SynthConfig:
                 sub_allowed = {f.name for f in dataclasses.fields(nested[key])}
                 bad = set(value or {}) - sub_allowed
                 if bad:
-                    raise ValueError(f"{source}: unknown {key} setting(s) {sorted(bad)}; allowed: {sorted(sub_allowed)}")
+                    raise ValueError(
+                        f"{source}: unknown {key} setting(s) {sorted(bad)}; allowed: {sorted(sub_allowed)}"
+                    )
                 kwargs[key] = nested[key](**{k: _tuples(v) for k, v in (value or {}).items()})
             elif key in ("programs", "program_names"):
                 kwargs[key] = _tuples(value)
@@ -317,14 +325,23 @@ def _rng(config: SynthConfig, *stream: int) -> np.random.Generator:
 
 
 def sample_subjects(config: SynthConfig) -> list[VirtualSubject]:
-    """The virtual subjects of ``config`` with their splits (deterministic by seed)."""
+    """The virtual subjects of ``config`` with their splits (deterministic by seed).
+
+    The splits are stratified by each subject's first program (subject i starts with program
+    i mod P): the subjects of each program are shuffled and interleaved (programs in a random
+    order), and the test, val and train splits take their shares from that sequence in turn, so
+    every split of two or more subjects holds every program when it can.
+    """
     d = config.subjects
-    order = _rng(config, 0).permutation(config.n_subjects)
+    rng = _rng(config, 0)
+    n_prog = len(config.programs)
+    groups = [list(rng.permutation(np.arange(p, config.n_subjects, n_prog))) for p in rng.permutation(n_prog)]
+    order = [int(g[k]) for k in range(max(len(g) for g in groups)) for g in groups if k < len(g)]
     split_of: dict[int, str] = {}
     start = 0
-    for split in SPLITS:
+    for split in ("test", "val", "train"):
         for i in order[start : start + config.splits.get(split, 0)]:
-            split_of[int(i)] = split
+            split_of[i] = split
         start += config.splits.get(split, 0)
     subjects = []
     for i in range(config.n_subjects):
@@ -489,7 +506,11 @@ def periodic_duration(speed: float, body: BodyParameters, h: float) -> float:
 
 
 def _solve_periodic(
-    speed: float, body: BodyParameters, stride: StrideSettings, guess: GaitSolution | None
+    speed: float,
+    body: BodyParameters,
+    stride: StrideSettings,
+    guess: GaitSolution | None,
+    ipopt_options: Mapping[str, Any] | None = None,
 ) -> GaitSolution:
     T = periodic_duration(speed, body, stride.h)
     n_half = round(T / (2 * stride.h))
@@ -497,7 +518,9 @@ def _solve_periodic(
     for k in ("speed", "n_nodes", "duration", "effort", "gait_cycle", "free_duration"):
         settings.pop(k)
     settings = {k: tuple(v) if isinstance(v, list) else v for k, v in settings.items()}
-    return solve_predictive(speed, body, n_nodes=n_half, duration=T, guess=guess, **settings)
+    return solve_predictive(
+        speed, body, n_nodes=n_half, duration=T, guess=guess, ipopt_options=ipopt_options, **settings
+    )
 
 
 def _periodic_key(speed: float, body: BodyParameters, stride: StrideSettings, guess_key: str | None) -> str:
@@ -510,7 +533,10 @@ def _continuation_order(speeds: Sequence[float]) -> list[tuple[float, float | No
     """(speed, speed of its guess or None for the generic guess): each gait family (walking
     below RUN_SPEED, running above) starts at its anchor and proceeds to the nearest solved speed."""
     order: list[tuple[float, float | None]] = []
-    for anchor, family in ((ANCHORS[0], [v for v in speeds if v < RUN_SPEED]), (ANCHORS[1], [v for v in speeds if v >= RUN_SPEED])):
+    for anchor, family in (
+        (ANCHORS[0], [v for v in speeds if v < RUN_SPEED]),
+        (ANCHORS[1], [v for v in speeds if v >= RUN_SPEED]),
+    ):
         if not family:
             continue
         solved = [anchor]
@@ -545,17 +571,21 @@ def periodic_library(
     templates: Mapping[float, tuple[GaitSolution, str]],
 ) -> dict[float, tuple[GaitSolution, str]]:
     """Periodic gaits of ``body`` at ``speeds`` (m/s), each warm-started from the template at the
-    same speed (falling back to the generic guess); returns speed → (solution, cache key)."""
+    same speed with IPOPT's warm-start options (:data:`~predictive.stride_chain.WARM_START_IPOPT`:
+    faster, and it stays in the template's gait), falling back to IPOPT's defaults and then to the
+    generic guess; returns speed → (solution, cache key)."""
     out: dict[float, tuple[GaitSolution, str]] = {}
     for speed in speeds:
         guess, guess_key = templates[speed]
         key = _periodic_key(speed, body, stride, guess_key)
 
         def solve(s: float = speed, g: GaitSolution = guess) -> GaitSolution:
-            try:
-                return _solve_periodic(s, body, stride, g)
-            except OCPError:
-                return _solve_periodic(s, body, stride, None)
+            for guess_sol, options in ((g, WARM_START_IPOPT), (g, None)):
+                try:
+                    return _solve_periodic(s, body, stride, guess_sol, options)
+                except OCPError:
+                    pass
+            return _solve_periodic(s, body, stride, None)
 
         out[speed] = (cache.periodic(key, solve), key)
     return out
@@ -739,7 +769,10 @@ def generate_subject(
                     "ground_truth": {
                         "body": _jsonable(subject.body.to_dict()),
                         "imu_placement": _jsonable(
-                            {s: {"position_m": true_placement.positions[s], "angle_rad": true_placement.angles[s]} for s in SEGMENTS}
+                            {
+                                s: {"position_m": true_placement.positions[s], "angle_rad": true_placement.angles[s]}
+                                for s in SEGMENTS
+                            }
                         ),
                     },
                     "imu_error_model": _jsonable(model.to_dict()),
@@ -794,7 +827,9 @@ def _recording_chain(
             report(f"{name}: stride {r.index + 1}/{n}", seconds)
 
         def solve(plans: list[StridePlan] = plans) -> ChainResult:
-            return simulate_chain(subject.body, plans, reference, solvers, lookahead=config.lookahead, on_stride=on_stride)
+            return simulate_chain(
+                subject.body, plans, reference, solvers, lookahead=config.lookahead, on_stride=on_stride
+            )
 
         hits = cache.stats.chain_hits
         try:
@@ -921,7 +956,9 @@ def generate_dataset(
                 "strides_solved": len(strides) if cache_stats.chain_solved else 0,
                 "iterations_mean": float(np.mean([r.iterations for r in strides])) if strides else None,
                 "solve_time_s": round(sum(r.solve_time for r in strides), 2),
-                "solve_time_per_stride_s": round(float(np.mean([r.solve_time for r in strides])), 3) if strides else None,
+                "solve_time_per_stride_s": round(float(np.mean([r.solve_time for r in strides])), 3)
+                if strides
+                else None,
                 "retried_strides": int(sum(r.attempts > 1 for r in strides)),
                 "build_time_s": round(build_time, 2),
             },
@@ -930,7 +967,9 @@ def generate_dataset(
         }
     )
     (out / "dataset.json").write_text(
-        json.dumps({"format": "sspinn-dataset", "version": 1, "splits": dataset.splits, "info": _jsonable(info)}, indent=2)
+        json.dumps(
+            {"format": "sspinn-dataset", "version": 1, "splits": dataset.splits, "info": _jsonable(info)}, indent=2
+        )
     )
     return Dataset.open(out)
 
@@ -989,7 +1028,9 @@ def _prepare_out_dir(out: Path) -> None:
                         (out / f"{n}{ext}").unlink(missing_ok=True)
             index.unlink()
     if any(out.iterdir()):
-        raise FileExistsError(f"{out} is not empty and holds no earlier output of predictive.synthetic; choose another --out")
+        raise FileExistsError(
+            f"{out} is not empty and holds no earlier output of predictive.synthetic; choose another --out"
+        )
 
 
 def _progress_bar(enabled: bool, total: float) -> Any:
