@@ -226,7 +226,7 @@ class Recording:
             if not p.exists():
                 raise DataFormatError(f"{p}: file not found (a recording is a .csv plus a .json sidecar)")
         meta = _read_sidecar(sidecar_path)
-        names, table = _read_csv(csv)
+        names, table = read_csv_table(csv)
         col = {n: i for i, n in enumerate(names)}
         if "time" not in col:
             raise DataFormatError(f"{csv}: missing column 'time'")
@@ -301,7 +301,9 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
     return meta
 
 
-def _read_csv(path: Path) -> tuple[list[str], np.ndarray]:
+def read_csv_table(path: Path) -> tuple[list[str], np.ndarray]:
+    """(column names, (rows, columns) float array) of a comma-separated file with one header
+    line; clear errors for duplicate columns, unreadable numbers and ragged rows."""
     with path.open() as fh:
         header = fh.readline().strip()
     names = [n.strip() for n in header.split(",")]

@@ -19,7 +19,7 @@ from scipy.interpolate import CubicSpline
 
 from sspinn.body import IMUPlacement
 from sspinn.conventions import GRAVITY, GRF, IMU_CHANNELS, JOINTS, SEGMENTS
-from sspinn.dataset import SAMPLE_RATE_HZ, DataFormatError, Labels, Recording
+from sspinn.dataset import SAMPLE_RATE_HZ, DataFormatError, Labels, Recording, read_csv_table
 
 #: OpenSim coordinate names of our joints (as used in ../shared/data): hip_r → hip_flexion_r.
 OPENSIM_NAMES = {j: j.replace("hip", "hip_flexion").replace("knee", "knee_angle").replace("ankle", "ankle_angle") for j in JOINTS}
@@ -31,16 +31,10 @@ _AVERAGED_LABELS = {
 
 
 def _read_table(path: Path) -> tuple[list[str], np.ndarray]:
+    """:func:`sspinn.dataset.read_csv_table`, plus existence and finiteness checks."""
     if not path.exists():
         raise DataFormatError(f"{path}: file not found")
-    with path.open() as fh:
-        names = [n.strip() for n in fh.readline().strip().split(",")]
-    try:
-        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-    except ValueError as exc:
-        raise DataFormatError(f"{path}: unreadable numbers ({exc})") from None
-    if data.shape[1] != len(names):
-        raise DataFormatError(f"{path}: {len(names)} header columns but {data.shape[1]} values per row")
+    names, data = read_csv_table(path)
     bad = ~np.isfinite(data)
     if bad.any():
         r, c = np.argwhere(bad)[0]
