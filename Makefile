@@ -4,7 +4,13 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test generate bench lint clean
+.PHONY: demo showcase test generate bench lint clean
+
+# The main job on the embedded default: generate (or reuse) the small synthetic dataset, train the
+# CPU-sized SSPINNpose configuration (≤ 13 min; rerunning continues an unfinished run) and evaluate
+# it on the held-out test subject.
+SYNTH := data/synth_default
+DEMO  := results/demo
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -13,7 +19,12 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/python -m sspinn demo --out results/demo
+	$(BIN)/python -m predictive synth --config configs/synth/default.yaml --out $(SYNTH)
+	$(BIN)/python -m sspinn train --config configs/sspinn/demo.yaml --data $(SYNTH) --out $(DEMO)/run --auto-resume
+	$(BIN)/python -m sspinn evaluate --model $(DEMO)/run/model.pt --data $(SYNTH) --split test --out $(DEMO)/test
+
+showcase: $(STAMP)
+	$(BIN)/python -m sspinn showcase --out results/showcase
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

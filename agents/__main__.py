@@ -19,6 +19,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resume", action="store_true", help="continue from the latest checkpoint in --out")
     p.add_argument("--total-timesteps", type=int, help="override total_timesteps")
     p.add_argument("--seed", type=int, help="override seed")
+    p.add_argument("--target-speed", type=float,
+                   help="override the training and evaluation target speed, m/s (env.kwargs.target_speed)")
 
     for name, text in (("evaluate", "deterministic evaluation: JSON, plot, animation"),
                        ("record", "render one deterministic episode to a GIF or MP4")):
@@ -51,6 +53,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                 raise ConfigError(f"--algo {args.algo} but {args.config} has algo: {config.algo}")
             overrides = {k: v for k, v in (("total_timesteps", args.total_timesteps), ("seed", args.seed))
                          if v is not None}
+            if args.target_speed is not None:
+                env = config.to_dict()["env"]
+                env["kwargs"] = {**env["kwargs"], "target_speed": args.target_speed}
+                env["eval_target_speed"] = args.target_speed
+                overrides["env"] = env
             if overrides:
                 config = config.with_overrides(**overrides)
             train(config, args.out, resume=args.resume)

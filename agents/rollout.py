@@ -83,6 +83,7 @@ def run_episode(
     target_speed: float | None = None,
     record_traces: bool = False,
     frame_every: int = 0,
+    reset_options: dict[str, Any] | None = None,
 ) -> EpisodeResult:
     """Run one episode of ``policy`` in ``env`` from ``reset(seed=seed)`` until it ends.
 
@@ -93,11 +94,14 @@ def run_episode(
         target_speed: m/s, passed as ``reset(options={"target_speed": ...})``; None keeps the env's.
         record_traces: keep time series of joint angles (rad), actuator torques (N·m) and ground
             reaction forces (N) under ``traces`` (keys ``time``, ``angles``, ``torques``, ``grf``,
-            ``speed``).
+            ``speed``, and the full state ``q``, ``u`` after each step).
         frame_every: keep every ``frame_every``-th rendered frame (0: none).
+        reset_options: further ``reset`` options (e.g. ``{"initial_state": (q, u)}``).
     """
-    options = None if target_speed is None else {"target_speed": float(target_speed)}
-    obs, info = env.reset(seed=seed, options=options)
+    options = dict(reset_options or {})
+    if target_speed is not None:
+        options["target_speed"] = float(target_speed)
+    obs, info = env.reset(seed=seed, options=options or None)
     target = float(info["target_speed"])
     unwrapped = env.unwrapped
     dt = float(unwrapped.dt)
@@ -105,6 +109,7 @@ def run_episode(
     torques: list[np.ndarray] = []
     grfs: list[np.ndarray] = []
     speeds: list[float] = []
+    states: list[np.ndarray] = []
     frames: list[np.ndarray] = []
     if frame_every:
         frames.append(env.render())
@@ -129,8 +134,9 @@ def run_episode(
                 airborne[foot] = False
                 touchdowns += 1
         if record_traces:
-            q, _ = unwrapped.state
+            q, u = unwrapped.state
             angles.append(q[3:])
+            states.append(np.concatenate([q, u]))
             torques.append(np.asarray(info["torques"]))
             grfs.append(np.asarray(info["grf"]))
             speeds.append(float(info["speed"]))
@@ -147,6 +153,8 @@ def run_episode(
             "torques": np.asarray(torques),
             "grf": np.asarray(grfs),
             "speed": np.asarray(speeds),
+            "q": np.asarray(states)[:, :9],
+            "u": np.asarray(states)[:, 9:],
         }
     return EpisodeResult(
         seed=seed,

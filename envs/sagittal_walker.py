@@ -107,7 +107,10 @@ class SagittalWalkerEnv(gymnasium.Env):
     each, midway between heel and toe, with the body's centre of mass above the ankles: the body is
     not statically balanced and must be controlled from the first step. The target speed is fixed,
     or drawn uniformly from ``target_speed=(low, high)`` at every reset, or given as
-    ``reset(options={"target_speed": v})``.
+    ``reset(options={"target_speed": v})``. ``reset(options={"initial_state": (q, u)})`` starts
+    from another state instead of standing (q, u: 9 coordinates and speeds in SI units; pelvis_tx
+    is set to 0 and the same noise is added) — e.g. on a gait cycle, for controllers that track one
+    (:mod:`predictive.closed_loop`).
 
     ## Passive joint moments
 
@@ -326,10 +329,13 @@ class SagittalWalkerEnv(gymnasium.Env):
         else:
             self._target = np.asarray(low if low == high else self.np_random.uniform(low, high))
         noise = self.setup["reset_noise_scale"]
-        q = np.zeros(N_Q)
+        q, u = np.zeros(N_Q), np.zeros(N_Q)
         q[1] = self._standing
+        if options is not None and "initial_state" in options:
+            q, u = _initial_state(options["initial_state"])
+        q[0] = 0.0
         q[1:] += self.np_random.uniform(-noise, noise, N_Q - 1)
-        u = self.np_random.uniform(-noise, noise, N_Q)
+        u = u + self.np_random.uniform(-noise, noise, N_Q)
         self.set_state(q, u)
         self._tau[:] = 0.0
         self._x0 = float(self._q[0])
@@ -402,6 +408,17 @@ class SagittalWalkerEnv(gymnasium.Env):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+
+def _initial_state(value: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(q, u) copies from ``options["initial_state"]``, with a clear error for bad values."""
+    try:
+        q, u = (np.array(v, dtype=np.float64) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError("options['initial_state'] must be a pair (q, u) of 9 numbers each (m, rad, m/s, rad/s)") from None
+    if q.shape != (N_Q,) or u.shape != (N_Q,) or not (np.isfinite(q).all() and np.isfinite(u).all()):
+        raise ValueError(f"options['initial_state'] must be finite (q, u) of shape ({N_Q},) each, got {q.shape} and {u.shape}")
+    return q, u
 
 
 def build_setup(

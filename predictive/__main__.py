@@ -13,7 +13,7 @@ import json
 import sys
 from pathlib import Path
 
-from predictive import synth_cli, tracking_cli
+from predictive import compare_cli, generator_cli, synth_cli, tracking_cli
 from predictive.analysis import DEFAULT_DATA_DIR, compare_with_reference, load_winter, plot_gait
 from predictive.collocation import OCPError, solve_predictive
 from predictive.solution import GaitSolution
@@ -41,6 +41,8 @@ def _parser() -> argparse.ArgumentParser:
     solve.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
     tracking_cli.add_parser(sub)  # track-imu: IMU tracking of an averaged stride (predictive/tracking_cli.py)
     synth_cli.add_parser(sub)  # synth: physically exact synthetic dataset (predictive/synth_cli.py)
+    generator_cli.add_parsers(sub)  # train-generator, generate: self-supervised gait generator
+    compare_cli.add_parser(sub)  # compare: generator vs SB3 agents vs OCP (predictive/comparison.py)
     return parser
 
 
@@ -98,6 +100,10 @@ def main(argv: list[str] | None = None) -> int:
         return tracking_cli.run(args)
     if args.command == synth_cli.COMMAND:
         return synth_cli.run(args)
+    if args.command in generator_cli.COMMANDS:
+        return generator_cli.run(args)
+    if args.command == compare_cli.COMMAND:
+        return compare_cli.run(args)
     raise AssertionError(args.command)  # argparse enforces the sub-commands
 
 

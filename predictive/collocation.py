@@ -400,7 +400,7 @@ class PredictiveGaitProblem:
         out = [tn[j] for j in range(N_TAU)]
         for j in (2, 5):  # ankle_r, ankle_l in JOINTS order
             theta = q[3 + j]
-            out[j] = tn[j] * ca.exp(k * theta * ca.tanh(tn[j] / 0.02))
+            out[j] = tn[j] * ankle_strength(tn[j], theta, k, ca.exp, ca.tanh)
         return ca.vertcat(*out)
 
     def _get_solver(self, ipopt_options: Mapping[str, Any] | None, verbose: bool) -> ca.Function:
@@ -420,41 +420,13 @@ class PredictiveGaitProblem:
 
     # ----------------------------------------------------------------- guesses
     def generic_guess(self) -> np.ndarray:
-        """A data-free initial guess (scaled decision vector) from textbook gait shapes.
-
-        pelvis_tx = v·t, hip joint centre at a constant height, upright trunk, zero torques;
-        per leg (left half a cycle later), with s = t/T from the leg's heel strike and a stance
-        fraction σ (0.6 walking, 0.35 running, switched at 2 m/s): hip = h0 + A·cos(2πs),
-        the knee flexed by a Gaussian bump in mid-swing (and a smaller one in early stance), the
-        ankle briefly plantarflexed around toe-off. u and q̈ are backward differences of q.
-        For ``speed == 0`` the guess is quiet standing.
-        """
+        """A data-free initial guess (scaled decision vector): the textbook shapes of
+        :func:`generic_gait`, zero torques; u and q̈ are backward differences of q."""
         s = self.settings
         T = s.stride_duration
         n_cycle = self._n_intervals_per_cycle
         t = np.arange(n_cycle) * T / n_cycle
-        leg = self.body.femur_r.length + self.body.tibia_r.length - self.body.foot_r.toe[1]
-        running = s.speed >= 2.0
-        moving = s.speed > 0
-        stance = 0.35 if running else 0.6
-        hip_amp, knee_stance, knee_swing, ankle_push = (0.45, 0.4, 1.6, 0.3) if running else (0.35, 0.15, 1.0, 0.3)
-        if not moving:
-            hip_amp = knee_stance = knee_swing = ankle_push = 0.0
-        q = np.zeros((n_cycle, N_Q))
-        q[:, 0] = s.speed * t
-        q[:, 1] = (0.92 if running else 0.97) * leg
-        q[:, 2] = -0.05 if running else 0.0
-
-        def bump(phase: np.ndarray, centre: float, width: float) -> np.ndarray:
-            d = (phase - centre + 0.5) % 1.0 - 0.5
-            return np.exp(-((d / width) ** 2))
-
-        for first, offset in ((3, 0.0), (6, 0.5)):
-            ph = (t / T + offset) % 1.0
-            swing_mid = stance + 0.4 * (1 - stance)
-            q[:, first] = 0.1 + hip_amp * np.cos(2 * np.pi * ph)
-            q[:, first + 1] = -0.05 - knee_stance * bump(ph, 0.15, 0.1) - knee_swing * bump(ph, swing_mid, 0.15)
-            q[:, first + 2] = 0.05 - ankle_push * bump(ph, stance, 0.08)
+        q = generic_gait(s.speed, T, t, self.body)
         return self._pack_guess(t, q, T, n_cycle)
 
     def guess_from_solution(self, sol: GaitSolution) -> np.ndarray:
@@ -584,6 +556,49 @@ class PredictiveGaitProblem:
             tau_max=self.tau_max.copy(),
             **info,
         )
+
+
+def generic_gait(speed: float, duration: float, time: np.ndarray, body: BodyParameters) -> np.ndarray:
+    """Data-free textbook gait coordinates q (n, 9) at ``time`` (s) for a cycle of ``duration``.
+
+    pelvis_tx = v·t, hip joint centre at a constant height, upright trunk; per leg (left half a
+    cycle later), with s = t/T from the leg's heel strike and a stance fraction σ (0.6 walking,
+    0.35 running, switched at 2 m/s): hip = h0 + A·cos(2πs), the knee flexed by a Gaussian bump
+    in mid-swing (and a smaller one in early stance), the ankle briefly plantarflexed around
+    toe-off. For ``speed == 0`` it is quiet standing. Used as the initial guess of the OCP and
+    as the warm-up target of the self-supervised gait generator.
+    """
+    t = np.asarray(time, dtype=float)
+    T = float(duration)
+    leg = body.femur_r.length + body.tibia_r.length - body.foot_r.toe[1]
+    running = speed >= 2.0
+    stance = 0.35 if running else 0.6
+    hip_amp, knee_stance, knee_swing, ankle_push = (0.45, 0.4, 1.6, 0.3) if running else (0.35, 0.15, 1.0, 0.3)
+    if not speed > 0:
+        hip_amp = knee_stance = knee_swing = ankle_push = 0.0
+    q = np.zeros((len(t), N_Q))
+    q[:, 0] = speed * t
+    q[:, 1] = (0.92 if running else 0.97) * leg
+    q[:, 2] = -0.05 if running else 0.0
+
+    def bump(phase: np.ndarray, centre: float, width: float) -> np.ndarray:
+        d = (phase - centre + 0.5) % 1.0 - 0.5
+        return np.exp(-((d / width) ** 2))
+
+    for first, offset in ((3, 0.0), (6, 0.5)):
+        ph = (t / T + offset) % 1.0
+        swing_mid = stance + 0.4 * (1 - stance)
+        q[:, first] = 0.1 + hip_amp * np.cos(2 * np.pi * ph)
+        q[:, first + 1] = -0.05 - knee_stance * bump(ph, 0.15, 0.1) - knee_swing * bump(ph, swing_mid, 0.15)
+        q[:, first + 2] = 0.05 - ankle_push * bump(ph, stance, 0.08)
+    return q
+
+
+def ankle_strength(tau_scaled: Any, theta: Any, slope: float, exp: Any, tanh: Any) -> Any:
+    """exp(k·θ·tanh(τn/0.02)): the factor (1 / relative ankle strength) that multiplies the
+    normalised ankle torque τn in the effort (module docstring); ``exp``/``tanh`` of the backend
+    (CasADi, torch or NumPy)."""
+    return exp(slope * theta * tanh(tau_scaled / 0.02))
 
 
 def typical_stride_duration(speed: float) -> float:

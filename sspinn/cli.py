@@ -1,6 +1,7 @@
 """Command-line interface: ``sspinn <command>`` (or ``python -m sspinn <command>``).
 
-Commands: ``demo`` (the main job on the embedded default), ``train``, ``finetune``, ``evaluate``,
+Commands: ``showcase`` (a physics showcase; the main job, ``make demo``, chains ``python -m
+predictive synth`` → ``sspinn train`` → ``sspinn evaluate``), ``train``, ``finetune``, ``evaluate``,
 ``infer``, ``export``. ``--data`` accepts a dataset folder (with ``dataset.json``), a folder with an
 averaged stride (``signals.csv`` + ``meta.json``) or a single recording ``.csv``.
 """
@@ -40,7 +41,7 @@ def _train(args: argparse.Namespace, finetune: bool) -> int:
     from sspinn.training import TrainConfig, Trainer
 
     overrides = {"steps": args.steps, "seed": args.seed, "device": args.device, "time_limit_s": args.time_limit}
-    config = TrainConfig.from_yaml(args.config, **overrides)
+    config = TrainConfig.from_yaml(args.config, settings=args.set, **overrides)
     if finetune:
         config.finetune = True
         config.learn_placement = args.learn_placement or config.learn_placement
@@ -107,8 +108,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="sspinn", description="Sagittal gait dynamics from IMUs, self-supervised.")
     sub = parser.add_subparsers(dest="command", required=True)
 
-    demo = sub.add_parser("demo", help="the main job on the embedded default (for now: a physics showcase)")
-    demo.add_argument("--out", type=Path, default=Path("results/demo"), help="output folder")
+    demo = sub.add_parser("showcase", help="a short physics showcase of the model (a drop landing, plots)")
+    demo.add_argument("--out", type=Path, default=Path("results/showcase"), help="output folder")
     demo.add_argument("--body", type=Path, default=None, help="body YAML (default: 1.75 m, 70 kg)")
 
     for name, help_text in (("train", "self-supervised training"), ("finetune", "continue training with the fine-tuning weights")):
@@ -122,6 +123,10 @@ def main(argv: list[str] | None = None) -> int:
         p.add_argument("--seed", type=int, default=None)
         p.add_argument("--device", default=None, help="cpu, cuda or auto")
         p.add_argument("--time-limit", type=float, default=None, help="stop after this many seconds (with a checkpoint)")
+        p.add_argument(
+            "--set", action="append", default=[], metavar="KEY=VALUE",
+            help="override a config entry, dotted for sections (repeatable), e.g. --set weights.kane=0",
+        )
         if name == "finetune":
             p.add_argument("--model", type=Path, required=True, help="trained model.pt to start from")
             p.add_argument("--learn-placement", action="store_true", help="also optimise the IMU placement")
@@ -145,8 +150,8 @@ def main(argv: list[str] | None = None) -> int:
 
     args = parser.parse_args(argv)
     try:
-        if args.command == "demo":
-            from sspinn import demo as demo_mod
+        if args.command == "showcase":
+            from sspinn import showcase as demo_mod
             from sspinn.body import BodyParameters
 
             body = BodyParameters.from_yaml(args.body) if args.body else None

@@ -40,6 +40,15 @@ class Metrics:
         return asdict(self)
 
 
+
+def angle_jitter(angles: np.ndarray, rate_hz: float) -> float:
+    """Mean |d³θ/dt³| (rad/s³) of angle time series (T, …) sampled at ``rate_hz``, by third
+    differences; NaN for fewer than 4 samples."""
+    angles = np.asarray(angles, dtype=float)
+    if len(angles) <= 3:
+        return float("nan")
+    return float(np.mean(np.abs(np.diff(angles, n=3, axis=0)))) * rate_hz**3
+
 def _pooled_rmse(est: np.ndarray, ref: np.ndarray) -> float:
     if est.size == 0:
         return float("nan")
@@ -64,7 +73,7 @@ def compute_metrics(est: GaitEstimate, rec: Recording, skip: int = 0) -> Metrics
     grfe = 100 * _pooled_rmse(est.grf[sl][:, [GRF.index(g) for g in gr]], np.stack([lab.column(g)[sl] for g in gr], -1)) / bw if gr else float("nan")
     speed = abs(float(np.mean(est.u[sl, 0])) - float(np.mean(lab.column("speed")[sl]))) if "speed" in have else float("nan")
     angles = est.q[sl][:, 2:]
-    jitter = float(np.mean(np.abs(np.diff(angles, n=3, axis=0)))) * SAMPLE_RATE_HZ**3 if len(angles) > 3 else float("nan")
+    jitter = angle_jitter(angles, SAMPLE_RATE_HZ)
     return Metrics(jae_deg=float(jae), jte_pct_bwbh=float(jte), grfe_pct_bw=float(grfe), speed_error_mps=speed, jitter=jitter, n_samples=len(est.time[sl]))
 
 

@@ -16,6 +16,7 @@ import dataclasses
 import os
 import random
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -77,7 +78,9 @@ class TrainConfig:
             raise ValueError(f"window must be at least 8 samples, got {self.window}")
 
     @classmethod
-    def from_yaml(cls, path: str | Path, **overrides: Any) -> TrainConfig:
+    def from_yaml(cls, path: str | Path, settings: list[str] | None = None, **overrides: Any) -> TrainConfig:
+        """Load ``path``; ``overrides`` replace top-level options (None = keep), ``settings`` are
+        ``"dotted.key=value"`` strings (YAML values), e.g. ``["weights.kane=0", "network.hidden=64"]``."""
         path = Path(path)
         data = yaml.safe_load(path.read_text()) or {}
         data = data.get("train", data)
@@ -86,6 +89,8 @@ class TrainConfig:
         if unknown:
             raise ValueError(f"{path}: unknown training option(s) {sorted(unknown)}; known: {sorted(known)}")
         data.update({k: v for k, v in overrides.items() if v is not None})
+        for assignment in settings or ():
+            _apply_setting(data, assignment, path)
         try:
             return cls(**data)
         except (TypeError, ValueError) as exc:
@@ -93,6 +98,20 @@ class TrainConfig:
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
+
+
+def _apply_setting(data: dict[str, Any], assignment: str, path: Path) -> None:
+    """Apply one ``"a.b=value"`` override to the loaded YAML mapping (clear error on bad keys)."""
+    key, sep, value = assignment.partition("=")
+    if not sep or not key:
+        raise ValueError(f"--set {assignment!r}: expected key=value, e.g. weights.kane=0")
+    *parents, leaf = key.strip().split(".")
+    node = data
+    for name in parents:
+        node = node.setdefault(name, {})
+        if not isinstance(node, dict):
+            raise ValueError(f"--set {assignment!r}: {name!r} of {path} is not a section")
+    node[leaf] = yaml.safe_load(value)
 
 
 def resolve_device(name: str) -> torch.device:
@@ -148,10 +167,8 @@ def prepare(recordings: list[Recording], segments: tuple[str, ...], zupt: bool =
 def foot_zupt_speeds(rec: Recording) -> np.ndarray | None:
     """(T, 2) horizontal foot speeds from a ZUPT Kalman filter on the foot IMUs (NaN for a
     missing foot), or None when no foot IMU is present."""
-    try:
-        from sspinn.zupt import foot_speed
-    except ImportError:  # pragma: no cover - the ZUPT module is part of the package
-        return None
+    from sspinn.zupt import NoStanceError, foot_speed
+
     feet = [s for s in ("foot_r", "foot_l") if s in rec.segments]
     if not feet:
         return None
@@ -159,7 +176,10 @@ def foot_zupt_speeds(rec: Recording) -> np.ndarray | None:
     for k, s in enumerate(("foot_r", "foot_l")):
         if s in rec.segments:
             sig = rec.imu[:, rec.segments.index(s)]
-            speeds[:, k] = foot_speed(sig[:, :2], sig[:, 2], SAMPLE_RATE_HZ)
+            try:
+                speeds[:, k] = foot_speed(sig[:, :2], sig[:, 2], SAMPLE_RATE_HZ)
+            except NoStanceError as exc:  # e.g. running: the foot never rests long enough
+                warnings.warn(f"{rec.name}, {s}: {exc}; the foot-speed loss L_FS is off for this foot", stacklevel=2)
     return speeds
 
 

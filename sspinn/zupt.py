@@ -82,6 +82,11 @@ ERROR_STATES: tuple[str, ...] = ("angle", "vel_x", "vel_y", "pos_x", "pos_y", "g
 # --------------------------------------------------------------------------------------------
 # Input checks and stance detection
 # --------------------------------------------------------------------------------------------
+
+class NoStanceError(ValueError):
+    """The detector found no zero-velocity phase (wrong units, or no quiet stance, e.g. running
+    with a rolling foot)."""
+
 def _check_inputs(acc_xy: np.ndarray, gyr_z: np.ndarray, sample_rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
     """Validate and convert the sensor signals; raise ``ValueError`` with a clear message."""
     if not np.isfinite(sample_rate_hz) or sample_rate_hz <= 0:
@@ -605,7 +610,7 @@ class SagittalZuptKalman:
             stance = stance.astype(bool)
         phases = stance_phases(stance)
         if len(phases) == 0:
-            raise ValueError(
+            raise NoStanceError(
                 "no stance (zero-velocity) phase detected: check the units (rad/s, m/s²) or the "
                 f"thresholds (zupt_gyro_threshold = {self.zupt_gyro_threshold:.3f} rad/s, "
                 f"zupt_acc_threshold = {self.zupt_acc_threshold} m/s²)"
@@ -689,16 +694,32 @@ def foot_speed(
     gyr_z: np.ndarray,
     sample_rate_hz: float,
     estimator: SagittalZuptKalman | None = None,
+    max_gap_s: float | None = 2.0,
 ) -> np.ndarray:
     """Horizontal foot-sensor speed |v_x| (T,), m/s, from a ZUPT Kalman estimate.
 
     ``acc_xy`` (T, 2) m/s² specific force and ``gyr_z`` (T,) rad/s in the sensor frame (module
     docstring); ``estimator`` (fitted in place) defaults to ``SagittalZuptKalman()``. The signed
     forward velocity is ``estimator.velocity_[:, 0]``.
+
+    Without zero-velocity updates the estimate drifts quadratically, so samples that are not
+    enclosed by two detected stance phases at most ``max_gap_s`` seconds apart (end to start) are
+    NaN (``max_gap_s=None`` keeps every sample): before the first and after the last stance, and in
+    stretches where the detector misses stances (e.g. fast gait with a rolling foot).
     """
     est = SagittalZuptKalman() if estimator is None else estimator
     est.estimate(acc_xy, gyr_z, sample_rate_hz)
-    return np.abs(est.velocity_[:, 0])
+    speed = np.abs(est.velocity_[:, 0])
+    if max_gap_s is not None:
+        valid = np.zeros(len(speed), dtype=bool)
+        phases = est.zupt_phases_
+        for (s0, e0), (s1, e1) in zip(phases[:-1], phases[1:]):
+            if (s1 - e0) / sample_rate_hz <= max_gap_s:
+                valid[s0:e1] = True
+        if len(phases):
+            valid[phases[-1, 0] : phases[-1, 1]] = True
+        speed[~valid] = np.nan
+    return speed
 
 
 # --------------------------------------------------------------------------------------------

@@ -263,3 +263,19 @@ def test_rendered_frame_has_the_right_shape_and_is_not_blank(env: SagittalWalker
     assert red.sum() > 50 and blue.sum() > 20, "right (red) and left (blue) legs must be drawn"
     with pytest.warns(UserWarning, match="without a render mode"):
         assert SagittalWalkerEnv().render() is None
+
+
+def test_reset_from_an_initial_state(env: SagittalWalkerEnv) -> None:
+    q = np.zeros(9)
+    q[:3] = (5.0, 0.95, 0.1)
+    q[3:] = (0.3, -0.2, 0.1, -0.1, -0.5, 0.0)
+    u = np.full(9, 0.5)
+    env.reset(seed=0, options={"initial_state": (q, u)})
+    q1, u1 = env.state
+    assert q1[0] == 0.0  # pelvis_tx starts at 0
+    noise = env.setup["reset_noise_scale"]
+    assert np.abs(q1[1:] - q[1:]).max() <= noise and np.abs(u1 - u).max() <= noise
+    with pytest.raises(ValueError, match="initial_state"):
+        env.reset(options={"initial_state": (np.zeros(8), np.zeros(9))})
+    with pytest.raises(ValueError, match="initial_state"):
+        env.reset(options={"initial_state": "standing"})

@@ -326,3 +326,18 @@ def test_real_stride_speed_vs_motion_capture(speeds: tuple[StrideSpeeds, dict[st
         assert s["max"] < 0.18, (foot, s)
     assert table.summary()["rmse"] < 0.09
     assert np.median(table.signal_rmse[straight]) < 0.22  # m/s within strides (peak foot speed ≈ 4.4 m/s)
+
+
+def test_foot_speed_masks_samples_without_nearby_stances() -> None:
+    """Samples not enclosed by stances at most max_gap_s apart are NaN (drift is not reported)."""
+    walk = synthetic_walk(n_strides=3)
+    est = SagittalZuptKalman()
+    full = foot_speed(walk["acc"], walk["gyr"], FS, estimator=est, max_gap_s=None)
+    assert np.isfinite(full).all()
+    strict = foot_speed(walk["acc"], walk["gyr"], FS, estimator=est, max_gap_s=0.0)
+    s_last, e_last = est.zupt_phases_[-1]
+    assert np.isfinite(strict[s_last:e_last]).all()
+    assert np.isnan(strict[: est.zupt_phases_[0, 1]]).all()  # every gap is longer than 0 s
+    loose = foot_speed(walk["acc"], walk["gyr"], FS, estimator=est)
+    first, last = est.zupt_phases_[0, 0], est.zupt_phases_[-1, 1]
+    assert np.isfinite(loose[first:last]).all() and np.isnan(loose[:first]).all() and np.isnan(loose[last:]).all()

@@ -1,4 +1,4 @@
-"""`sspinn demo`: a short physics showcase of the model (a drop landing).
+"""`sspinn showcase`: a short physics showcase of the model (a drop landing).
 
 The body starts 5 cm in the air in a slightly crouched pose, lands on the spring-damper ground
 and is held by joint-space PD torques around that pose for 0.8 s (there is no balance

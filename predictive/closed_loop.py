@@ -1,0 +1,242 @@
+"""Closed-loop deployment of a periodic gait in the Gymnasium environment.
+
+A gait cycle — from trajectory optimisation (:mod:`predictive.collocation`) or from the
+self-supervised gait generator (:mod:`predictive.gait_generator`) — is only a plan: replayed open
+loop, any mismatch (the environment's discrete integration, passive joint moments, initial-state
+noise) makes the body fall within a few steps. Both are therefore deployed the same way, by a
+**feedforward + periodic time-varying LQR** controller:
+
+    a_k = a_ff[i] + K_i · (z_ref[i] − z_k),    i = k mod N,
+
+with the environment's own action scaling (a = τ / τ_max, clipped to [−1, 1] by the environment).
+
+* The reference is the cycle resampled on the control grid t_k = k·0.01 s. The cycle is time-scaled
+  by N·dt / T (N = round(T / dt) samples) so that it repeats after a whole number of control
+  steps; the average speed is kept (the stride length changes by the same < 0.5 %).
+* z = observation[:17] = (pelvis_ty, pelvis_tilt, 6 joint angles, 9 speeds): every state except the
+  absolute horizontal position, on which the dynamics do not depend (flat ground). The controller
+  uses nothing but the observation and its step count, as the SB3 agents do.
+* a_ff: the cycle's joint torques at the middle of each control interval, minus the environment's
+  passive joint moments at that reference state (they are added by the environment), divided by
+  the environment's torque limits.
+* K_i: the discrete-time LQR gains of the environment's step map (100 Hz, its own integrator and
+  contact model) linearised around the reference by central finite differences, from the
+  periodic Riccati recursion iterated backward over cycles until the gains converge.
+
+Why this and not a PD law on the joints: the model is underactuated (pelvis x, y, tilt) and the
+trunk is balanced only through the hip torques and the ground; joint-space PD feedback leaves the
+trunk orientation and the forward speed uncontrolled. LQR on the full linearised model couples
+them, and it costs about a second to compute per gait.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from sspinn.conventions import N_Q, N_TAU
+from sspinn.passive import passive_torque
+from sspinn.simulation import advance
+
+#: Size of the controlled state z (observation entries 0–16).
+N_Z = 2 * N_Q - 1
+
+
+@dataclass
+class GaitReference:
+    """One gait cycle on the control grid (N samples, period N·dt).
+
+    Attributes:
+        q, u: (N, 9) coordinates and speeds at t_k = k·dt (SI; pelvis_tx = speed·t_k + periodic).
+        action: (N, 6) feedforward normalised actions (torque / τ_max, not clipped) held over
+            [t_k, t_k + dt).
+        speed: average forward speed, m/s.
+        dt: control interval, s.
+        source: where the cycle came from (free text).
+    """
+
+    q: np.ndarray
+    u: np.ndarray
+    action: np.ndarray
+    speed: float
+    dt: float
+    source: str = ""
+
+    @property
+    def n(self) -> int:
+        return len(self.q)
+
+    @property
+    def period(self) -> float:
+        return self.n * self.dt
+
+    @property
+    def z(self) -> np.ndarray:
+        """(N, 17) controlled states (observation order)."""
+        return np.concatenate([self.q[:, 1:], self.u], axis=1)
+
+
+def resample_cycle(
+    time: np.ndarray, q: np.ndarray, tau: np.ndarray, speed: float, duration: float, env: Any, source: str = ""
+) -> GaitReference:
+    """Resample a periodic cycle onto ``env``'s control grid (see the module docstring).
+
+    Args:
+        time: (n,) sample times in [0, duration), s. q: (n, 9) coordinates. tau: (n, 6) total
+            joint torques (N·m) that, with the cycle's ground forces, satisfy its dynamics.
+        speed: average forward speed (m/s); duration: cycle duration T (s).
+        env: a :class:`envs.sagittal_walker.SagittalWalkerEnv` (its dt, τ_max, passive moments).
+    """
+    dt = float(env.dt)
+    n = max(int(round(duration / dt)), 4)
+    phase = np.append(np.asarray(time, float), duration) / duration  # 0 … 1
+    periodic_q = np.asarray(q, float).copy()
+    periodic_q[:, 0] -= speed * np.asarray(time, float)
+    periodic_q = np.vstack([periodic_q, periodic_q[:1]])
+    spline = CubicSpline(phase, periodic_q, bc_type="periodic", axis=0)
+    s = np.arange(n) / n
+    q_ref = spline(s)
+    u_ref = spline(s, 1) / (n * dt)
+    t_ref = np.arange(n) * dt
+    q_ref[:, 0] += speed * t_ref
+    u_ref[:, 0] += speed
+    tau_cycle = np.vstack([tau, tau[:1]])
+    mid = (np.arange(n) + 0.5) / n
+    tau_mid = np.stack([np.interp(mid, phase, tau_cycle[:, j]) for j in range(N_TAU)], axis=1)
+    q_mid, u_mid = spline(mid), spline(mid, 1) / (n * dt)
+    passive = env.setup["passive"] if hasattr(env, "setup") else env.unwrapped.setup["passive"]
+    tau_passive = passive_torque(q_mid[:, 3:], u_mid[:, 3:], passive[:6], passive[6:12], passive[12], passive[13])
+    tau_max = _unwrapped(env)._tau_max
+    return GaitReference(q_ref, u_ref, (tau_mid - tau_passive) / tau_max, float(speed), dt, source)
+
+
+def _unwrapped(env: Any) -> Any:
+    return getattr(env, "unwrapped", env)
+
+
+def step_map(env: Any, z: np.ndarray, action: np.ndarray) -> np.ndarray:
+    """The environment's state transition over one control interval, on the reduced state z (17,)
+    — the same compiled :func:`sspinn.simulation.advance` call as ``env.step`` (actions clipped)."""
+    e = _unwrapped(env)
+    q = np.concatenate([[0.0], z[: N_Q - 1]])
+    u = np.array(z[N_Q - 1 :], dtype=np.float64)
+    tau = np.clip(action, -1.0, 1.0) * e._tau_max
+    grf = np.empty(4)
+    advance(q, u, tau, e._passive, e._p, e._c, e._dt, e._substeps, e._method, True, grf)
+    return np.concatenate([q[1:], u])
+
+
+def linearise(env: Any, ref: GaitReference, eps: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    """(A (N, 17, 17), B (N, 17, 6)) of :func:`step_map` at each reference sample by central
+    differences (actions are perturbed inside the clipping range)."""
+    z_ref = ref.z
+    A = np.empty((ref.n, N_Z, N_Z))
+    B = np.empty((ref.n, N_Z, N_TAU))
+    for i in range(ref.n):
+        z, a = z_ref[i], np.clip(ref.action[i], -1 + 2 * eps, 1 - 2 * eps)
+        for j in range(N_Z):
+            d = np.zeros(N_Z)
+            d[j] = eps
+            A[i, :, j] = (step_map(env, z + d, a) - step_map(env, z - d, a)) / (2 * eps)
+        for j in range(N_TAU):
+            d = np.zeros(N_TAU)
+            d[j] = eps
+            B[i, :, j] = (step_map(env, z, a + d) - step_map(env, z, a - d)) / (2 * eps)
+    return A, B
+
+
+@dataclass(frozen=True)
+class LQRWeights:
+    """Characteristic deviations of the LQR cost (Bryson's rule: weight = 1 / scale²).
+
+    Attributes:
+        height: pelvis_ty, m. tilt: pelvis_tilt, rad. joint: joint angles, rad.
+        forward_speed, vertical_speed: m/s. tilt_rate, joint_rate: rad/s.
+        action: normalised action (dimensionless, τ / τ_max).
+    """
+
+    height: float = 0.02
+    tilt: float = 0.05
+    joint: float = 0.1
+    forward_speed: float = 0.1
+    vertical_speed: float = 0.2
+    tilt_rate: float = 0.5
+    joint_rate: float = 1.0
+    action: float = 0.2
+
+    def matrices(self) -> tuple[np.ndarray, np.ndarray]:
+        scales = np.array(
+            [self.height, self.tilt, *[self.joint] * N_TAU, self.forward_speed, self.vertical_speed, self.tilt_rate,
+             *[self.joint_rate] * N_TAU]
+        )
+        return np.diag(1 / scales**2), np.eye(N_TAU) / self.action**2
+
+
+def periodic_lqr(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray, max_cycles: int = 50, tol: float = 1e-6) -> np.ndarray:
+    """Gains K (N, 6, 17) of the periodic discrete-time LQR problem: the Riccati recursion
+    P_i = Q + A_iᵀ P_{i+1} (A_i − B_i K_i), K_i = (R + B_iᵀ P_{i+1} B_i)⁻¹ B_iᵀ P_{i+1} A_i,
+    swept backward over the cycle until the gains change by less than ``tol`` (relative)."""
+    n = len(A)
+    P = Q.copy()
+    K = np.zeros((n, B.shape[2], A.shape[1]))
+    for _ in range(max_cycles):
+        previous = K.copy()
+        for i in reversed(range(n)):
+            BtP = B[i].T @ P
+            K[i] = np.linalg.solve(R + BtP @ B[i], BtP @ A[i])
+            P = Q + A[i].T @ P @ (A[i] - B[i] @ K[i])
+            P = 0.5 * (P + P.T)
+        if np.abs(K - previous).max() <= tol * max(np.abs(K).max(), 1.0):
+            break
+    return K
+
+
+class GaitTracker:
+    """A controller ``action = tracker(observation)`` that follows a :class:`GaitReference`
+    (feedforward + periodic LQR, see the module docstring). Call :meth:`reset` at every episode
+    start; each call advances the phase by one control step.
+
+    Attributes:
+        reference: the tracked cycle. gains: (N, 6, 17) LQR gains.
+        build_time_: seconds spent linearising and solving the Riccati recursion.
+    """
+
+    def __init__(self, reference: GaitReference, gains: np.ndarray, build_time: float = float("nan")) -> None:
+        if gains.shape != (reference.n, N_TAU, N_Z):
+            raise ValueError(f"gains must have shape ({reference.n}, {N_TAU}, {N_Z}), got {gains.shape}")
+        self.reference = reference
+        self.gains = gains
+        self.build_time_ = build_time
+        self._z = reference.z
+        self._k = 0
+
+    @classmethod
+    def build(cls, env: Any, reference: GaitReference, weights: LQRWeights | None = None) -> GaitTracker:
+        """Linearise ``env`` around ``reference`` and compute the periodic LQR gains."""
+        import time
+
+        start = time.perf_counter()
+        A, B = linearise(env, reference)
+        Q, R = (weights or LQRWeights()).matrices()
+        K = periodic_lqr(A, B, Q, R)
+        return cls(reference, K, time.perf_counter() - start)
+
+    def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """(q, u) of the reference at phase 0, for ``env.reset(options={"initial_state": ...})``."""
+        return self.reference.q[0].copy(), self.reference.u[0].copy()
+
+    def reset(self) -> None:
+        self._k = 0
+
+    def __call__(self, observation: np.ndarray) -> np.ndarray:
+        i = self._k % self.reference.n
+        self._k += 1
+        z = np.asarray(observation[:N_Z], dtype=np.float64)
+        action = self.reference.action[i] + self.gains[i] @ (self._z[i] - z)
+        return np.clip(action, -1.0, 1.0).astype(np.float32)
+
+
+__all__ = ["GaitReference", "GaitTracker", "LQRWeights", "linearise", "periodic_lqr", "resample_cycle", "step_map"]

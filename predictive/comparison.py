@@ -1,0 +1,502 @@
+"""Comparison harness: self-supervised gait generator vs SB3 agents vs trajectory optimisation.
+
+Every method is run on the same :class:`envs.sagittal_walker.SagittalWalkerEnv` (default physics,
+the task's body, target speed and reset seeds) and scored by the same code:
+
+* **generator** — the self-supervised gait generator (:mod:`predictive.gait_generator`): one
+  forward pass per speed (optionally a brief L-BFGS fine-tune), deployed by
+  :class:`predictive.closed_loop.GaitTracker` (feedforward + periodic LQR);
+* **ocp** — predictive trajectory optimisation (:func:`predictive.collocation.solve_predictive`
+  with the environment's contact model, 100 nodes per half cycle) deployed the same way;
+* **sb3** — trained stable-baselines3 agents (:mod:`agents`), one checkpoint per target speed.
+
+Start states: the gait trackers start on their reference at phase 0 (``reset(options=
+{"initial_state": ...})``) with the environment's reset noise; the SB3 agents start standing, as
+trained. The gait trackers do not learn gait initiation — a stated difference, not hidden.
+
+Metrics per (method, speed), over the seeds: success rate (no fall in the episode, 10 s),
+|speed error| (m/s, mean speed over the episode vs target), cost of transport (the environment's
+mechanical CoT), mean |Kane residual| of the executed motion (BW; translational rows, q̈ by
+central differences of the 100 Hz states, the GRF of the environment's contact model, actuator
+plus passive torques — it measures how far the 100 Hz samples are from satisfying the continuous
+equations, i.e. mostly the sampling of impacts; the same computation for every method), joint
+angle RMSD to Winter's walking (deg; right hip/knee/ankle, the mean normalised cycle from right
+heel strikes after the first 2 s; speeds < 2 m/s and when ``../shared/data`` exists), jitter
+(mean |d³θ/dt³|, rad/s³), and the wall-clock **time to obtain the controller** (one-off training)
+and **time per new speed** (what a new target speed costs: a forward pass + LQR; an OCP solve +
+LQR; retraining the agent).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from predictive.closed_loop import GaitTracker, LQRWeights, resample_cycle
+
+#: Vertical force (BW) above which a foot counts as loaded (heel strike detection).
+CONTACT_THRESHOLD_BW = 0.1
+#: Samples of the normalised gait cycle.
+CYCLE_POINTS = 100
+#: Episodes start with this much simulated time (s) excluded from the gait-cycle average.
+SETTLE_S = 2.0
+
+
+@dataclass
+class MethodSpec:
+    """One method of the comparison (see the module docstring).
+
+    Attributes:
+        name: label in the report. kind: "generator", "ocp" or "sb3".
+        model: generator.pt (kind generator). refine_iterations: per-speed L-BFGS fine-tune.
+        n_nodes: OCP nodes per half cycle (kind ocp).
+        checkpoints: target speed (m/s) → SB3 checkpoint .zip (kind sb3); speeds without one are
+            reported as "not trained".
+    """
+
+    name: str
+    kind: str
+    model: str | None = None
+    refine_iterations: int = 0
+    n_nodes: int = 100
+    checkpoints: dict[float, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("generator", "ocp", "sb3"):
+            raise ValueError(f"method {self.name!r}: kind must be generator, ocp or sb3, got {self.kind!r}")
+        if self.kind == "generator" and not self.model:
+            raise ValueError(f"method {self.name!r}: kind generator needs model: <generator.pt>")
+        self.checkpoints = {float(k): str(v) for k, v in self.checkpoints.items()}
+
+
+@dataclass
+class ComparisonConfig:
+    """The task set and the methods (``configs/predictive/compare.yaml``)."""
+
+    speeds: list[float] = field(default_factory=lambda: [1.3, 3.5])
+    seeds: list[int] = field(default_factory=lambda: [0, 1, 2, 3, 4])
+    height: float = 1.75
+    mass: float = 70.0
+    methods: list[MethodSpec] = field(default_factory=list)
+    lqr: LQRWeights = field(default_factory=LQRWeights)
+    data_dir: str | None = None
+    snapshot_seeds: list[int] = field(default_factory=lambda: [0])
+
+    def __post_init__(self) -> None:
+        self.methods = [m if isinstance(m, MethodSpec) else MethodSpec(**m) for m in self.methods]
+        if isinstance(self.lqr, dict):
+            self.lqr = LQRWeights(**self.lqr)
+        if not self.speeds or any(not (0 < v <= 12) for v in self.speeds):
+            raise ValueError(f"speeds must be a non-empty list of m/s in (0, 12], got {self.speeds}")
+        if not self.seeds:
+            raise ValueError("seeds must not be empty")
+
+    @classmethod
+    def from_yaml(cls, path: str | Path) -> ComparisonConfig:
+        path = Path(path)
+        data = yaml.safe_load(path.read_text()) or {}
+        try:
+            return cls(**data.get("compare", data))
+        except TypeError as exc:
+            raise ValueError(f"{path}: {exc}") from None
+
+
+@dataclass
+class Controller:
+    """A policy obs → action plus how it starts and what it cost."""
+
+    policy: Any
+    initial_state: tuple[np.ndarray, np.ndarray] | None
+    setup_time_s: float  # one-off (training) wall time, s
+    per_speed_time_s: float  # wall time for this speed, s
+    reference: Any = None  # the GaitSolution tracked (gait trackers)
+    note: str = ""
+
+
+# ------------------------------------------------------------------------------------------ methods
+def make_env(config: ComparisonConfig, speed: float) -> Any:
+    import gymnasium
+
+    import envs  # noqa: F401  (registers the environment)
+
+    return gymnasium.make("sspinn/SagittalWalker-v0", height=config.height, mass=config.mass, target_speed=speed)
+
+
+def tracker_controller(solution: Any, env: Any, weights: LQRWeights, setup_s: float, solve_s: float, note: str) -> Controller:
+    """Feedforward + LQR controller of a gait cycle (:mod:`predictive.closed_loop`)."""
+    start = time.perf_counter()
+    ref = resample_cycle(solution.time, solution.q, solution.tau, solution.speed, solution.duration, env.unwrapped)
+    tracker = GaitTracker.build(env.unwrapped, ref, weights)
+    lqr_s = time.perf_counter() - start
+    return Controller(tracker, tracker.initial_state(), setup_s, solve_s + lqr_s, solution, note)
+
+
+def generator_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> Controller:
+    import torch
+
+    from predictive.gait_generator import generate, load_generator
+    from sspinn.body import BodyParameters
+
+    model, gcfg = load_generator(spec.model)
+    train_s = float(torch.load(spec.model, weights_only=False).get("wall_s", float("nan")))
+    start = time.perf_counter()
+    sol = generate(model, speed, BodyParameters.from_anthropometry(config.height, config.mass),
+                   refine_iterations=spec.refine_iterations, config=gcfg)
+    gen_s = time.perf_counter() - start
+    note = f"kane rms {sol.settings['kane_rms_bw']:.3g} BW"
+    return tracker_controller(sol, env, config.lqr, train_s, gen_s, note)
+
+
+def ocp_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> Controller:
+    from predictive.collocation import OCPError, solve_predictive
+
+    start = time.perf_counter()
+    try:
+        sol = solve_predictive(speed, env.unwrapped.body, contact=env.unwrapped.contact, n_nodes=spec.n_nodes)
+    except OCPError as exc:
+        return Controller(None, None, 0.0, time.perf_counter() - start, None, f"OCP failed: {exc.status}")
+    return tracker_controller(sol, env, config.lqr, 0.0, time.perf_counter() - start, f"IPOPT {sol.iterations} it.")
+
+
+def agent_training_time(checkpoint: Path) -> float:
+    """Wall time (s) the run had trained when ``checkpoint`` was written, from its
+    ``evaluations.csv``: the row at or before a periodic checkpoint's steps; for ``best_model.zip``
+    the evaluation with the highest mean return (when the callback saved it); else the last row."""
+    from agents.checkpoints import checkpoint_steps
+
+    rows = read_agent_evaluations(checkpoint)
+    if not rows:
+        return float("nan")
+    try:
+        steps = checkpoint_steps(checkpoint)
+    except ValueError:
+        steps = None
+    if steps is None:
+        if Path(checkpoint).name.startswith("best_model"):
+            return float(max(rows, key=lambda r: r["mean_return"])["wall_s"])
+        return float(rows[-1]["wall_s"])
+    before = [r for r in rows if r["timesteps"] <= steps]
+    return float((before or rows)[-1]["wall_s"])
+
+
+def read_agent_evaluations(checkpoint: str | Path) -> list[dict[str, float]]:
+    """Rows of the run's ``evaluations.csv`` (found next to or above the checkpoint), as floats."""
+    for folder in Path(checkpoint).resolve().parents[:3]:
+        path = folder / "evaluations.csv"
+        if path.exists():
+            with path.open() as fh:
+                return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(fh)]
+    return []
+
+
+def sb3_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> Controller:
+    from agents.checkpoints import load_agent
+
+    path = spec.checkpoints.get(float(speed))
+    if path is None or not Path(path).exists():
+        return Controller(None, None, float("nan"), float("nan"), None, "not trained for this speed")
+    agent = load_agent(path)
+    train_s = agent_training_time(Path(path))
+    return Controller(agent, None, train_s, train_s, None, f"{agent.config.algo} {Path(path).name}")
+
+
+BUILDERS = {"generator": generator_controller, "ocp": ocp_controller, "sb3": sb3_controller}
+
+
+# ------------------------------------------------------------------------------------------ metrics
+def executed_kane_residual(traces: dict[str, np.ndarray], env: Any) -> float:
+    """Mean |Kane residual| (BW) of the pelvis translation rows over the episode (module docstring)."""
+    from sspinn import dynamics
+    from sspinn.passive import passive_torque
+
+    e = env.unwrapped
+    q, u, tau = traces["q"], traces["u"], traces["torques"]
+    if len(q) < 3:
+        return float("nan")
+    dt = float(e.dt)
+    qdd = (u[2:] - u[:-2]) / (2 * dt)
+    qm, um = q[1:-1], u[1:-1]
+    tau_m = 0.5 * (tau[1:-1] + tau[2:])
+    ps = e._passive
+    tau_total = tau_m + passive_torque(qm[:, 3:], um[:, 3:], ps[:6], ps[6:12], ps[12], ps[13])
+    grf, w = dynamics.contact_forces(qm, um, e._p, e._c)
+    r = dynamics.kane_residual(qm, um, qdd, tau_total, grf, w, e._p)
+    return float(np.mean(np.abs(r[:, :2]))) / e.body.body_weight
+
+
+def normalised_cycle(traces: dict[str, np.ndarray], body_weight: float, dt: float) -> dict[str, np.ndarray] | None:
+    """Mean right-leg cycle (hip, knee, ankle in rad; GRF x, y in BW; CYCLE_POINTS samples from
+    right heel strike) over the complete cycles after SETTLE_S, or None without two strikes."""
+    fy = traces["grf"][:, 1] / body_weight
+    loaded = fy > CONTACT_THRESHOLD_BW
+    strikes = np.flatnonzero(loaded[1:] & ~loaded[:-1]) + 1
+    strikes = strikes[strikes * dt >= SETTLE_S]
+    if len(strikes) < 2:
+        return None
+    signals = {
+        "hip": traces["angles"][:, 0], "knee": traces["angles"][:, 1], "ankle": traces["angles"][:, 2],
+        "grf_x": traces["grf"][:, 0] / body_weight, "grf_y": fy,
+    }
+    frac = np.arange(CYCLE_POINTS) / CYCLE_POINTS
+    out = {}
+    for name, y in signals.items():
+        cycles = [np.interp(frac, np.arange(b - a) / (b - a), y[a:b]) for a, b in zip(strikes[:-1], strikes[1:])]
+        out[name] = np.mean(cycles, axis=0)
+    out["percent"] = frac * 100
+    return out
+
+
+def winter_rmsd(cycle: dict[str, np.ndarray] | None, reference: Any) -> dict[str, float]:
+    """RMSD (deg) of hip, knee, ankle between a mean cycle and Winter's (resampled to its grid)."""
+    if cycle is None or reference is None:
+        return {}
+    out = {}
+    for name in ("hip", "knee", "ankle"):
+        ref = getattr(reference, name)
+        sim = np.interp(reference.percent, cycle["percent"], cycle[name], period=100.0)
+        out[f"rmsd_{name}_deg"] = float(np.degrees(np.sqrt(np.mean((sim - ref) ** 2))))
+    return out
+
+
+# ------------------------------------------------------------------------------------------ harness
+@dataclass
+class CellResult:
+    """Results of one (method, speed)."""
+
+    method: str
+    speed: float
+    note: str
+    setup_time_s: float
+    per_speed_time_s: float
+    episodes: list[dict[str, Any]] = field(default_factory=list)
+    cycle: dict[str, list[float]] | None = None
+    stick_q: list[list[float]] | None = None
+
+    def summary(self) -> dict[str, Any]:
+        eps = self.episodes
+        if not eps:
+            return {"method": self.method, "speed": self.speed, "note": self.note, "success_rate": None}
+
+        def mean(key: str) -> float | None:
+            vals = [e[key] for e in eps if e.get(key) is not None and math.isfinite(e[key])]
+            return float(np.mean(vals)) if vals else None
+
+        return {
+            "method": self.method, "speed": self.speed, "note": self.note,
+            "success_rate": float(np.mean([not e["fell"] for e in eps])),
+            "mean_distance_m": mean("distance_m"),
+            "abs_speed_error_m_s": float(np.mean([abs(e["speed_error_m_s"]) for e in eps])),
+            "cost_of_transport": mean("cost_of_transport"),
+            "kane_residual_bw": mean("kane_residual_bw"),
+            "rmsd_hip_deg": mean("rmsd_hip_deg"), "rmsd_knee_deg": mean("rmsd_knee_deg"),
+            "rmsd_ankle_deg": mean("rmsd_ankle_deg"),
+            "jitter_rad_s3": mean("jitter_rad_s3"),
+            "setup_time_s": self.setup_time_s, "per_speed_time_s": self.per_speed_time_s,
+        }
+
+
+def evaluate_controller(
+    controller: Controller, env: Any, speed: float, seeds: list[int], reference: Any
+) -> tuple[list[dict[str, Any]], dict[str, np.ndarray] | None, np.ndarray | None]:
+    """Episodes over ``seeds`` → per-episode metrics, the mean cycle of the first successful
+    episode and its states (for stick figures)."""
+    from agents.rollout import run_episode
+    from sspinn.evaluation import angle_jitter
+
+    e = env.unwrapped
+    rows, cycle, states = [], None, None
+    for seed in seeds:
+        if hasattr(controller.policy, "reset"):
+            controller.policy.reset()
+        options = {"initial_state": controller.initial_state} if controller.initial_state is not None else None
+        res = run_episode(controller.policy, env, seed, speed, record_traces=True, reset_options=options)
+        m = res.metrics()
+        m["kane_residual_bw"] = executed_kane_residual(res.traces, env)
+        m["jitter_rad_s3"] = angle_jitter(res.traces["angles"], 1.0 / e.dt)
+        c = normalised_cycle(res.traces, e.body.body_weight, e.dt) if not res.fell else None
+        m.update(winter_rmsd(c, reference) if speed < 2.0 else {})
+        rows.append(m)
+        if c is not None and cycle is None:
+            cycle, states = c, res.traces["q"]
+    return rows, cycle, states
+
+
+def run_comparison(config: ComparisonConfig, out: str | Path) -> list[CellResult]:
+    """Run every method at every speed; write ``results.json``, ``report.md`` and plots to ``out``."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    reference = _winter(config.data_dir)
+    cells: list[CellResult] = []
+    for speed in config.speeds:
+        env = make_env(config, speed)
+        for spec in config.methods:
+            print(f"[compare] {spec.name} at {speed} m/s …", flush=True)
+            ctrl = BUILDERS[spec.kind](spec, config, speed, env)
+            cell = CellResult(spec.name, speed, ctrl.note, ctrl.setup_time_s, ctrl.per_speed_time_s)
+            if ctrl.policy is not None:
+                rows, cycle, states = evaluate_controller(ctrl, env, speed, config.seeds, reference)
+                cell.episodes = rows
+                cell.cycle = {k: v.tolist() for k, v in cycle.items()} if cycle is not None else None
+                cell.stick_q = states[:: max(1, len(states) // 400)].tolist() if states is not None else None
+            cells.append(cell)
+            s = cell.summary()
+            print(f"[compare]   success {s.get('success_rate')}, distance {s.get('mean_distance_m')}, note: {cell.note}", flush=True)
+        env.close()
+    write_report(config, cells, out, reference)
+    return cells
+
+
+def _winter(data_dir: str | None) -> Any:
+    from predictive.analysis import load_winter
+
+    try:
+        return load_winter(data_dir)
+    except FileNotFoundError:
+        return None
+
+
+# ------------------------------------------------------------------------------------------ report
+def learning_curves(config: ComparisonConfig) -> dict[str, dict[float, tuple[list[float], list[float]]]]:
+    """Per method and speed: (wall time s, mean distance in a 10 s episode m) over training — SB3
+    from its evaluation log, the generator from its snapshots (closed loop, ``snapshot_seeds``)."""
+    curves: dict[str, dict[float, tuple[list[float], list[float]]]] = {}
+    for spec in config.methods:
+        if spec.kind == "sb3":
+            for speed, path in spec.checkpoints.items():
+                rows = read_agent_evaluations(path)
+                if rows:
+                    curves.setdefault(spec.name, {})[speed] = ([r["wall_s"] for r in rows], [r["mean_distance_m"] for r in rows])
+        elif spec.kind == "generator":
+            snaps = sorted(Path(spec.model).parent.glob("snapshots/generator_*.pt"))
+            for speed in config.speeds:
+                env = make_env(config, speed)
+                xs, ys = [], []
+                for snap in snaps:
+                    ctrl = generator_controller(MethodSpec(spec.name, "generator", str(snap)), config, speed, env)
+                    rows, _, _ = evaluate_controller(ctrl, env, speed, config.snapshot_seeds, None)
+                    xs.append(ctrl.setup_time_s)
+                    ys.append(float(np.mean([r["distance_m"] for r in rows])))
+                env.close()
+                if xs:
+                    curves.setdefault(spec.name, {})[speed] = (xs, ys)
+    return curves
+
+
+def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, reference: Any) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from sspinn.body import BodyParameters
+    from sspinn.plotting import draw_stick_figure
+
+    summaries = [c.summary() for c in cells]
+    (out / "results.json").write_text(json.dumps(
+        {"config": _plain(asdict(config)), "summary": summaries, "episodes": {f"{c.method}@{c.speed}": c.episodes for c in cells}},
+        indent=2, default=_json_default,
+    ))
+    # learning curves vs wall time
+    curves = learning_curves(config)
+    fig, axes = plt.subplots(1, len(config.speeds), figsize=(5.5 * len(config.speeds), 4), squeeze=False)
+    for ax, speed in zip(axes[0], config.speeds):
+        for name, per_speed in curves.items():
+            if speed in per_speed:
+                xs, ys = per_speed[speed]
+                ax.plot(np.asarray(xs) / 60, ys, marker=".", label=name)
+        for c in cells:
+            if c.speed == speed and c.method.lower().startswith("ocp") and c.episodes:
+                ax.plot([c.per_speed_time_s / 60], [c.summary()["mean_distance_m"]], "k*", ms=12, label=c.method)
+        ax.axhline(speed * 10, color="grey", ls=":", lw=1, label="target × 10 s")
+        ax.set(xscale="symlog", xlabel="wall time to obtain the controller (min)", ylabel="distance in 10 s (m)", title=f"{speed} m/s")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "learning_curves.png", dpi=110)
+    plt.close(fig)
+    # gait-cycle curves
+    for speed in config.speeds:
+        fig, axes = plt.subplots(1, 4, figsize=(16, 3.5))
+        for c in cells:
+            if c.speed == speed and c.cycle is not None:
+                for ax, key in zip(axes, ("hip", "knee", "ankle", "grf_y")):
+                    y = np.asarray(c.cycle[key])
+                    ax.plot(c.cycle["percent"], y if key == "grf_y" else np.degrees(y), label=c.method)
+        if reference is not None and speed < 2.0:
+            for ax, key in zip(axes, ("hip", "knee", "ankle", "grf_y")):
+                y = getattr(reference, key)
+                ax.plot(reference.percent, y if key == "grf_y" else np.degrees(y), "k--", label="Winter")
+        for ax, key in zip(axes, ("hip (deg)", "knee (deg)", "ankle (deg)", "vertical GRF (BW)")):
+            ax.set(xlabel="% gait cycle (right heel strike)", title=key)
+        axes[0].legend(fontsize=7)
+        fig.suptitle(f"mean executed gait cycle at {speed} m/s (right leg)")
+        fig.tight_layout()
+        fig.savefig(out / f"cycles_{speed}.png", dpi=110)
+        plt.close(fig)
+    # stick figures
+    body = BodyParameters.from_anthropometry(config.height, config.mass)
+    with_sticks = [c for c in cells if c.stick_q]
+    if with_sticks:
+        fig, axes = plt.subplots(len(with_sticks), 1, figsize=(12, 2.2 * len(with_sticks)), squeeze=False)
+        for ax, c in zip(axes[:, 0], with_sticks):
+            qs = np.asarray(c.stick_q)
+            start = len(qs) // 2
+            for k in range(start, min(start + 60, len(qs)), 6):
+                draw_stick_figure(ax, qs[k], body, alpha=0.35 + 0.65 * (k - start) / 60)
+            ax.set_aspect("equal")
+            ax.set_title(f"{c.method} at {c.speed} m/s", fontsize=9)
+            ax.axhline(0, color="k", lw=0.5)
+        fig.tight_layout()
+        fig.savefig(out / "stick_figures.png", dpi=100)
+        plt.close(fig)
+    # markdown
+    cols = [("success_rate", "success", "{:.0%}"), ("mean_distance_m", "distance (m)", "{:.2f}"),
+            ("abs_speed_error_m_s", "|speed err| (m/s)", "{:.3f}"), ("cost_of_transport", "CoT", "{:.2f}"),
+            ("kane_residual_bw", "Kane res. (BW)", "{:.3f}"), ("rmsd_hip_deg", "hip RMSD (°)", "{:.1f}"),
+            ("rmsd_knee_deg", "knee RMSD (°)", "{:.1f}"), ("rmsd_ankle_deg", "ankle RMSD (°)", "{:.1f}"),
+            ("jitter_rad_s3", "jitter (rad/s³)", "{:.0f}"), ("setup_time_s", "one-off time (s)", "{:.0f}"),
+            ("per_speed_time_s", "time per speed (s)", "{:.1f}")]
+    lines = [f"# Predictive simulation comparison ({config.height} m, {config.mass} kg; seeds {config.seeds})", "",
+             "| method | speed (m/s) | " + " | ".join(c[1] for c in cols) + " | note |",
+             "|---|---|" + "---|" * len(cols) + "---|"]
+    for s in summaries:
+        vals = []
+        for key, _, fmt in cols:
+            v = s.get(key)
+            vals.append("–" if v is None or (isinstance(v, float) and not math.isfinite(v)) else fmt.format(v))
+        lines.append(f"| {s['method']} | {s['speed']} | " + " | ".join(vals) + f" | {s.get('note', '')} |")
+    lines += ["", "![learning curves](learning_curves.png)", ""]
+    lines += [f"![cycles {v}](cycles_{v}.png)" for v in config.speeds]
+    lines += ["", "![stick figures](stick_figures.png)", "", "Metrics and start states: see `predictive/comparison.py`."]
+    path = out / "report.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _plain(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    return obj
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    return str(obj)
+
+
+__all__ = [
+    "CellResult", "ComparisonConfig", "Controller", "MethodSpec", "evaluate_controller", "executed_kane_residual",
+    "learning_curves", "normalised_cycle", "run_comparison", "winter_rmsd", "write_report",
+]

@@ -1,0 +1,520 @@
+"""Self-supervised gait generator: one network, (speed, height, mass) → a periodic gait cycle.
+
+The SSPINNpose paper's proposed next step: keep its physics losses, replace the IMU-tracking term
+by a physiological objective, and learn gait without data. Here a small MLP maps the target speed
+and the body's height and mass to a **Fourier series of the gait cycle**; the physics decides
+whether a gait is acceptable, the objective which one is chosen.
+
+Representation (chosen so that the constraints the OCP imposes hold by construction):
+
+* Cycle duration T = :func:`predictive.collocation.typical_stride_duration` of the speed (as the
+  OCP's default, which fixes it because a free duration drifts to shuffling strides).
+* Right-leg joint angles: mean + harmonics 1…K of the cycle. Left leg: the right leg half a cycle
+  later (odd harmonics change sign) — the symmetric gait of the OCP's half-cycle mode.
+  Pelvis height, trunk tilt and the periodic part of pelvis_tx: mean + even harmonics only (their
+  period is half a cycle). pelvis_tx = v·t + periodic part, so the average speed is exactly v.
+* q̇ and q̈ are the analytic time derivatives, so the temporal-consistency loss of SSPINNpose
+  (dq/dt = q̇, dq̇/dt = q̈) holds exactly and periodicity is built in.
+* Ground reaction forces come from the environment's forward-simulation contact model
+  (:func:`sspinn.dynamics.contact_forces`, slip velocity of the Gymnasium environment); the joint
+  torques from inverse dynamics (:func:`sspinn.dynamics.inverse_dynamics`); what inverse
+  dynamics cannot explain is the residual force on the unactuated pelvis — the Kane residual.
+
+Loss per batch of (speed, body) at random phases of the half cycle (the other half is mirrored):
+
+* ``kane``: mean squared pelvis residual in BW (forces) and BW·H (moment) — SSPINNpose's L_K;
+* ``effort``: the OCP's objective — mean Σ_j (τ_j / 0.1·BW·H)² of the actuator torques (total
+  minus the environment's passive joint moments), ankle strength-scaled, plus ``w_acc`` × the
+  acceleration regularisation on the normalised cycle (:mod:`predictive.collocation`);
+* ``bounds``: SSPINNpose's L_B with the OCP's ranges — joint ranges, pelvis height and tilt, and
+  the environment's torque limits (with a margin for feedback);
+* ``slide``: SSPINNpose's L_slide, (contact-point speed × F_y / BW)².
+
+Training starts with ``warmup_steps`` of fitting the data-free textbook shapes of
+:func:`predictive.collocation.generic_gait` (the OCP's initial guess), then minimises the loss
+with Adam. No recorded or optimised gait is used. Checkpoints every ``checkpoint_every`` steps,
+``resume``, a checkpoint on Ctrl-C and a CSV learning curve (loss vs wall time).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import yaml
+
+from predictive.collocation import ankle_strength, default_joint_limits, generic_gait, typical_stride_duration
+from predictive.solution import GaitSolution
+from sspinn import dynamics, kinematics
+from sspinn.body import BodyParameters
+from sspinn.contact import ContactParameters
+from sspinn.conventions import GRAVITY, N_TAU
+from sspinn.passive import passive_parameters, passive_torque
+
+#: Forward-simulation friction slip velocity of the Gymnasium environment, m/s (envs.sagittal_walker).
+ENV_SLIP_VELOCITY = 0.2
+#: Environment's default actuator strength, N·m/kg (envs.task).
+ENV_MAX_TORQUE = 3.0
+
+
+@dataclass(frozen=True)
+class GeneratorWeights:
+    """Loss weights (dimensionless; terms in the module docstring)."""
+
+    kane: float = 1000.0
+    effort: float = 1.0
+    w_acc: float = 0.1
+    bounds: float = 1000.0
+    slide: float = 10.0
+
+
+@dataclass
+class GeneratorConfig:
+    """Everything that defines a generator and its training (``configs/predictive/*.yaml``).
+
+    Attributes:
+        speeds: (min, max) training speeds, m/s. heights: (min, max) m. masses: (min, max) kg.
+        harmonics: Fourier harmonics K of the legs (the pelvis uses the even ones ≤ K).
+        hidden, layers: MLP width and number of hidden layers.
+        points: phases per half cycle in each loss evaluation (random offset per step).
+        batch_size: (speed, body) pairs per step. steps: Adam steps after the warm-up.
+        warmup_steps: steps fitting :func:`generic_gait`. lr: Adam learning rate (cosine decay
+        to lr/10). torque_margin: the bound on |τ| is this fraction of the environment's limit.
+        seed, threads (0 = torch default), checkpoint_every, log_every, time_limit_s (0 = none).
+        snapshot_every: keep ``snapshots/generator_<step>.pt`` every this many steps (with the wall
+        time), for learning curves of the closed-loop result (0 = none).
+    """
+
+    speeds: tuple[float, float] = (0.8, 3.7)
+    heights: tuple[float, float] = (1.6, 1.9)
+    masses: tuple[float, float] = (55.0, 90.0)
+    harmonics: int = 10
+    hidden: int = 128
+    layers: int = 3
+    points: int = 100
+    batch_size: int = 16
+    steps: int = 3000
+    warmup_steps: int = 300
+    lr: float = 1e-3
+    torque_margin: float = 0.8
+    weights: GeneratorWeights = field(default_factory=GeneratorWeights)
+    seed: int = 0
+    threads: int = 0
+    checkpoint_every: int = 250
+    snapshot_every: int = 1000
+    log_every: int = 25
+    time_limit_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        if isinstance(self.weights, dict):
+            self.weights = GeneratorWeights(**self.weights)
+        for name in ("speeds", "heights", "masses"):
+            lo, hi = getattr(self, name)
+            if not 0 < lo <= hi:
+                raise ValueError(f"{name} must be (min, max) with 0 < min <= max, got {getattr(self, name)}")
+            setattr(self, name, (float(lo), float(hi)))
+        for name in ("harmonics", "hidden", "layers", "points", "batch_size", "checkpoint_every", "log_every"):
+            setattr(self, name, int(getattr(self, name)))
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+
+    @classmethod
+    def from_yaml(cls, path: str | Path) -> GeneratorConfig:
+        path = Path(path)
+        data = yaml.safe_load(path.read_text()) or {}
+        data = data.get("generator", data)
+        known = {f.name for f in dataclasses.fields(cls)}
+        if set(data) - known:
+            raise ValueError(f"{path}: unknown generator option(s) {sorted(set(data) - known)}; known: {sorted(known)}")
+        try:
+            return cls(**data)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{path}: {exc}") from None
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+class GaitGenerator(torch.nn.Module):
+    """MLP (speed, height, mass) → Fourier coefficients (B, 9, 1 + 2K) of q over one cycle.
+
+    Columns: mean, then cos(2πkφ), sin(2πkφ) for k = 1…K (φ = t/T). Rows in coordinate order;
+    pelvis_tx holds only its periodic part (:meth:`cycle` adds v·t).
+    """
+
+    def __init__(self, harmonics: int = 10, hidden: int = 128, layers: int = 3) -> None:
+        super().__init__()
+        self.harmonics = K = harmonics
+        dims = [3] + [hidden] * layers
+        mods: list[torch.nn.Module] = []
+        for a, b in zip(dims[:-1], dims[1:]):
+            mods += [torch.nn.Linear(a, b), torch.nn.SiLU()]
+        self.body = torch.nn.Sequential(*mods)
+        self.head = torch.nn.Linear(hidden, 6 * (1 + 2 * K))  # pelvis x, y, tilt and the right leg
+        torch.nn.init.zeros_(self.head.weight)
+        torch.nn.init.zeros_(self.head.bias)
+        k = torch.arange(1, K + 1, dtype=torch.float64).repeat_interleave(2)
+        even = (k % 2 == 0).to(torch.float64)
+        # scale of each coefficient: rows x, y, tilt (even harmonics only), hip, knee, ankle
+        harm = torch.stack([0.03 / k * even, 0.02 / k * even, 0.05 / k * even, 0.4 / k, 0.4 / k, 0.3 / k])
+        mean = torch.tensor([[0.0], [0.03], [0.2], [0.3], [0.3], [0.2]], dtype=torch.float64)
+        self.register_buffer("scale", torch.cat([mean, harm], dim=1).float())
+        self.register_buffer("odd_sign", torch.cat([torch.ones(1), torch.where(even > 0, 1.0, -1.0)]).float())
+
+    def raw(self, speed: torch.Tensor, height: torch.Tensor, mass: torch.Tensor) -> torch.Tensor:
+        """The free coefficients (B, 6, 1 + 2K) before scaling: pelvis x, y, tilt, right leg."""
+        x = torch.stack([(speed - 2.0), (height - 1.75) / 0.1, (mass - 70.0) / 10.0], dim=-1)
+        return self.head(self.body(x)).view(-1, 6, 1 + 2 * self.harmonics)
+
+    def coefficients(self, raw: torch.Tensor) -> torch.Tensor:
+        """Fourier coefficients (B, 9, 1 + 2K) of all coordinates from the free ones."""
+        scaled = raw * self.scale
+        right = scaled[:, 3:]
+        left = right * self.odd_sign  # the right leg half a cycle later
+        return torch.cat([scaled[:, :3], right, left], dim=1)
+
+    def forward(self, speed: torch.Tensor, height: torch.Tensor, mass: torch.Tensor) -> torch.Tensor:
+        return self.coefficients(self.raw(speed, height, mass))
+
+
+def fourier_basis(phase: torch.Tensor, harmonics: int) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Basis (P, 1 + 2K) at cycle phases φ and its first and second derivatives w.r.t. φ."""
+    k = torch.arange(1, harmonics + 1, dtype=phase.dtype, device=phase.device)
+    ang = 2 * math.pi * phase[:, None] * k
+    c, s = torch.cos(ang), torch.sin(ang)
+    w = 2 * math.pi * k
+    one, zero = torch.ones_like(phase[:, None]), torch.zeros_like(phase[:, None])
+    basis = torch.cat([one, torch.stack([c, s], -1).flatten(-2)], dim=1)
+    d1 = torch.cat([zero, torch.stack([-w * s, w * c], -1).flatten(-2)], dim=1)
+    d2 = torch.cat([zero, torch.stack([-(w**2) * c, -(w**2) * s], -1).flatten(-2)], dim=1)
+    return basis, d1, d2
+
+
+def cycle(
+    coeffs: torch.Tensor, speed: torch.Tensor, duration: torch.Tensor, hip_height: torch.Tensor, phase: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """(q, u, q̈), each (B, P, 9), of the generated gaits at phases φ (P,) of the cycle.
+
+    pelvis_ty's mean is ``hip_height`` (B,) (standing hip height, m) plus the network's offset.
+    """
+    basis, d1, d2 = fourier_basis(phase.to(coeffs), coeffs.shape[-1] // 2)
+    T = duration[:, None, None]
+    q = torch.einsum("bcn,pn->bpc", coeffs, basis)
+    u = torch.einsum("bcn,pn->bpc", coeffs, d1) / T
+    qdd = torch.einsum("bcn,pn->bpc", coeffs, d2) / T**2
+    v = speed[:, None]
+    offset = torch.zeros_like(q)
+    offset[..., 0] = v * duration[:, None] * phase.to(q)
+    offset[..., 1] = hip_height[:, None]
+    u_offset = torch.zeros_like(u)
+    u_offset[..., 0] = v
+    return q + offset, u + u_offset, qdd
+
+
+@dataclass
+class BodyPool:
+    """Bodies (Winter scaling) to train on: heights (m), masses (kg), parameter vectors (n, 41),
+    standing hip heights (m)."""
+
+    heights: np.ndarray
+    masses: np.ndarray
+    p: np.ndarray
+    hip_height: np.ndarray
+
+    @classmethod
+    def sample(cls, n: int, heights: tuple[float, float], masses: tuple[float, float], rng: np.random.Generator) -> BodyPool:
+        h = rng.uniform(*heights, n)
+        m = rng.uniform(*masses, n)
+        bodies = [BodyParameters.from_anthropometry(float(a), float(b)) for a, b in zip(h, m)]
+        return cls(h, m, np.stack([b.vector() for b in bodies]), np.array([b.standing_hip_height for b in bodies]))
+
+
+class GaitLosses:
+    """The loss terms of the module docstring for a batch of generated cycles."""
+
+    def __init__(self, config: GeneratorConfig) -> None:
+        self.config = config
+        self.contact = torch.as_tensor(ContactParameters(slip_velocity=ENV_SLIP_VELOCITY).vector())
+        self.passive = torch.as_tensor(passive_parameters())
+        lo, hi = default_joint_limits().arrays()
+        self.lower, self.upper = torch.as_tensor(lo), torch.as_tensor(hi)
+
+    def physics(self, q: torch.Tensor, u: torch.Tensor, qdd: torch.Tensor, p: torch.Tensor) -> dict[str, torch.Tensor]:
+        """GRF (…, 4), contact fractions w, total joint torques τ (…, 6, N·m), actuator torques
+        (τ minus passive moments) and the pelvis residual (…, 3)."""
+        c = self.contact.to(q)
+        grf, w = dynamics.contact_forces(q, u, p, c)
+        tau, root = dynamics.inverse_dynamics(q, u, qdd, grf, w, p)
+        ps = self.passive.to(q)
+        actuator = tau - passive_torque(q[..., 3:], u[..., 3:], ps[:6], ps[6:12], ps[12], ps[13])
+        return {"grf": grf, "w": w, "tau": tau, "actuator": actuator, "root": root}
+
+    def __call__(
+        self, q: torch.Tensor, u: torch.Tensor, qdd: torch.Tensor, p: torch.Tensor, height: torch.Tensor,
+        mass: torch.Tensor, duration: torch.Tensor,
+    ) -> dict[str, torch.Tensor]:
+        cfg, lam = self.config, self.config.weights
+        ph = self.physics(q, u, qdd, p)
+        bw = (mass * GRAVITY)[:, None]
+        bwbh = bw * height[:, None]
+        root = ph["root"]
+        kane = (root[..., 0] / bw).square() + (root[..., 1] / bw).square() + (root[..., 2] / bwbh).square()
+        tn = ph["actuator"] / (0.1 * bwbh[..., None])
+        ankles = [2, 5]
+        scaled = tn.clone()
+        scaled[..., ankles] = tn[..., ankles] * ankle_strength(tn[..., ankles], q[..., [5, 8]], 1.0, torch.exp, torch.tanh)
+        effort = scaled.square().sum(-1)
+        acc = (qdd * (duration[:, None, None] ** 2 / (4 * math.pi**2))).square().sum(-1)
+        joints = q[..., 3:]
+        tau_limit = cfg.torque_margin * ENV_MAX_TORQUE * mass[:, None, None]
+        relu2 = lambda x: torch.relu(x).square()  # noqa: E731
+        bounds = (
+            relu2(self.lower.to(q) - joints).sum(-1)
+            + relu2(joints - self.upper.to(q)).sum(-1)
+            + (relu2(ph["actuator"].abs() - tau_limit) / tau_limit**2).sum(-1)
+            + relu2(0.3 * height[:, None] - q[..., 1]) + relu2(q[..., 1] - 0.7 * height[:, None])
+            + relu2(q[..., 2].abs() - 0.6)
+        )
+        pk = kinematics.point_kinematics(q, u, qdd, ph["w"], p)
+        vx = torch.stack([pk[..., kinematics.point_index(f"contact_{s}"), 2] for s in "rl"], dim=-1)
+        slide = (vx * ph["grf"][..., 1::2] / bw[..., None]).square().sum(-1)
+        terms = {
+            "kane": lam.kane * kane.mean(),
+            "effort": lam.effort * effort.mean(),
+            "acc": lam.effort * lam.w_acc * acc.mean(),
+            "bounds": lam.bounds * bounds.mean(),
+            "slide": lam.slide * slide.mean(),
+        }
+        terms["total"] = sum(terms.values())
+        terms["kane_rms_bw"] = kane.mean().sqrt().detach()
+        return terms
+
+
+class GeneratorTrainer:
+    """Trains a :class:`GaitGenerator` (module docstring). ``fit()`` writes ``checkpoint.pt``,
+    ``generator.pt`` and ``history.csv`` (step, wall time, losses) into ``out``.
+
+    Attributes after ``fit``: ``model_``, ``history_`` (list of dicts), ``train_time_s_``.
+    """
+
+    def __init__(self, config: GeneratorConfig, out: str | Path) -> None:
+        self.config = config
+        self.out = Path(out)
+        self.step = 0
+        self.wall = 0.0
+        self.history_: list[dict[str, float]] = []
+        torch.manual_seed(config.seed)
+        self.rng = np.random.default_rng(config.seed)
+        self.model_ = GaitGenerator(config.harmonics, config.hidden, config.layers).double()
+        self.optimizer = torch.optim.Adam(self.model_.parameters(), lr=config.lr)
+        self.bodies = BodyPool.sample(256, config.heights, config.masses, self.rng)
+        self.losses = GaitLosses(config)
+
+    @property
+    def total_steps(self) -> int:
+        return self.config.warmup_steps + self.config.steps
+
+    def _batch(self) -> dict[str, torch.Tensor]:
+        cfg = self.config
+        idx = self.rng.integers(0, len(self.bodies.heights), cfg.batch_size)
+        speed = self.rng.uniform(*cfg.speeds, cfg.batch_size)
+        T = np.array([typical_stride_duration(v) for v in speed])
+        phase = (np.arange(cfg.points) + self.rng.uniform()) / cfg.points * 0.5  # half a cycle
+        t = lambda x: torch.as_tensor(np.asarray(x, dtype=np.float64))  # noqa: E731
+        return {
+            "idx": t(idx).long(), "speed": t(speed), "duration": t(T), "phase": t(phase),
+            "height": t(self.bodies.heights[idx]), "mass": t(self.bodies.masses[idx]),
+            "p": t(self.bodies.p[idx])[:, None, :], "hip": t(self.bodies.hip_height[idx]),
+        }
+
+    def _warmup_loss(self, b: dict[str, torch.Tensor], q: torch.Tensor) -> torch.Tensor:
+        target = np.stack([
+            generic_gait(float(v), float(T), b["phase"].numpy() * float(T), _body(float(h), float(m)))
+            for v, T, h, m in zip(b["speed"], b["duration"], b["height"], b["mass"])
+        ])
+        target = torch.as_tensor(target)
+        err = q[..., 1:] - target[..., 1:]
+        return err.square().mean() * 100.0
+
+    def _lr(self) -> float:
+        cfg = self.config
+        if self.step < cfg.warmup_steps:
+            return cfg.lr
+        x = (self.step - cfg.warmup_steps) / max(cfg.steps, 1)
+        return cfg.lr * (0.1 + 0.9 * 0.5 * (1 + math.cos(math.pi * min(x, 1.0))))
+
+    def fit(self, resume: bool = False) -> GaitGenerator:
+        from tqdm.auto import tqdm
+
+        cfg = self.config
+        self.out.mkdir(parents=True, exist_ok=True)
+        if cfg.threads:
+            torch.set_num_threads(cfg.threads)
+        ckpt = self.out / "checkpoint.pt"
+        if resume:
+            if not ckpt.exists():
+                raise FileNotFoundError(f"resume: no checkpoint at {ckpt}")
+            self._load(ckpt)
+        (self.out / "config.yaml").write_text(yaml.safe_dump({"generator": cfg.to_dict()}, sort_keys=False))
+        start = time.perf_counter() - self.wall
+        bar = tqdm(total=self.total_steps, initial=self.step, desc="gait generator", unit="step", dynamic_ncols=True)
+        try:
+            while self.step < self.total_steps:
+                b = self._batch()
+                coeffs = self.model_(b["speed"], b["height"], b["mass"])
+                q, u, qdd = cycle(coeffs, b["speed"], b["duration"], b["hip"], b["phase"])
+                if self.step < cfg.warmup_steps:
+                    terms = {"warmup": self._warmup_loss(b, q)}
+                    terms["total"] = terms["warmup"]
+                else:
+                    terms = self.losses(q, u, qdd, b["p"], b["height"], b["mass"], b["duration"])
+                if not torch.isfinite(terms["total"]):
+                    raise FloatingPointError(f"step {self.step}: non-finite loss {terms}; last checkpoint: {ckpt}")
+                for group in self.optimizer.param_groups:
+                    group["lr"] = self._lr()
+                self.optimizer.zero_grad(set_to_none=True)
+                terms["total"].backward()
+                torch.nn.utils.clip_grad_norm_(self.model_.parameters(), 1.0)
+                self.optimizer.step()
+                self.step += 1
+                self.wall = time.perf_counter() - start
+                bar.update(1)
+                if self.step % cfg.log_every == 0 or self.step == self.total_steps:
+                    rec = {"step": self.step, "wall_s": self.wall, **{k: float(v.detach()) for k, v in terms.items()}}
+                    self.history_.append(rec)
+                    bar.set_postfix(loss=f"{rec['total']:.3g}", kane_rms=f"{rec.get('kane_rms_bw', float('nan')):.2g}")
+                if self.step % cfg.checkpoint_every == 0:
+                    self._save(ckpt)
+                if cfg.snapshot_every and self.step % cfg.snapshot_every == 0:
+                    (self.out / "snapshots").mkdir(exist_ok=True)
+                    save_generator(self.model_, self.out / "snapshots" / f"generator_{self.step:06d}.pt", cfg, self.wall)
+                if cfg.time_limit_s and self.wall > cfg.time_limit_s:
+                    bar.write(f"time limit of {cfg.time_limit_s:.0f} s reached at step {self.step}")
+                    break
+        except KeyboardInterrupt:
+            bar.write(f"interrupted at step {self.step}: saving {ckpt} (continue with resume)")
+            self._save(ckpt)
+            raise
+        finally:
+            bar.close()
+        self._save(ckpt)
+        save_generator(self.model_, self.out / "generator.pt", cfg, self.wall)
+        self._write_history()
+        self.train_time_s_ = self.wall
+        return self.model_
+
+    def _save(self, path: Path) -> None:
+        state = {
+            "model": self.model_.state_dict(), "optimizer": self.optimizer.state_dict(), "step": self.step,
+            "wall": self.wall, "history": self.history_, "rng": self.rng.bit_generator.state,
+            "torch_rng": torch.get_rng_state(), "config": self.config.to_dict(),
+        }
+        tmp = path.with_suffix(".tmp")
+        torch.save(state, tmp)
+        tmp.replace(path)
+
+    def _load(self, path: Path) -> None:
+        state = torch.load(path, weights_only=False)
+        self.model_.load_state_dict(state["model"])
+        self.optimizer.load_state_dict(state["optimizer"])
+        self.step, self.wall, self.history_ = state["step"], state["wall"], state["history"]
+        self.rng.bit_generator.state = state["rng"]
+        torch.set_rng_state(state["torch_rng"])
+
+    def _write_history(self) -> None:
+        if not self.history_:
+            return
+        keys = sorted({k for r in self.history_ for k in r}, key=lambda k: (k not in ("step", "wall_s"), k))
+        with open(self.out / "history.csv", "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=keys)
+            w.writeheader()
+            w.writerows(self.history_)
+
+
+def _body(height: float, mass: float) -> BodyParameters:
+    return BodyParameters.from_anthropometry(height, mass)
+
+
+def save_generator(model: GaitGenerator, path: str | Path, config: GeneratorConfig, wall_s: float = float("nan")) -> Path:
+    """Weights + config (+ the training wall time so far, s) in one file."""
+    path = Path(path)
+    torch.save({"state": model.state_dict(), "config": config.to_dict(), "wall_s": wall_s}, path)
+    return path
+
+
+def load_generator(path: str | Path) -> tuple[GaitGenerator, GeneratorConfig]:
+    """(model in eval mode, its config) from :func:`save_generator`'s file; the training wall
+    time is ``torch.load(path)["wall_s"]``."""
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no gait generator here (train one with `python -m predictive generator`)")
+    data = torch.load(path, weights_only=False)
+    cfg = GeneratorConfig(**data["config"])
+    model = GaitGenerator(cfg.harmonics, cfg.hidden, cfg.layers).double()
+    model.load_state_dict(data["state"])
+    return model.eval(), cfg
+
+
+def generate(
+    model: GaitGenerator, speed: float, body: BodyParameters | None = None, n: int = 200, refine_iterations: int = 0,
+    config: GeneratorConfig | None = None,
+) -> GaitSolution:
+    """The generated gait cycle for ``speed`` (m/s) and ``body`` (default 1.75 m, 70 kg) at ``n``
+    equally spaced samples, as a :class:`GaitSolution` (``status="generated"`` or ``"refined"``;
+    torques are the total joint torques from inverse dynamics, as an OCP solution's).
+
+    ``refine_iterations`` > 0: the brief per-gait fine-tune — L-BFGS on this gait's free Fourier
+    coefficients (the network's output as the start), minimising the training loss (``config``'s
+    weights) at ``n`` phases of the half cycle. Still no data: the same self-supervised loss.
+    """
+    body = body or BodyParameters.from_anthropometry()
+    config = config or GeneratorConfig()
+    start = time.perf_counter()
+    T = typical_stride_duration(speed)
+    f64 = lambda x: torch.tensor([x], dtype=torch.float64)  # noqa: E731
+    height, mass = body.height, body.mass
+    v, dur, hip, H, M = f64(speed), f64(T), f64(body.standing_hip_height), f64(height), f64(mass)
+    p = torch.as_tensor(body.vector())
+    losses = GaitLosses(config)
+    with torch.no_grad():
+        raw = model.raw(v, H, M)
+    if refine_iterations > 0:
+        raw = raw.clone().requires_grad_(True)
+        half = torch.arange(n, dtype=torch.float64) / n * 0.5
+        opt = torch.optim.LBFGS([raw], lr=1.0, max_iter=refine_iterations, history_size=50, line_search_fn="strong_wolfe")
+
+        def closure() -> torch.Tensor:
+            opt.zero_grad()
+            q_, u_, a_ = cycle(model.coefficients(raw), v, dur, hip, half)
+            loss = losses(q_, u_, a_, p[None, None], H, M, dur)["total"]
+            loss.backward()
+            return loss
+
+        opt.step(closure)
+    with torch.no_grad():
+        phase = torch.arange(n, dtype=torch.float64) / n
+        q, u, qdd = cycle(model.coefficients(raw.detach()), v, dur, hip, phase)
+        ph = losses.physics(q[0], u[0], qdd[0], p)
+    root = ph["root"].numpy()
+    return GaitSolution(
+        time=phase.numpy() * T, q=q[0].numpy(), u=u[0].numpy(), qdd=qdd[0].numpy(), tau=ph["tau"].numpy(),
+        grf=ph["grf"].numpy(), w=ph["w"].numpy(), speed=float(speed), duration=T, body_parameters=body.to_dict(),
+        status="refined" if refine_iterations > 0 else "generated", iterations=refine_iterations,
+        solve_time=time.perf_counter() - start,
+        settings={"generator": True, "speed": float(speed), "kane_rms_bw": float(np.sqrt(np.mean(root[:, :2] ** 2)) / body.body_weight)},
+        contact=dataclasses.asdict(ContactParameters(slip_velocity=ENV_SLIP_VELOCITY)),
+        tau_max=np.full(N_TAU, 0.1 * body.body_weight * height),
+    )
+
+
+__all__ = [
+    "BodyPool", "GaitGenerator", "GaitLosses", "GeneratorConfig", "GeneratorTrainer", "GeneratorWeights",
+    "cycle", "fourier_basis", "generate", "load_generator", "save_generator",
+]
