@@ -7,10 +7,11 @@
 
 from __future__ import annotations
 
-import warnings
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
+import numba
 import numpy as np
 import torch
 
@@ -20,7 +21,7 @@ from sspinn.body import BodyParameters, IMUPlacement
 from sspinn.contact import ContactParameters
 from sspinn.conventions import COORDINATES, GRF, JOINTS
 from sspinn.dataset import SAMPLE_RATE_HZ, DataFormatError, Recording
-from sspinn.network import BLOCKS, SSPINNposeNet, decode, output_affine, split_outputs
+from sspinn.network import N_OUTPUTS, SSPINNposeNet, decode, output_affine
 from sspinn.training import input_features
 
 
@@ -95,14 +96,126 @@ def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str
     return GaitEstimate(name=rec.name, time=rec.time, **out)
 
 
+# Streaming: a hand-written single-step LSTM (see StreamingEstimator for why it exists).
+# fastmath without nnan/ninf: reassociation lets LLVM vectorise the dot products, while
+# non-finite values still propagate as in torch.
+_FASTMATH = {"reassoc", "contract", "nsz", "arcp"}
+_N_RESULT = 9 + 9 + 9 + 6 + 12 + 2 + 4 + 2  # q, u, qdd, tau, ankle (2, 6), mu_hat, grf, w
+
+
+@numba.njit(fastmath=_FASTMATH, cache=True)
+def _lstm_layer(w, b, a, h, c, gates):  # pragma: no cover - compiled (tested through step)
+    """One time step of one LSTM layer, state (h, c) updated in place.
+
+    ``w`` (4H, n_a + H) is [W_ih | W_hh] and ``b`` (4H,) b_ih + b_hh, both with rows reordered
+    so that rows 4j..4j+3 are the gates (i, f, g, o) of unit j: one pass over the weights with
+    four vectorised accumulators. The cell update runs in a second loop over ``gates`` (4H,)
+    scratch (fusing it into the first made LLVM's code ~3× slower).
+    """
+    n_a = a.shape[0]
+    n_h = h.shape[0]
+    for j in range(n_h):
+        r = 4 * j
+        si, sf, sg, so = b[r], b[r + 1], b[r + 2], b[r + 3]
+        for m in range(n_a):
+            v = a[m]
+            si += w[r, m] * v
+            sf += w[r + 1, m] * v
+            sg += w[r + 2, m] * v
+            so += w[r + 3, m] * v
+        for m in range(n_h):
+            v = h[m]
+            k = n_a + m
+            si += w[r, k] * v
+            sf += w[r + 1, k] * v
+            sg += w[r + 2, k] * v
+            so += w[r + 3, k] * v
+        gates[r], gates[r + 1], gates[r + 2], gates[r + 3] = si, sf, sg, so
+    for j in range(n_h):
+        r = 4 * j
+        gi = 1.0 / (1.0 + math.exp(-gates[r]))
+        gf = 1.0 / (1.0 + math.exp(-gates[r + 1]))
+        go = 1.0 / (1.0 + math.exp(-gates[r + 3]))
+        cj = gf * c[j] + gi * math.tanh(gates[r + 2])
+        c[j] = cj
+        h[j] = go * math.tanh(cj)
+
+
+@numba.njit(fastmath=_FASTMATH, cache=True)
+def _dense(w, b, a, out, elu):  # pragma: no cover - compiled
+    """out = w @ a + b, then ELU (α = 1) if ``elu``."""
+    for i in range(w.shape[0]):
+        s = b[i]
+        for m in range(a.shape[0]):
+            s += w[i, m] * a[m]
+        out[i] = (s if s > 0.0 else math.expm1(s)) if elu else s
+
+
+@numba.njit(cache=True)
+def _network_step(
+    x, mean, std, w0, b0, wr, br, h, c, gates, wd, bd, wo, bo, dense, raw, scale, offset, dt, root, res, ankle_global
+):  # pragma: no cover - compiled (tested through StreamingEstimator.step)
+    """One sample through the network and the decoding; False (and nothing changed) if ``x``
+    is not finite.
+
+    x (n_imu·3,) float64 IMU channels; mean/std their input statistics; w0/b0 the first layer
+    with the subject's constant inputs folded into b0; wr/br (layers − 1, ...) the others;
+    h/c (layers, H) the carried state; dt the sample period; root [pelvis_tx, previous vx, started]; writes ``res``
+    (q, u, qdd, tau, ankle, mu_hat; grf and w are left to the contact kernel) and
+    ``ankle_global`` [x, y, vx, vy] per foot.
+    """
+    n = x.shape[0]
+    for k in range(n):
+        if not np.isfinite(x[k]):
+            return False
+    a = np.empty(n, np.float32)
+    for k in range(n):
+        a[k] = (np.float32(x[k]) - mean[k]) / std[k]
+    _lstm_layer(w0, b0, a, h[0], c[0], gates)
+    for layer in range(wr.shape[0]):
+        _lstm_layer(wr[layer], br[layer], h[layer], h[layer + 1], c[layer + 1], gates)
+    _dense(wd, bd, h[h.shape[0] - 1], dense, True)
+    _dense(wo, bo, dense, raw, False)
+    scaled = raw.astype(np.float64) * scale + offset
+    vx = scaled[8]  # u[0], the horizontal root velocity
+    if root[2] > 0.0:  # trapezoidal integral, as in network.decode
+        root[0] += 0.5 * (vx + root[1]) * dt
+    root[1] = vx
+    root[2] = 1.0
+    res[0] = root[0]
+    res[1:33] = scaled[0:32]  # q[1:], u, qdd, tau
+    for foot in range(2):
+        res[33 + 6 * foot : 39 + 6 * foot] = scaled[32 + 7 * foot : 38 + 7 * foot]
+        res[45 + foot] = scaled[38 + 7 * foot]
+        ankle_global[4 * foot : 4 * foot + 4] = scaled[32 + 7 * foot : 36 + 7 * foot]
+        ankle_global[4 * foot] += root[0]
+    return True
+
+
 class StreamingEstimator:
     """Sample-by-sample estimation with a carried LSTM state (unidirectional models only).
 
     Args:
-        model: a trained unidirectional model.
+        model: a trained unidirectional model (put in eval mode: no dropout).
         segments: its IMU segments.
         height, mass: the subject (m, kg).
         placement: (21,) IMU placement, default the scaled nominal one.
+
+    The network runs in a hand-written single-step LSTM cell (:func:`_network_step`, numba,
+    float32 like the torch model) on weights copied from ``model`` at construction and at each
+    :meth:`reset` (after training the model further, call :meth:`reset`). Why hand-written: one
+    time step at batch 1 is little more than one matrix-vector product per layer (~0.3 ms for
+    the paper model, weights read from cache), but stepping ``nn.LSTM`` costs 1–2 ms on one CPU
+    thread (7–10 ms with oneDNN on; ../shared/TRAPS.md), most of it per-call overhead, and
+    NumPy's ``W @ x`` goes through multi-threaded OpenBLAS, which took ~8 ms for the 2048×1024
+    layer on this loaded 2-core machine; no library offers a lean single-step LSTM on CPU. The
+    cell fuses each layer's input and recurrent products into one pass over [W_ih | W_hh] with
+    a unit's four gate rows interleaved, and folds the constant body/placement inputs (the
+    paper's θ_b and θ_IMU, fixed for a subject; see ``training.input_features``) into the first
+    layer's bias once per subject, so only the IMU channels are multiplied per sample. Decoding
+    runs in the same kernel and the contact model in the generated numba kernel: a step makes
+    no torch tensors and allocates one output buffer (the returned arrays are views of it).
+    Agreement with the torch model over whole sequences is tested (tests/test_streaming.py).
     """
 
     def __init__(self, model: SSPINNposeNet, segments: tuple[str, ...], height: float, mass: float, placement: np.ndarray | None = None) -> None:
@@ -118,38 +231,82 @@ class StreamingEstimator:
         self.scale, self.offset = output_affine(height, mass, body.standing_hip_height, body.gravity)
         self.reset()
 
-    def reset(self) -> None:
-        self.state = None
-        self.x_root = 0.0
-        self.vx_previous: float | None = None
+    def _pack(self) -> None:
+        """Copy the model's weights into the layout of :func:`_network_step` (float32)."""
+        model, n_imu = self.model, 3 * len(self.segments)
+        features = input_features(np.zeros((1, len(self.segments), 3)), self.height, self.mass, self.placement, self.segments)[0]
+        if features.size != model.n_inputs:
+            raise ValueError(f"the model takes {model.n_inputs} input features; IMUs {self.segments} give {features.size}")
 
-    @torch.no_grad()
+        def arr(t: torch.Tensor) -> np.ndarray:
+            return t.detach().to("cpu", torch.float32).numpy()
+
+        def interleave(m: np.ndarray) -> np.ndarray:  # rows (i, f, g, o) × H → H × (i, f, g, o)
+            return np.ascontiguousarray(m.reshape(4, -1, *m.shape[1:]).swapaxes(0, 1).reshape(m.shape))
+
+        lstm, cfg = model.lstm, model.config
+        mean, std = arr(model.input_mean), arr(model.input_std)
+        consts = (features[n_imu:].astype(np.float32) - mean[n_imu:]) / std[n_imu:]
+        w, b = [], []
+        for layer in range(cfg.layers):
+            w_ih, w_hh = arr(getattr(lstm, f"weight_ih_l{layer}")), arr(getattr(lstm, f"weight_hh_l{layer}"))
+            bias = arr(getattr(lstm, f"bias_ih_l{layer}")).astype(np.float64) + arr(getattr(lstm, f"bias_hh_l{layer}"))
+            if layer == 0:  # the constant inputs' share of the first layer, once per subject
+                bias += w_ih[:, n_imu:].astype(np.float64) @ consts.astype(np.float64)
+                w_ih = w_ih[:, :n_imu]
+            w.append(interleave(np.concatenate([w_ih, w_hh], axis=1)))
+            b.append(interleave(bias.astype(np.float32)))
+        H = cfg.hidden
+        self._net = dict(
+            mean=np.ascontiguousarray(mean[:n_imu]), std=np.ascontiguousarray(std[:n_imu]), w0=w[0], b0=b[0],
+            wr=np.ascontiguousarray(np.array(w[1:], dtype=np.float32).reshape(cfg.layers - 1, 4 * H, 2 * H)),
+            br=np.ascontiguousarray(np.array(b[1:], dtype=np.float32).reshape(cfg.layers - 1, 4 * H)),
+            wd=np.ascontiguousarray(arr(model.head[0].weight)), bd=arr(model.head[0].bias).copy(),
+            wo=np.ascontiguousarray(arr(model.head[2].weight)), bo=arr(model.head[2].bias).copy(),
+        )
+        self._h = np.zeros((cfg.layers, H), np.float32)
+        self._c = np.zeros((cfg.layers, H), np.float32)
+        self._gates = np.empty(4 * H, np.float32)
+        self._dense_out = np.empty(cfg.dense, np.float32)
+        self._raw = np.empty(N_OUTPUTS, np.float32)
+        self._ankle_global = np.empty(8)
+        self._gc = np.empty((2, 6))
+
+    def reset(self) -> None:
+        """Start a new stream: zero LSTM state, pelvis_tx 0, weights re-read from the model."""
+        self._pack()
+        self._root = np.zeros(3)  # pelvis_tx, previous vx, started
+
+    @property
+    def x_root(self) -> float:
+        """pelvis_tx (m): the integral of the estimated horizontal root velocity so far."""
+        return float(self._root[0])
+
+    @property
+    def state(self) -> tuple[torch.Tensor, torch.Tensor] | None:
+        """The carried LSTM state as torch's (h, c), each (layers, 1, hidden); None before the first step."""
+        if not self._root[2]:
+            return None
+        return torch.from_numpy(self._h.copy())[:, None], torch.from_numpy(self._c.copy())[:, None]
+
     def step(self, sample: np.ndarray) -> dict[str, np.ndarray]:
         """One sample (n_imu, 3) [acc_x, acc_y, gyr_z] in the model's segment order → dict of
-        q (9), u (9), qdd (9), tau (6), grf (4), w (2) at that sample (NumPy, SI units).
-
-        The network runs in torch (oneDNN off: its per-call overhead dominates single-step
-        LSTMs on CPU, see ../shared/TRAPS.md); decoding and the contact model run on NumPy and
-        the generated numba kernel, so the physics adds microseconds, not milliseconds.
-        """
+        q (9), u (9), qdd (9), tau (6), grf (4), w (2), ankle (2, 6) (x relative to pelvis_tx)
+        and mu_hat (2) at that sample (NumPy, SI units)."""
         sample = np.asarray(sample, dtype=np.float64)
-        if sample.shape != (len(self.segments), 3) or not np.isfinite(sample).all():
+        if sample.shape != (len(self.segments), 3):
             raise ValueError(f"expected a finite ({len(self.segments)}, 3) sample for IMUs {self.segments}, got {sample.shape}")
-        x = input_features(sample[None], self.height, self.mass, self.placement, self.segments)
-        with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", message="TF32 acceleration")  # torch's notice on toggling oneDNN
-            with torch.backends.mkldnn.flags(enabled=False):
-                raw, self.state = self.model(torch.as_tensor(x, dtype=torch.float32)[None], self.state)
-        scaled = raw[0, -1].double().numpy() * self.scale + self.offset
-        vx = scaled[BLOCKS["u"].start]
-        if self.vx_previous is not None:  # trapezoidal integral, as in network.decode
-            self.x_root += 0.5 * (vx + self.vx_previous) / SAMPLE_RATE_HZ
-        self.vx_previous = vx
-        out = split_outputs(scaled, np.array(self.x_root))
-        ankle = np.ascontiguousarray(out["ankle"][:, :4].copy())
-        ankle[:, 0] += self.x_root
-        gc, w = np.empty((2, 6)), np.empty(2)
-        model_numba.contact_learned_from_ankles(out["q"], out["u"], ankle.reshape(-1), np.ascontiguousarray(out["mu_hat"]), self.p, self.c, gc, w)
-        out["grf"] = gc[:, :2].reshape(-1)
-        out["w"] = w
-        return out
+        net, res = self._net, np.empty(_N_RESULT)
+        if not _network_step(
+            sample.reshape(-1), net["mean"], net["std"], net["w0"], net["b0"], net["wr"], net["br"], self._h, self._c,
+            self._gates, net["wd"], net["bd"], net["wo"], net["bo"], self._dense_out, self._raw, self.scale, self.offset,
+            1.0 / SAMPLE_RATE_HZ, self._root, res, self._ankle_global,
+        ):
+            raise ValueError(f"expected a finite ({len(self.segments)}, 3) sample for IMUs {self.segments}, got non-finite values")
+        q, u = res[0:9], res[9:18]
+        model_numba.contact_learned_from_ankles(q, u, self._ankle_global, res[45:47], self.p, self.c, self._gc, res[51:53])
+        res[47:51].reshape(2, 2)[:] = self._gc[:, :2]
+        return {
+            "q": q, "u": u, "qdd": res[18:27], "tau": res[27:33], "ankle": res[33:45].reshape(2, 6),
+            "mu_hat": res[45:47], "grf": res[47:51], "w": res[51:53],
+        }
