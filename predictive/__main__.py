@@ -29,6 +29,8 @@ def _parser() -> argparse.ArgumentParser:
     solve.add_argument("--speed", type=float, required=True, help="average speed, m/s")
     solve.add_argument("--out", type=Path, required=True, help="output path without suffix")
     solve.add_argument("--nodes", type=int, default=None, help="collocation nodes (default 50 half / 100 full)")
+    solve.add_argument("--rate-hz", type=float, default=None,
+                       help="put the nodes on a sampling grid of this rate, e.g. 100 (instead of --nodes)")
     solve.add_argument("--cycle", choices=("half", "full"), default="half", help="symmetric half or full cycle")
     solve.add_argument("--effort", choices=("squared", "cubed"), default="squared")
     solve.add_argument("--duration", type=float, default=None, help="stride duration, s (default: typical)")
@@ -57,6 +59,7 @@ def _solve(args: argparse.Namespace) -> int:
             args.speed,
             body,
             n_nodes=args.nodes,
+            rate_hz=args.rate_hz,
             effort=args.effort,
             gait_cycle=args.cycle,
             guess=guess,

@@ -623,6 +623,7 @@ def solve_predictive(
     ipopt_options: Mapping[str, Any] | None = None,
     verbose: bool = False,
     raise_on_failure: bool = True,
+    rate_hz: float | None = None,
     **settings: Any,
 ) -> GaitSolution:
     """Predict a periodic gait cycle at average ``speed`` (m/s) by minimising joint-torque effort.
@@ -651,6 +652,9 @@ def solve_predictive(
         verbose: print IPOPT's iteration log.
         raise_on_failure: raise :class:`OCPError` (naming IPOPT's status) unless the status is
             ``Solve_Succeeded``; if False, return the last iterate with its status.
+        rate_hz: put the nodes on a sampling grid of this rate (e.g. 100 Hz: node spacing 10 ms,
+            ``n_nodes`` from the stride duration; the duration must then be fixed). The solution
+            then needs no resampling to that rate: its samples satisfy the dynamics exactly.
         **settings: further :class:`OCPSettings` fields (e.g. ``duration_bounds``, ``w_acc``,
             ``tau_max``, ``max_iter``).
 
@@ -661,6 +665,14 @@ def solve_predictive(
     Raises:
         OCPError: IPOPT did not return ``Solve_Succeeded`` (and ``raise_on_failure``).
     """
+    if rate_hz is not None:
+        if free_duration:
+            raise ValueError("rate_hz needs a fixed stride duration (free_duration=False)")
+        if n_nodes is not None:
+            raise ValueError("give n_nodes or rate_hz, not both")
+        T = duration if duration is not None else typical_stride_duration(speed)
+        n_nodes = max(4, int(round(T * rate_hz / (1 if gait_cycle == "full" else 2))))
+        duration = n_nodes * (1 if gait_cycle == "full" else 2) / rate_hz
     if n_nodes is None:
         n_nodes = 100 if gait_cycle == "full" else 50
     cfg = OCPSettings(

@@ -158,3 +158,21 @@ def test_warm_start_from_solution_and_free_duration(slow_walk: GaitSolution) -> 
     assert sol.success and 0.9 - 1e-6 <= sol.duration <= 1.3 + 1e-6  # IPOPT relaxes bounds by ~1e-8
     assert np.abs(sol.node_residual()).max() < 1e-6
     assert sol.stride_length == pytest.approx(1.1 * sol.duration)
+
+
+def test_solution_on_a_sampling_grid_satisfies_the_dynamics_at_every_sample() -> None:
+    """rate_hz puts the nodes on the sampling grid: the torch backend finds the dynamics satisfied
+    at every sample with the solution's own accelerations (no resampling needed)."""
+    import torch
+
+    from sspinn import dynamics
+
+    sol = solve_predictive(1.2, rate_hz=25.0)
+    assert np.allclose(np.diff(sol.time), 1 / 25.0) and sol.duration == pytest.approx(len(sol.time) / 25.0)
+    t = lambda x: torch.as_tensor(np.asarray(x))  # noqa: E731
+    p, c = t(sol.body.vector()), t(sol.contact_parameters.vector())
+    grf, w = dynamics.contact_forces(t(sol.q), t(sol.u), p, c)
+    r = dynamics.kane_residual(t(sol.q), t(sol.u), t(sol.qdd), t(sol.tau), grf, w, p).numpy()
+    assert np.abs(r[:, :2]).max() / sol.body.body_weight < 1e-6
+    with pytest.raises(ValueError, match="not both"):
+        solve_predictive(1.2, rate_hz=25.0, n_nodes=10)
