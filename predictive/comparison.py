@@ -56,7 +56,8 @@ class MethodSpec:
 
     Attributes:
         name: label in the report. kind: "generator", "ocp" or "sb3".
-        model: generator.pt (kind generator). refine_iterations: per-speed L-BFGS fine-tune.
+        model: generator.pt (kind generator). refine_iterations: per-speed L-BFGS fine-tune
+            (0: one forward pass), with the Kane weight × refine_kane_factor.
         n_nodes: OCP nodes per half cycle (kind ocp).
         checkpoints: target speed (m/s) → SB3 checkpoint .zip (kind sb3); speeds without one are
             reported as "not trained".
@@ -66,6 +67,7 @@ class MethodSpec:
     kind: str
     model: str | None = None
     refine_iterations: int = 0
+    refine_kane_factor: float = 10.0
     n_nodes: int = 100
     checkpoints: dict[float, str] = field(default_factory=dict)
 
@@ -149,7 +151,7 @@ def generator_controller(spec: MethodSpec, config: ComparisonConfig, speed: floa
     train_s = float(torch.load(spec.model, weights_only=False).get("wall_s", float("nan")))
     start = time.perf_counter()
     sol = generate(model, speed, BodyParameters.from_anthropometry(config.height, config.mass),
-                   refine_iterations=spec.refine_iterations, config=gcfg)
+                   refine_iterations=spec.refine_iterations, config=gcfg, refine_kane_factor=spec.refine_kane_factor)
     gen_s = time.perf_counter() - start
     note = f"kane rms {sol.settings['kane_rms_bw']:.3g} BW"
     return tracker_controller(sol, env, config.lqr, train_s, gen_s, note)

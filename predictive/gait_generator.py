@@ -465,14 +465,16 @@ def load_generator(path: str | Path) -> tuple[GaitGenerator, GeneratorConfig]:
 def generate(
     model: GaitGenerator, speed: float, body: BodyParameters | None = None, n: int = 200, refine_iterations: int = 0,
     config: GeneratorConfig | None = None,
+    refine_kane_factor: float = 1.0,
 ) -> GaitSolution:
     """The generated gait cycle for ``speed`` (m/s) and ``body`` (default 1.75 m, 70 kg) at ``n``
     equally spaced samples, as a :class:`GaitSolution` (``status="generated"`` or ``"refined"``;
     torques are the total joint torques from inverse dynamics, as an OCP solution's).
 
     ``refine_iterations`` > 0: the brief per-gait fine-tune — L-BFGS on this gait's free Fourier
-    coefficients (the network's output as the start), minimising the training loss (``config``'s
-    weights) at ``n`` phases of the half cycle. Still no data: the same self-supervised loss.
+    coefficients (the network's output as the start), minimising the training loss at ``n``
+    phases of the half cycle, with the Kane weight × ``refine_kane_factor`` (SSPINNpose's
+    fine-tuning mode multiplies L_K by 10). Still no data: the same self-supervised loss.
     """
     body = body or BodyParameters.from_anthropometry()
     config = config or GeneratorConfig()
@@ -486,6 +488,8 @@ def generate(
     with torch.no_grad():
         raw = model.raw(v, H, M)
     if refine_iterations > 0:
+        weights = dataclasses.replace(config.weights, kane=config.weights.kane * refine_kane_factor)
+        refine_losses = GaitLosses(GeneratorConfig(**{**config.to_dict(), "weights": weights}))
         raw = raw.clone().requires_grad_(True)
         half = torch.arange(n, dtype=torch.float64) / n * 0.5
         opt = torch.optim.LBFGS([raw], lr=1.0, max_iter=refine_iterations, history_size=50, line_search_fn="strong_wolfe")
@@ -493,7 +497,7 @@ def generate(
         def closure() -> torch.Tensor:
             opt.zero_grad()
             q_, u_, a_ = cycle(model.coefficients(raw), v, dur, hip, half)
-            loss = losses(q_, u_, a_, p[None, None], H, M, dur)["total"]
+            loss = refine_losses(q_, u_, a_, p[None, None], H, M, dur)["total"]
             loss.backward()
             return loss
 
