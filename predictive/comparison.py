@@ -195,7 +195,7 @@ def read_agent_evaluations(checkpoint: str | Path) -> list[dict[str, float]]:
         path = folder / "evaluations.csv"
         if path.exists():
             with path.open() as fh:
-                return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(fh)]
+                return [{k: float(v) if v not in ("", None) else math.nan for k, v in row.items()} for row in csv.DictReader(fh)]
     return []
 
 
@@ -370,13 +370,15 @@ def learning_curves(config: ComparisonConfig) -> dict[str, dict[float, tuple[lis
     """Per method and speed: (wall time s, mean distance in a 10 s episode m) over training — SB3
     from its evaluation log, the generator from its snapshots (closed loop, ``snapshot_seeds``)."""
     curves: dict[str, dict[float, tuple[list[float], list[float]]]] = {}
+    seen_models: set[str] = set()
     for spec in config.methods:
         if spec.kind == "sb3":
             for speed, path in spec.checkpoints.items():
                 rows = read_agent_evaluations(path)
                 if rows:
                     curves.setdefault(spec.name, {})[speed] = ([r["wall_s"] for r in rows], [r["mean_distance_m"] for r in rows])
-        elif spec.kind == "generator":
+        elif spec.kind == "generator" and spec.model not in seen_models:  # one curve per trained network
+            seen_models.add(str(spec.model))
             snaps = sorted(Path(spec.model).parent.glob("snapshots/generator_*.pt"))
             for speed in config.speeds:
                 env = make_env(config, speed)
@@ -474,6 +476,25 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
             v = s.get(key)
             vals.append("–" if v is None or (isinstance(v, float) and not math.isfinite(v)) else fmt.format(v))
         lines.append(f"| {s['method']} | {s['speed']} | " + " | ".join(vals) + f" | {s.get('note', '')} |")
+    lines += ["", "Time until a controller first covers ≥ 90 % of the target distance in a 10 s episode",
+              "(learning curves: SB3 evaluation log, 5 seeds, no falls; generator snapshots, "
+              f"seeds {config.snapshot_seeds}; OCP: solve + LQR):", "",
+              "| method | " + " | ".join(f"{v} m/s" for v in config.speeds) + " |", "|---|" + "---|" * len(config.speeds)]
+    for name, per_speed in curves.items():
+        cells_txt = []
+        for v in config.speeds:
+            if v not in per_speed:
+                cells_txt.append("–")
+                continue
+            xs, ys = per_speed[v]
+            hit = [x for x, y in zip(xs, ys) if y >= 0.9 * v * 10]
+            cells_txt.append(f"{hit[0] / 60:.1f} min" if hit else f"not within {max(xs) / 60:.0f} min")
+        lines.append(f"| {name} | " + " | ".join(cells_txt) + " |")
+    for c in cells:
+        if c.method.lower().startswith("ocp") and c.episodes and c.speed == config.speeds[0]:
+            lines.append(f"| {c.method} | " + " | ".join(
+                f"{d.per_speed_time_s:.0f} s" if d.episodes and d.summary()["mean_distance_m"] >= 0.9 * d.speed * 10 else "–"
+                for v in config.speeds for d in cells if d.method == c.method and d.speed == v) + " |")
     lines += ["", "![learning curves](learning_curves.png)", ""]
     lines += [f"![cycles {v}](cycles_{v}.png)" for v in config.speeds]
     lines += ["", "![stick figures](stick_figures.png)", "", "Metrics and start states: see `predictive/comparison.py`."]
