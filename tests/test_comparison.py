@@ -82,3 +82,23 @@ def test_run_comparison_end_to_end_on_tiny_budgets(tmp_path) -> None:
     text = (tmp_path / "report" / "report.md").read_text()
     assert "| generator | 1.3 |" in text and "not trained" in text
     assert (tmp_path / "report" / "learning_curves.png").exists()
+
+
+def test_bench_predictive_times_a_new_speed(tmp_path, capsys) -> None:
+    """benchmarks/bench_predictive.py (new-speed part) runs on a tiny generator and prints ratios."""
+    import runpy
+    from pathlib import Path
+
+    import yaml
+
+    gen = GeneratorConfig(harmonics=3, hidden=16, layers=1, points=8, batch_size=4, warmup_steps=3, steps=1, snapshot_every=0)
+    GeneratorTrainer(gen, tmp_path / "gen").fit()
+    cfg = tmp_path / "compare.yaml"
+    cfg.write_text(yaml.safe_dump({"compare": {"speeds": [1.3], "seeds": [0], "methods": [
+        {"name": "g", "kind": "generator", "model": str(tmp_path / "gen" / "generator.pt")}]}}))
+    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "bench_predictive.py"), run_name="bench")
+    assert bench["main"](["--config", str(cfg), "--out", str(tmp_path / "out"), "--new-speeds", "1.1", "--skip-table"]) == 0
+    out = capsys.readouterr().out
+    assert "baseline: OCP re-solve" in out and "generator (forward pass + LQR)" in out
+    rows = json.loads((tmp_path / "out" / "new_speed_timing.json").read_text())
+    assert len(rows) == 3 and all(r["time_s"] > 0 for r in rows)
