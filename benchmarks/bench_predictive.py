@@ -34,7 +34,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     from predictive.comparison import (
-        ComparisonConfig, MethodSpec, evaluate_controller, generator_controller, make_env, ocp_controller, run_comparison,
+        ComparisonConfig,
+        MethodSpec,
+        evaluate_controller,
+        generator_controller,
+        make_env,
+        ocp_controller,
+        run_comparison,
     )
 
     config = ComparisonConfig.from_yaml(args.config)

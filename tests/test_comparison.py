@@ -9,7 +9,14 @@ import pytest
 
 from envs.sagittal_walker import SagittalWalkerEnv
 from predictive.analysis import ReferenceGait
-from predictive.comparison import ComparisonConfig, MethodSpec, executed_kane_residual, normalised_cycle, run_comparison, winter_rmsd
+from predictive.comparison import (
+    ComparisonConfig,
+    MethodSpec,
+    executed_kane_residual,
+    normalised_cycle,
+    run_comparison,
+    winter_rmsd,
+)
 from predictive.gait_generator import GeneratorConfig, GeneratorTrainer
 
 
@@ -40,8 +47,8 @@ def test_executed_kane_residual_is_small_for_the_simulation_and_large_for_a_fake
     env = SagittalWalkerEnv()
     env.reset(seed=0)
     qs, us, taus = [], [], []
-    for k in range(60):
-        _, _, term, _, info = env.step(np.zeros(6, np.float32))  # the body sags onto the feet
+    for _ in range(60):
+        _, _, _, _, info = env.step(np.zeros(6, np.float32))  # the body sags onto the feet
         q, u = env.state
         qs.append(q), us.append(u), taus.append(info["torques"])
     tr = {"q": np.array(qs), "u": np.array(us), "torques": np.array(taus)}
