@@ -30,6 +30,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--config", type=Path, default=Path("configs/predictive/compare.yaml"))
     parser.add_argument("--out", type=Path, default=Path("results/compare"))
     parser.add_argument("--new-speeds", type=float, nargs="*", default=[0.9, 2.2, 3.0])
+    parser.add_argument("--new-bodies", nargs="*", default=["1.6:55", "1.9:90"],
+                        help="height:mass pairs (m:kg) for the generator at the config's first speed")
     parser.add_argument("--skip-table", action="store_true", help="only the new-speed timing")
     args = parser.parse_args(argv)
 
@@ -78,8 +80,25 @@ def main(argv: list[str] | None = None) -> int:
         base = next(r["time_s"] for r in rows if r["speed"] == speed and r["method"].startswith("baseline"))
         for r in (r for r in rows if r["speed"] == speed):
             print(f"{speed:6.2f}  {r['method']:<34} {r['time_s']:9.2f} {base / r['time_s']:7.1f}× {r['distance_m']:18.2f}  {r['fell']}")
+    body_rows = []
+    for pair in args.new_bodies:
+        height, mass = (float(x) for x in pair.split(":"))
+        cfg_b = ComparisonConfig(**{**config.__dict__, "height": height, "mass": mass})
+        speed = config.speeds[0]
+        env = make_env(cfg_b, speed)
+        for label, spec in list(variants.items())[:2]:
+            ctrl = generator_controller(spec, cfg_b, speed, env)
+            eps, _, _ = evaluate_controller(ctrl, env, speed, config.seeds, None)
+            body_rows.append({"height": height, "mass": mass, "speed": speed, "method": label,
+                              "time_s": ctrl.per_speed_time_s, "falls": int(sum(e["fell"] for e in eps)), "episodes": len(eps),
+                              "mean_distance_m": float(np.mean([e["distance_m"] for e in eps]))})
+        env.close()
+    print("\nOther bodies (the generator was trained on 1.6–1.9 m, 55–90 kg):")
+    for r in body_rows:
+        print(f"{r['height']:.2f} m {r['mass']:.0f} kg {r['speed']} m/s  {r['method']:<34} {r['time_s']:7.2f} s  "
+              f"falls {r['falls']}/{r['episodes']}  distance {r['mean_distance_m']:.2f} m")
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "new_speed_timing.json").write_text(json.dumps(rows, indent=2, default=float))
+    (args.out / "new_speed_timing.json").write_text(json.dumps({"speeds": rows, "bodies": body_rows}, indent=2, default=float))
     print(f"median time, generator forward pass: {np.median([r['time_s'] for r in rows if r['method'].startswith('generator (')]):.2f} s")
     return 0
 

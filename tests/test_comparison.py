@@ -104,8 +104,10 @@ def test_bench_predictive_times_a_new_speed(tmp_path, capsys) -> None:
     cfg.write_text(yaml.safe_dump({"compare": {"speeds": [1.3], "seeds": [0], "methods": [
         {"name": "g", "kind": "generator", "model": str(tmp_path / "gen" / "generator.pt")}]}}))
     bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "bench_predictive.py"), run_name="bench")
-    assert bench["main"](["--config", str(cfg), "--out", str(tmp_path / "out"), "--new-speeds", "1.1", "--skip-table"]) == 0
+    assert bench["main"](["--config", str(cfg), "--out", str(tmp_path / "out"), "--new-speeds", "1.1", "--new-bodies", "1.7:60",
+                          "--skip-table"]) == 0
     out = capsys.readouterr().out
     assert "baseline: OCP re-solve" in out and "generator (forward pass + LQR)" in out
     rows = json.loads((tmp_path / "out" / "new_speed_timing.json").read_text())
-    assert len(rows) == 3 and all(r["time_s"] > 0 for r in rows)
+    assert len(rows["speeds"]) == 3 and all(r["time_s"] > 0 for r in rows["speeds"])
+    assert len(rows["bodies"]) == 2 and "Other bodies" in out
