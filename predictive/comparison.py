@@ -38,9 +38,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from predictive.closed_loop import GaitTracker, LQRWeights, resample_cycle
+from sspinn.yaml_config import construct, read_section
 
 #: Vertical force (BW) above which a foot counts as loaded (heel strike detection).
 CONTACT_THRESHOLD_BW = 0.1
@@ -103,12 +103,7 @@ class ComparisonConfig:
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> ComparisonConfig:
-        path = Path(path)
-        data = yaml.safe_load(path.read_text()) or {}
-        try:
-            return cls(**data.get("compare", data))
-        except TypeError as exc:
-            raise ValueError(f"{path}: {exc}") from None
+        return construct(cls, read_section(path, "compare", cls), path)
 
 
 @dataclass

@@ -57,6 +57,7 @@ from sspinn.body import BodyParameters
 from sspinn.contact import ContactParameters
 from sspinn.conventions import GRAVITY, N_TAU
 from sspinn.passive import passive_parameters, passive_torque
+from sspinn.yaml_config import construct, read_section
 
 #: Forward-simulation friction slip velocity of the Gymnasium environment, m/s (envs.sagittal_walker).
 ENV_SLIP_VELOCITY = 0.2
@@ -127,16 +128,7 @@ class GeneratorConfig:
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> GeneratorConfig:
-        path = Path(path)
-        data = yaml.safe_load(path.read_text()) or {}
-        data = data.get("generator", data)
-        known = {f.name for f in dataclasses.fields(cls)}
-        if set(data) - known:
-            raise ValueError(f"{path}: unknown generator option(s) {sorted(set(data) - known)}; known: {sorted(known)}")
-        try:
-            return cls(**data)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{path}: {exc}") from None
+        return construct(cls, read_section(path, "generator", cls), path)
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

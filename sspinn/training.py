@@ -30,6 +30,7 @@ from sspinn.conventions import SEGMENTS
 from sspinn.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.losses import Batch, LossWeights, PhysicsLosses
 from sspinn.network import NetworkConfig, SSPINNposeNet, decode, output_affine
+from sspinn.yaml_config import construct, read_section
 
 #: Named IMU configurations of the paper (sparse sets keep λ_IMU's relative weight; see losses).
 IMU_CONFIGURATIONS: dict[str, tuple[str, ...]] = {
@@ -81,20 +82,11 @@ class TrainConfig:
     def from_yaml(cls, path: str | Path, settings: list[str] | None = None, **overrides: Any) -> TrainConfig:
         """Load ``path``; ``overrides`` replace top-level options (None = keep), ``settings`` are
         ``"dotted.key=value"`` strings (YAML values), e.g. ``["weights.kane=0", "network.hidden=64"]``."""
-        path = Path(path)
-        data = yaml.safe_load(path.read_text()) or {}
-        data = data.get("train", data)
-        known = {f.name for f in dataclasses.fields(cls)}
-        unknown = set(data) - known
-        if unknown:
-            raise ValueError(f"{path}: unknown training option(s) {sorted(unknown)}; known: {sorted(known)}")
+        data = read_section(path, "train", cls)
         data.update({k: v for k, v in overrides.items() if v is not None})
         for assignment in settings or ():
-            _apply_setting(data, assignment, path)
-        try:
-            return cls(**data)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{path}: {exc}") from None
+            _apply_setting(data, assignment, Path(path))
+        return construct(cls, data, path)
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

@@ -113,7 +113,7 @@ def test_bad_config_and_data_errors(tiny, tmp_path, capsys):
     bad = tmp_path / "bad.yaml"
     bad.write_text("train: {stepz: 3}\n")
     assert main(["train", "--config", str(bad), "--data", str(data), "--out", str(tmp_path / "r")]) == 2
-    assert "unknown training option(s) ['stepz']" in capsys.readouterr().err
+    assert "unknown train option(s) ['stepz']" in capsys.readouterr().err
     assert main(["train", "--config", str(cfg), "--data", str(tmp_path), "--out", str(tmp_path / "r")]) == 2
     assert "not a dataset folder" in capsys.readouterr().err
     with pytest.raises(ValueError, match="unknown IMU configuration"):

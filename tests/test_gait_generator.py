@@ -110,3 +110,15 @@ def test_bad_generator_config() -> None:
         GeneratorConfig(speeds=(2.0, 1.0))
     with pytest.raises(ValueError, match="points"):
         GeneratorConfig(points=0)
+
+
+def test_generator_config_yaml(tmp_path) -> None:
+    path = tmp_path / "g.yaml"
+    path.write_text("generator:\n  steps: 5\n  weights: {kane: 10.0}\n")
+    cfg = GeneratorConfig.from_yaml(path)
+    assert cfg.steps == 5 and cfg.weights.kane == 10.0 and cfg.weights.effort == 1.0
+    path.write_text("generator:\n  stepz: 5\n")
+    with pytest.raises(ValueError, match=r"g.yaml: unknown generator option\(s\) \['stepz'\]"):
+        GeneratorConfig.from_yaml(path)
+    with pytest.raises(FileNotFoundError, match="no such configuration file"):
+        GeneratorConfig.from_yaml(tmp_path / "missing.yaml")
