@@ -57,7 +57,7 @@ from sspinn.body import BodyParameters
 from sspinn.contact import ContactParameters
 from sspinn.conventions import GRAVITY, N_TAU
 from sspinn.passive import passive_parameters, passive_torque
-from sspinn.yaml_config import construct, read_section
+from sspinn.yaml_config import apply_setting, construct, read_section
 
 #: Forward-simulation friction slip velocity of the Gymnasium environment, m/s (envs.sagittal_walker).
 ENV_SLIP_VELOCITY = 0.2
@@ -127,8 +127,12 @@ class GeneratorConfig:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
 
     @classmethod
-    def from_yaml(cls, path: str | Path) -> GeneratorConfig:
-        return construct(cls, read_section(path, "generator", cls), path)
+    def from_yaml(cls, path: str | Path, settings: list[str] | None = None) -> GeneratorConfig:
+        """Load ``path``; ``settings``: ``"dotted.key=value"`` overrides, e.g. ``["steps=30000"]``."""
+        data = read_section(path, "generator", cls)
+        for assignment in settings or ():
+            apply_setting(data, assignment, path)
+        return construct(cls, data, path)
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

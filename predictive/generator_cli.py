@@ -24,6 +24,8 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     train.add_argument("--out", type=Path, required=True, help="run folder")
     train.add_argument("--resume", action="store_true", help="continue from <out>/checkpoint.pt")
     train.add_argument("--auto-resume", action="store_true", help="resume if <out>/checkpoint.pt exists")
+    train.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                       help="override a config entry (repeatable), e.g. --set steps=30000 --set weights.kane=3000")
     gen = sub.add_parser(COMMANDS[1], help="one gait cycle from a trained generator")
     gen.add_argument("--model", type=Path, required=True, help="generator.pt")
     gen.add_argument("--speed", type=float, required=True, help="m/s")
@@ -38,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         if args.command == COMMANDS[0]:
-            config = GeneratorConfig.from_yaml(args.config)
+            config = GeneratorConfig.from_yaml(args.config, settings=args.set)
             trainer = GeneratorTrainer(config, args.out)
             resume = args.resume or (args.auto_resume and (args.out / "checkpoint.pt").exists())
             trainer.fit(resume=resume)

@@ -30,7 +30,7 @@ from sspinn.conventions import SEGMENTS
 from sspinn.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.losses import Batch, LossWeights, PhysicsLosses
 from sspinn.network import NetworkConfig, SSPINNposeNet, decode, output_affine
-from sspinn.yaml_config import construct, read_section
+from sspinn.yaml_config import apply_setting, construct, read_section
 
 #: Named IMU configurations of the paper (sparse sets keep λ_IMU's relative weight; see losses).
 IMU_CONFIGURATIONS: dict[str, tuple[str, ...]] = {
@@ -85,25 +85,11 @@ class TrainConfig:
         data = read_section(path, "train", cls)
         data.update({k: v for k, v in overrides.items() if v is not None})
         for assignment in settings or ():
-            _apply_setting(data, assignment, Path(path))
+            apply_setting(data, assignment, path)
         return construct(cls, data, path)
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
-
-
-def _apply_setting(data: dict[str, Any], assignment: str, path: Path) -> None:
-    """Apply one ``"a.b=value"`` override to the loaded YAML mapping (clear error on bad keys)."""
-    key, sep, value = assignment.partition("=")
-    if not sep or not key:
-        raise ValueError(f"--set {assignment!r}: expected key=value, e.g. weights.kane=0")
-    *parents, leaf = key.strip().split(".")
-    node = data
-    for name in parents:
-        node = node.setdefault(name, {})
-        if not isinstance(node, dict):
-            raise ValueError(f"--set {assignment!r}: {name!r} of {path} is not a section")
-    node[leaf] = yaml.safe_load(value)
 
 
 def resolve_device(name: str) -> torch.device:

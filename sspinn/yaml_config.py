@@ -34,3 +34,18 @@ def construct(cls: type[T], data: dict[str, Any], path: str | Path) -> T:
         return cls(**data)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{path}: {exc}") from None
+
+
+def apply_setting(data: dict[str, Any], assignment: str, path: str | Path) -> None:
+    """Apply one ``"a.b=value"`` override (YAML value) to a loaded mapping, in place; clear
+    errors for a missing ``=`` or a key that is not a section."""
+    key, sep, value = assignment.partition("=")
+    if not sep or not key:
+        raise ValueError(f"--set {assignment!r}: expected key=value, e.g. weights.kane=0")
+    *parents, leaf = key.strip().split(".")
+    node = data
+    for name in parents:
+        node = node.setdefault(name, {})
+        if not isinstance(node, dict):
+            raise ValueError(f"--set {assignment!r}: {name!r} of {path} is not a section")
+    node[leaf] = yaml.safe_load(value)

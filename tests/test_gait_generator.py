@@ -122,3 +122,13 @@ def test_generator_config_yaml(tmp_path) -> None:
         GeneratorConfig.from_yaml(path)
     with pytest.raises(FileNotFoundError, match="no such configuration file"):
         GeneratorConfig.from_yaml(tmp_path / "missing.yaml")
+
+
+def test_generator_cli_set_overrides(tmp_path) -> None:
+    from predictive.__main__ import main
+
+    cfg = tmp_path / "g.yaml"
+    cfg.write_text("generator: {harmonics: 2, hidden: 8, layers: 1, points: 4, batch_size: 2, warmup_steps: 1, steps: 50, snapshot_every: 0}\n")
+    assert main(["train-generator", "--config", str(cfg), "--out", str(tmp_path / "run"), "--set", "steps=2"]) == 0
+    assert GeneratorConfig.from_yaml(tmp_path / "run" / "config.yaml").steps == 2
+    assert main(["train-generator", "--config", str(cfg), "--out", str(tmp_path / "run2"), "--set", "stepz"]) == 2
