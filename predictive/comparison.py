@@ -415,7 +415,8 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
             if c.speed == speed and c.method.lower().startswith("ocp") and c.episodes:
                 ax.plot([c.per_speed_time_s / 60], [c.summary()["mean_distance_m"]], "k*", ms=12, label=c.method)
         ax.axhline(speed * 10, color="grey", ls=":", lw=1, label="target × 10 s")
-        ax.set(xscale="symlog", xlabel="wall time to obtain the controller (min)", ylabel="distance in 10 s (m)", title=f"{speed} m/s")
+        ax.set(xscale="log", xlabel="wall time to obtain the controller (min, log scale)", ylabel="distance in 10 s (m)",
+               title=f"{speed} m/s")
         ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(out / "learning_curves.png", dpi=110)
