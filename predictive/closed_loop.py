@@ -107,10 +107,10 @@ def resample_cycle(
     mid = (np.arange(n) + 0.5) / n
     tau_mid = np.stack([np.interp(mid, phase, tau_cycle[:, j]) for j in range(N_TAU)], axis=1)
     q_mid, u_mid = spline(mid), spline(mid, 1) / (n * dt)
-    passive = env.setup["passive"] if hasattr(env, "setup") else env.unwrapped.setup["passive"]
-    tau_passive = passive_torque(q_mid[:, 3:], u_mid[:, 3:], passive[:6], passive[6:12], passive[12], passive[13])
-    tau_max = _unwrapped(env)._tau_max
-    return GaitReference(q_ref, u_ref, (tau_mid - tau_passive) / tau_max, float(speed), dt, source)
+    e = _unwrapped(env)
+    ps = e.setup["passive"]
+    tau_passive = passive_torque(q_mid[:, 3:], u_mid[:, 3:], ps[:6], ps[6:12], ps[12], ps[13])
+    return GaitReference(q_ref, u_ref, (tau_mid - tau_passive) / e._tau_max, float(speed), dt, source)
 
 
 def _unwrapped(env: Any) -> Any:
