@@ -222,10 +222,11 @@ def executed_kane_residual(traces: dict[str, np.ndarray], env: Any) -> float:
     qdd = (u[2:] - u[:-2]) / (2 * dt)
     qm, um = q[1:-1], u[1:-1]
     tau_m = 0.5 * (tau[1:-1] + tau[2:])
-    ps = e._passive
+    ps = e.setup["passive"]
     tau_total = tau_m + passive_torque(qm[:, 3:], um[:, 3:], ps[:6], ps[6:12], ps[12], ps[13])
-    grf, w = dynamics.contact_forces(qm, um, e._p, e._c)
-    r = dynamics.kane_residual(qm, um, qdd, tau_total, grf, w, e._p)
+    p = e.body.vector()
+    grf, w = dynamics.contact_forces(qm, um, p, e.contact.vector())
+    r = dynamics.kane_residual(qm, um, qdd, tau_total, grf, w, p)
     return float(np.mean(np.abs(r[:, :2]))) / e.body.body_weight
 
 
