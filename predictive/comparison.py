@@ -29,7 +29,6 @@ LQR; retraining the agent).
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import time
@@ -137,13 +136,12 @@ def tracker_controller(solution: Any, env: Any, weights: LQRWeights, setup_s: fl
 
 
 def generator_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> Controller:
-    import torch
 
     from predictive.gait_generator import generate, load_generator
     from sspinn.body import BodyParameters
 
     model, gcfg = load_generator(spec.model)
-    train_s = float(torch.load(spec.model, weights_only=False).get("wall_s", float("nan")))
+    train_s = model.training_wall_s_
     start = time.perf_counter()
     sol = generate(model, speed, BodyParameters.from_anthropometry(config.height, config.mass),
                    refine_iterations=spec.refine_iterations, config=gcfg, refine_kane_factor=spec.refine_kane_factor)
@@ -169,29 +167,32 @@ def agent_training_time(checkpoint: Path) -> float:
     the evaluation with the highest mean return (when the callback saved it); else the last row."""
     from agents.checkpoints import checkpoint_steps
 
-    rows = read_agent_evaluations(checkpoint)
-    if not rows:
+    cols = agent_evaluations(checkpoint)
+    if not cols:
         return float("nan")
+    wall = cols["wall_s"]
     try:
         steps = checkpoint_steps(checkpoint)
     except ValueError:
         steps = None
     if steps is None:
         if Path(checkpoint).name.startswith("best_model"):
-            return float(max(rows, key=lambda r: r["mean_return"])["wall_s"])
-        return float(rows[-1]["wall_s"])
-    before = [r for r in rows if r["timesteps"] <= steps]
-    return float((before or rows)[-1]["wall_s"])
+            return float(wall[np.nanargmax(cols["mean_return"])])
+        return float(wall[-1])
+    before = wall[cols["timesteps"] <= steps]
+    return float((before if len(before) else wall)[-1])
 
 
-def read_agent_evaluations(checkpoint: str | Path) -> list[dict[str, float]]:
-    """Rows of the run's ``evaluations.csv`` (found next to or above the checkpoint), as floats."""
+def agent_evaluations(checkpoint: str | Path) -> dict[str, np.ndarray]:
+    """Columns of the run's ``evaluations.csv`` (:func:`agents.plot_learning_curve.read_evaluations`),
+    found next to the checkpoint or up to two folders above it; empty if there is none."""
+    from agents.plot_learning_curve import read_evaluations
+
     for folder in Path(checkpoint).resolve().parents[:3]:
-        path = folder / "evaluations.csv"
-        if path.exists():
-            with path.open() as fh:
-                return [{k: float(v) if v not in ("", None) else math.nan for k, v in row.items()} for row in csv.DictReader(fh)]
-    return []
+        cols = read_evaluations(folder)
+        if cols:
+            return cols
+    return {}
 
 
 def sb3_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> Controller:
@@ -370,9 +371,9 @@ def learning_curves(config: ComparisonConfig) -> dict[str, dict[float, tuple[lis
     for spec in config.methods:
         if spec.kind == "sb3":
             for speed, path in spec.checkpoints.items():
-                rows = read_agent_evaluations(path)
-                if rows:
-                    curves.setdefault(spec.name, {})[speed] = ([r["wall_s"] for r in rows], [r["mean_distance_m"] for r in rows])
+                cols = agent_evaluations(path)
+                if cols:
+                    curves.setdefault(spec.name, {})[speed] = (cols["wall_s"].tolist(), cols["mean_distance_m"].tolist())
         elif spec.kind == "generator" and spec.model not in seen_models:  # one curve per trained network
             seen_models.add(str(spec.model))
             snaps = sorted(Path(spec.model).parent.glob("snapshots/generator_*.pt"))

@@ -217,19 +217,20 @@ def cycle(
 @dataclass
 class BodyPool:
     """Bodies (Winter scaling) to train on: heights (m), masses (kg), parameter vectors (n, 41),
-    standing hip heights (m)."""
+    standing hip heights (m) and the :class:`BodyParameters` themselves."""
 
     heights: np.ndarray
     masses: np.ndarray
     p: np.ndarray
     hip_height: np.ndarray
+    bodies: list[BodyParameters]
 
     @classmethod
     def sample(cls, n: int, heights: tuple[float, float], masses: tuple[float, float], rng: np.random.Generator) -> BodyPool:
         h = rng.uniform(*heights, n)
         m = rng.uniform(*masses, n)
         bodies = [BodyParameters.from_anthropometry(float(a), float(b)) for a, b in zip(h, m)]
-        return cls(h, m, np.stack([b.vector() for b in bodies]), np.array([b.standing_hip_height for b in bodies]))
+        return cls(h, m, np.stack([b.vector() for b in bodies]), np.array([b.standing_hip_height for b in bodies]), bodies)
 
 
 class GaitLosses:
@@ -332,8 +333,8 @@ class GeneratorTrainer:
 
     def _warmup_loss(self, b: dict[str, torch.Tensor], q: torch.Tensor) -> torch.Tensor:
         target = np.stack([
-            generic_gait(float(v), float(T), b["phase"].numpy() * float(T), _body(float(h), float(m)))
-            for v, T, h, m in zip(b["speed"], b["duration"], b["height"], b["mass"])
+            generic_gait(float(v), float(T), b["phase"].numpy() * float(T), self.bodies.bodies[int(i)])
+            for v, T, i in zip(b["speed"], b["duration"], b["idx"])
         ])
         target = torch.as_tensor(target)
         err = q[..., 1:] - target[..., 1:]
@@ -434,10 +435,6 @@ class GeneratorTrainer:
             w.writerows(self.history_)
 
 
-def _body(height: float, mass: float) -> BodyParameters:
-    return BodyParameters.from_anthropometry(height, mass)
-
-
 def save_generator(model: GaitGenerator, path: str | Path, config: GeneratorConfig, wall_s: float = float("nan")) -> Path:
     """Weights + config (+ the training wall time so far, s) in one file."""
     path = Path(path)
@@ -446,8 +443,8 @@ def save_generator(model: GaitGenerator, path: str | Path, config: GeneratorConf
 
 
 def load_generator(path: str | Path) -> tuple[GaitGenerator, GeneratorConfig]:
-    """(model in eval mode, its config) from :func:`save_generator`'s file; the training wall
-    time is ``torch.load(path)["wall_s"]``."""
+    """(model in eval mode, its config) from :func:`save_generator`'s file; the model's
+    ``training_wall_s_`` is the training wall time (s) when the file was written (NaN if unknown)."""
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"{path}: no gait generator here (train one with `python -m predictive generator`)")
@@ -455,6 +452,7 @@ def load_generator(path: str | Path) -> tuple[GaitGenerator, GeneratorConfig]:
     cfg = GeneratorConfig(**data["config"])
     model = GaitGenerator(cfg.harmonics, cfg.hidden, cfg.layers).double()
     model.load_state_dict(data["state"])
+    model.training_wall_s_ = float(data.get("wall_s", float("nan")))
     return model.eval(), cfg
 
 
