@@ -271,6 +271,7 @@ class CellResult:
     """Results of one (method, speed)."""
 
     method: str
+    kind: str
     speed: float
     note: str
     setup_time_s: float
@@ -339,7 +340,7 @@ def run_comparison(config: ComparisonConfig, out: str | Path) -> list[CellResult
         for spec in config.methods:
             print(f"[compare] {spec.name} at {speed} m/s …", flush=True)
             ctrl = BUILDERS[spec.kind](spec, config, speed, env)
-            cell = CellResult(spec.name, speed, ctrl.note, ctrl.setup_time_s, ctrl.per_speed_time_s)
+            cell = CellResult(spec.name, spec.kind, speed, ctrl.note, ctrl.setup_time_s, ctrl.per_speed_time_s)
             if ctrl.policy is not None:
                 rows, cycle, states = evaluate_controller(ctrl, env, speed, config.seeds, reference)
                 cell.episodes = rows
@@ -414,7 +415,7 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
                 xs, ys = per_speed[speed]
                 ax.plot(np.asarray(xs) / 60, ys, marker=".", label=name)
         for c in cells:
-            if c.speed == speed and c.method.lower().startswith("ocp") and c.episodes:
+            if c.speed == speed and c.kind == "ocp" and c.episodes:
                 ax.plot([c.per_speed_time_s / 60], [c.summary()["mean_distance_m"]], "k*", ms=12, label=c.method)
         ax.axhline(speed * 10, color="grey", ls=":", lw=1, label="target × 10 s")
         ax.set(xscale="log", xlabel="wall time to obtain the controller (min, log scale)", ylabel="distance in 10 s (m)",
@@ -488,11 +489,11 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
             hit = [x for x, y in zip(xs, ys) if y >= 0.9 * v * 10]
             cells_txt.append(f"{hit[0] / 60:.1f} min" if hit else f"not within {max(xs) / 60:.0f} min")
         lines.append(f"| {name} | " + " | ".join(cells_txt) + " |")
-    for c in cells:
-        if c.method.lower().startswith("ocp") and c.episodes and c.speed == config.speeds[0]:
-            lines.append(f"| {c.method} | " + " | ".join(
-                f"{d.per_speed_time_s:.0f} s" if d.episodes and d.summary()["mean_distance_m"] >= 0.9 * d.speed * 10 else "–"
-                for v in config.speeds for d in cells if d.method == c.method and d.speed == v) + " |")
+    for name in dict.fromkeys(c.method for c in cells if c.kind == "ocp"):  # OCP: solve + LQR per speed
+        per_speed = {c.speed: c for c in cells if c.method == name}
+        lines.append(f"| {name} | " + " | ".join(
+            f"{c.per_speed_time_s:.0f} s" if c and c.episodes and c.summary()["mean_distance_m"] >= 0.9 * v * 10 else "–"
+            for v in config.speeds for c in [per_speed.get(v)]) + " |")
     lines += ["", "![learning curves](learning_curves.png)", ""]
     lines += [f"![cycles {v}](cycles_{v}.png)" for v in config.speeds]
     lines += ["", "![stick figures](stick_figures.png)", "", "Metrics and start states: see `predictive/comparison.py`."]
