@@ -10,10 +10,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from sspinn.dataset import DataFormatError, Dataset, Recording
+from sspinn.errors import run_cli
 
 
 def load_recordings(data: Path, split: str = "train", periods: int = 10, height: float = 1.75, mass: float = 70.0) -> list[Recording]:
@@ -30,11 +33,26 @@ def load_recordings(data: Path, split: str = "train", periods: int = 10, height:
     raise DataFormatError(f"{data}: not a dataset folder (dataset.json), an averaged-stride folder (signals.csv + meta.json) or a recording .csv")
 
 
+def _bounded(kind: type, low: float, high: float, unit: str = "") -> Callable[[str], float]:
+    """An argparse ``type`` accepting finite ``kind`` values in [low, high] (one-line errors)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a{'n integer' if kind is int else ' number'}") from None
+        if not math.isfinite(value) or not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"{text} is outside {low:g}–{high:g}{unit}")
+        return value
+
+    return parse
+
+
 def _data_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data", type=Path, required=True, help="dataset folder, averaged-stride folder or recording .csv")
-    p.add_argument("--periods", type=int, default=10, help="strides of circular padding for averaged data")
-    p.add_argument("--height", type=float, default=1.75, help="assumed height (m) for averaged data without one")
-    p.add_argument("--mass", type=float, default=70.0, help="assumed mass (kg) for averaged data without one")
+    p.add_argument("--periods", type=_bounded(int, 1, 10_000), default=10, help="strides of circular padding for averaged data (≥ 1)")
+    p.add_argument("--height", type=_bounded(float, 0.5, 2.5, " m"), default=1.75, help="assumed height (m) for averaged data without one")
+    p.add_argument("--mass", type=_bounded(float, 10.0, 300.0, " kg"), default=70.0, help="assumed mass (kg) for averaged data without one")
 
 
 def _train(args: argparse.Namespace, finetune: bool) -> int:
@@ -105,7 +123,14 @@ def _export(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="sspinn", description="Sagittal gait dynamics from IMUs, self-supervised.")
+    """Entry point of ``sspinn``: returns the exit status (2 and one line on stderr for a user
+    error; ``--debug`` shows the traceback; see :func:`sspinn.errors.run_cli`)."""
+    return run_cli(_main, "sspinn", argv, user_errors=(ValueError,))
+
+
+def _main(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(prog="sspinn", description="Sagittal gait dynamics from IMUs, self-supervised.",
+                                     epilog="--debug anywhere shows the traceback of an error")
     sub = parser.add_subparsers(dest="command", required=True)
 
     demo = sub.add_parser("showcase", help="a short physics showcase of the model (a drop landing, plots)")
@@ -149,29 +174,22 @@ def main(argv: list[str] | None = None) -> int:
     ex.add_argument("--out", type=Path, required=True)
 
     args = parser.parse_args(argv)
-    try:
-        if args.command == "showcase":
-            from sspinn import showcase as demo_mod
-            from sspinn.body import BodyParameters
+    if args.command == "showcase":
+        from sspinn import showcase as demo_mod
+        from sspinn.body import BodyParameters
 
-            body = BodyParameters.from_yaml(args.body) if args.body else None
-            demo_mod.main(args.out, body)
-            return 0
-        if args.command in ("train", "finetune"):
-            return _train(args, args.command == "finetune")
-        if args.command == "evaluate":
-            return _evaluate(args)
-        if args.command == "infer":
-            return _infer(args)
-        if args.command == "export":
-            return _export(args)
-    except (DataFormatError, FileNotFoundError, ValueError) as exc:
-        print(f"sspinn {args.command}: error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return 130
-    return 0
+        body = BodyParameters.from_yaml(args.body) if args.body else None
+        demo_mod.main(args.out, body)
+        return 0
+    if args.command in ("train", "finetune"):
+        return _train(args, args.command == "finetune")
+    if args.command == "evaluate":
+        return _evaluate(args)
+    if args.command == "infer":
+        return _infer(args)
+    if args.command == "export":
+        return _export(args)
+    raise AssertionError(args.command)  # argparse enforces the sub-commands
 
 
 if __name__ == "__main__":

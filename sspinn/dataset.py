@@ -38,6 +38,7 @@ import numpy as np
 
 from sspinn.body import IMUPlacement, ParameterError
 from sspinn.conventions import COORDINATES, GRAVITY, GRF, IMU_CHANNELS, JOINTS, SEGMENTS
+from sspinn.errors import UserError
 
 FORMAT: Final = "sspinn-recording"
 VERSION: Final = 1
@@ -67,7 +68,7 @@ UNITS: Final[dict[str, str]] = {
 }
 
 
-class DataFormatError(ValueError):
+class DataFormatError(UserError):
     """A recording or dataset file is malformed; the message names the file and what is wrong."""
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import math
 import os
 import random
 import time
@@ -28,8 +29,11 @@ import yaml
 from sspinn.body import BodyParameters
 from sspinn.conventions import SEGMENTS
 from sspinn.dataset import SAMPLE_RATE_HZ, Recording
+from sspinn.interrupt import DeferredInterrupt
 from sspinn.losses import Batch, LossWeights, PhysicsLosses
+from sspinn.model_file import CHECKPOINT, MODEL, ModelFileError, check_finite_weights, load_torch_file, save_torch_file
 from sspinn.network import NetworkConfig, SSPINNposeNet, decode, output_affine
+from sspinn.run_folder import RunLock, atomic_write_text
 from sspinn.yaml_config import apply_setting, construct, read_section
 
 #: Named IMU configurations of the paper (sparse sets keep λ_IMU's relative weight; see losses).
@@ -77,6 +81,11 @@ class TrainConfig:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
         if self.window < 8:
             raise ValueError(f"window must be at least 8 samples, got {self.window}")
+        for name in ("lr", "grad_clip"):
+            if not math.isfinite(getattr(self, name)) or getattr(self, name) <= 0:
+                raise ValueError(f"{name} must be a finite number > 0, got {getattr(self, name)}")
+        if not math.isfinite(self.input_noise) or self.input_noise < 0:
+            raise ValueError(f"input_noise must be a finite number >= 0, got {self.input_noise}")
 
     @classmethod
     def from_yaml(cls, path: str | Path, settings: list[str] | None = None, **overrides: Any) -> TrainConfig:
@@ -277,7 +286,10 @@ class Trainer:
             self.net = DistributedDataParallel(self.model, device_ids=[self.device.index] if self.device.type == "cuda" else None)
 
     # -------------------------------------------------------------- checkpoints
-    def save_checkpoint(self, path: Path | None = None) -> Path:
+    def save_checkpoint(self, path: Path | None = None, rng: dict[str, Any] | None = None) -> Path:
+        """Write the whole training state (atomically, see :mod:`sspinn.model_file`); ``rng``
+        replaces the current random-generator states (the states at the last step boundary when
+        a step was interrupted)."""
         path = path or self.out / "checkpoint.pt"
         assert self.model is not None
         state = {
@@ -290,39 +302,63 @@ class Trainer:
             "placement": self.placement.detach().cpu(),
             "recordings": [d.recording.name for d in self.data],
             "imu_std": self.imu_std,
-            "rng": {"numpy": self.rng.bit_generator.state, "torch": torch.get_rng_state()},
+            "rng": rng or self._rng_state(),
             "history": self.history,
             "world_size": self.world,
         }
-        tmp = path.with_suffix(".tmp")
-        torch.save(state, tmp)
-        tmp.replace(path)  # atomic: a crash never leaves a half-written checkpoint
-        return path
+        return save_torch_file(path, CHECKPOINT, state)
+
+    def _rng_state(self) -> dict[str, Any]:
+        return {"numpy": self.rng.bit_generator.state, "torch": torch.get_rng_state()}
 
     def load_checkpoint(self, path: Path, weights_only: bool = False) -> None:
         """Restore a checkpoint into a set-up trainer (all of it, or only the network's weights
-        for fine-tuning a trained model on new recordings)."""
-        state = torch.load(path, map_location=self.device, weights_only=False)
+        for fine-tuning a trained model on new recordings, in which case a model file will do).
+        Raises :class:`ModelFileError` naming the file and what does not fit."""
+        path = Path(path)
+        if weights_only:
+            state = load_torch_file(path, (MODEL, CHECKPOINT), MODEL_ENTRIES, _MODEL_HINT, self.device)
+        else:
+            hint = "delete it (or choose a new --out) to start afresh, or resume from an intact copy"
+            state = load_torch_file(path, (CHECKPOINT,), CHECKPOINT_ENTRIES, hint, self.device)
         if tuple(state["segments"]) != self.segments:
-            raise ValueError(f"{path}: trained on IMUs {state['segments']}, this run uses {self.segments}")
+            raise ModelFileError(
+                f"{path}: trained on IMUs {list(state['segments'])}, this run uses {list(self.segments)}; "
+                "use the same imus setting or another run folder"
+            )
         assert self.model is not None
-        self.model.load_state_dict(state["model"])
+        _load_weights(self.model, state, path)
         if weights_only:
             return
         if state["recordings"] != [d.recording.name for d in self.data]:
-            raise ValueError(f"{path}: checkpoint was trained on other recordings; resume needs the same data")
-        self.optimizer.load_state_dict(state["optimizer"])
-        with torch.no_grad():
-            self.placement.copy_(state["placement"].to(self.device))
+            raise ModelFileError(f"{path}: checkpoint was trained on other recordings; resume needs the same --data")
+        try:
+            self.optimizer.load_state_dict(state["optimizer"])
+            with torch.no_grad():
+                self.placement.copy_(state["placement"].to(self.device))
+            self.rng.bit_generator.state = state["rng"]["numpy"]
+            torch.set_rng_state(state["rng"]["torch"].cpu())
+        except (ValueError, RuntimeError, KeyError, TypeError) as exc:
+            raise ModelFileError(f"{path}: the checkpoint's optimizer or random state does not fit this run ({exc}); "
+                                 "use the same settings as the interrupted run, or another run folder") from None
         self.step = int(state["step"])
-        self.rng.bit_generator.state = state["rng"]["numpy"]
-        torch.set_rng_state(state["rng"]["torch"])
         self.history = list(state.get("history", []))
 
     # -------------------------------------------------------------- training
     def fit(self, train: list[Recording], resume: bool = False, init_from: str | Path | None = None) -> SSPINNposeNet:
         """Train for ``config.steps`` steps (continuing from ``checkpoint.pt`` with ``resume``,
-        or starting from another run's weights with ``init_from``). Returns the model."""
+        or starting from another run's weights with ``init_from``). Returns the model.
+
+        The run folder is owned by this run while it trains (:class:`RunLock`): a second run
+        into the same folder stops with an error naming this one. Ctrl-C finishes the current
+        step, saves ``checkpoint.pt`` and raises :class:`KeyboardInterrupt`; ``resume`` then
+        continues exactly as if uninterrupted."""
+        if int(os.environ.get("RANK", "0")) != 0:  # under torchrun only rank 0 owns the folder
+            return self._fit(train, resume, init_from)
+        with RunLock(self.out):
+            return self._fit(train, resume, init_from)
+
+    def _fit(self, train: list[Recording], resume: bool, init_from: str | Path | None) -> SSPINNposeNet:
         from tqdm.auto import tqdm
 
         cfg = self.config
@@ -331,13 +367,13 @@ class Trainer:
         ckpt = self.out / "checkpoint.pt"
         if resume:
             if not ckpt.exists():
-                raise FileNotFoundError(f"--resume: no checkpoint at {ckpt}")
+                raise FileNotFoundError(f"{ckpt}: no checkpoint to resume from (--resume); start without it, or use --auto-resume")
             self.load_checkpoint(ckpt)
         elif init_from is not None:
             self.load_checkpoint(Path(init_from), weights_only=True)
         lead = self.rank == 0  # only rank 0 writes files and shows progress
         if lead:
-            (self.out / "config.yaml").write_text(yaml.safe_dump({"train": cfg.to_dict()}, sort_keys=False))
+            atomic_write_text(self.out / "config.yaml", yaml.safe_dump({"train": cfg.to_dict()}, sort_keys=False))
         writer = _tensorboard(self.out / "tensorboard") if lead else None
         assert self.model is not None
         self.model.train()
@@ -346,8 +382,11 @@ class Trainer:
         autocast = (
             torch.autocast("cuda", dtype=torch.bfloat16) if cfg.amp and self.device.type == "cuda" else contextlib.nullcontext()
         )
+        interrupt = DeferredInterrupt().install()
+        boundary_rng, mid_step = self._rng_state(), False
         try:
             while self.step < cfg.steps:
+                boundary_rng, mid_step = self._rng_state(), True  # the state a resume must start from
                 which, starts = self.sampler.sample(cfg.batch_size)
                 x, batch = make_batch(self.data, which, starts, cfg.window, self.segments, self.imu_std, self.device)
                 batch.placement = self.placement[which]
@@ -375,6 +414,7 @@ class Trainer:
                 torch.nn.utils.clip_grad_norm_(self.model.parameters(), cfg.grad_clip)
                 self.optimizer.step()
                 self.step += 1
+                mid_step = False
                 bar.update(1)
                 if self.step % cfg.log_every == 0 or self.step == cfg.steps:
                     record = {k: float(v.detach()) for k, v in terms.items() if k != "grf"}
@@ -388,15 +428,19 @@ class Trainer:
                                 writer.add_scalar(f"loss/{k}" if k != "wall_s" else "time/wall_s", v, self.step)
                 if self.step % cfg.checkpoint_every == 0 and lead:
                     self.save_checkpoint()
+                if self._agree(interrupt.requested):
+                    raise KeyboardInterrupt
                 if cfg.time_limit_s and self._agree(time.perf_counter() - start_time > cfg.time_limit_s):
                     bar.write(f"time limit of {cfg.time_limit_s:.0f} s reached at step {self.step}")
                     break
         except KeyboardInterrupt:
             if lead:
                 bar.write(f"interrupted at step {self.step}: saving {ckpt} (continue with --resume)")
-                self.save_checkpoint()
+                # a step cut short changed nothing but the random state: save the one before it
+                self.save_checkpoint(rng=boundary_rng if mid_step else None)
             raise
         finally:
+            interrupt.restore()
             bar.close()
             if writer is not None:
                 writer.close()
@@ -424,22 +468,56 @@ def _tensorboard(folder: Path):
     return SummaryWriter(str(folder))
 
 
-def save_model(model: SSPINNposeNet, path: Path, segments: tuple[str, ...], config: TrainConfig, imu_std: torch.Tensor) -> None:
-    """The trained model alone (weights + what is needed to rebuild and run it)."""
-    torch.save(
-        {"model": model.state_dict(), "hyperparameters": model.hyperparameters(), "segments": segments,
+#: Entries of a model file (a checkpoint has them too, and can be used as a model).
+MODEL_ENTRIES: tuple[str, ...] = ("model", "hyperparameters", "segments", "config", "imu_std")
+CHECKPOINT_ENTRIES: tuple[str, ...] = (*MODEL_ENTRIES, "step", "optimizer", "placement", "recordings", "rng")
+_MODEL_HINT = "pass the model.pt (or checkpoint.pt) of a finished `sspinn train` run"
+
+
+def save_model(model: SSPINNposeNet, path: Path, segments: tuple[str, ...], config: TrainConfig, imu_std: torch.Tensor) -> Path:
+    """The trained model alone (weights + what is needed to rebuild and run it), written
+    atomically in the safe format of :mod:`sspinn.model_file`."""
+    check_finite_weights(path, model.state_dict(), "training diverged: nothing written")
+    return save_torch_file(
+        path, MODEL,
+        {"model": model.state_dict(), "hyperparameters": model.hyperparameters(), "segments": tuple(segments),
          "config": config.to_dict(), "imu_std": imu_std},
-        path,
     )
 
 
-def load_model(path: str | Path, device: str | torch.device = "cpu") -> tuple[SSPINNposeNet, tuple[str, ...], dict[str, Any]]:
-    """Rebuild a saved model: (model in eval mode, IMU segments, training config dict)."""
-    state = torch.load(path, map_location=device, weights_only=False)
-    hp = dict(state["hyperparameters"])
-    n_inputs = hp.pop("n_inputs")
-    model = SSPINNposeNet(n_inputs, NetworkConfig(**hp))
-    model.load_state_dict(state["model"])
-    model.to(device).eval()
-    return model, tuple(state["segments"]), state["config"]
+def _network_config(state: dict[str, Any], path: Path) -> tuple[int, NetworkConfig]:
+    hp = dict(state["hyperparameters"]) if isinstance(state["hyperparameters"], dict) else {}
+    try:
+        n_inputs = int(hp.pop("n_inputs"))
+        return n_inputs, NetworkConfig(**hp)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ModelFileError(f"{path}: unusable network hyperparameters {state['hyperparameters']!r} ({exc}); {_MODEL_HINT}") from None
 
+
+def _load_weights(model: SSPINNposeNet, state: dict[str, Any], path: Path) -> None:
+    """``model.load_state_dict`` with an error that names the file and both network sizes."""
+    try:
+        model.load_state_dict(state["model"])
+    except (RuntimeError, TypeError, AttributeError) as exc:
+        theirs = state.get("hyperparameters")
+        raise ModelFileError(
+            f"{path}: its network ({theirs}) does not fit this run's ({model.hyperparameters()}): "
+            f"{str(exc).splitlines()[0]}; use the same network settings, or another run folder"
+        ) from None
+
+
+def load_model(path: str | Path, device: str | torch.device = "cpu") -> tuple[SSPINNposeNet, tuple[str, ...], dict[str, Any]]:
+    """Rebuild a saved model: (model in eval mode, IMU segments, training config dict).
+    Raises :class:`ModelFileError` naming the file and what is wrong with it."""
+    path = Path(path)
+    state = load_torch_file(path, (MODEL, CHECKPOINT), MODEL_ENTRIES, _MODEL_HINT, device)
+    n_inputs, net_config = _network_config(state, path)
+    model = SSPINNposeNet(n_inputs, net_config)
+    _load_weights(model, state, path)
+    check_finite_weights(path, model.state_dict(), "the model is damaged or its training diverged: retrain it")
+    segments = tuple(state["segments"])
+    unknown = [s for s in segments if s not in SEGMENTS]
+    if unknown or not isinstance(state["config"], dict):
+        raise ModelFileError(f"{path}: unknown IMU segments {unknown} or a damaged config entry; {_MODEL_HINT}")
+    model.to(device).eval()
+    return model, segments, state["config"]

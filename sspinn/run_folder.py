@@ -1,0 +1,151 @@
+"""A run folder owned by one process, and atomic writes into it.
+
+* :class:`RunLock` — ``with RunLock(folder):`` makes the calling process the folder's only
+  owner. The lock is an advisory ``fcntl.flock`` on ``<folder>/.lock``, released by the kernel
+  when the process ends however it ends (so no lock outlives its owner on this host); the file
+  records the owner (PID, host, start time, command line) so that a second process is told who
+  holds the folder. A lock file left by a process that died (its PID gone on this host) is taken
+  over with a warning naming the dead owner.
+* :func:`atomic_path` — ``with atomic_path(path) as tmp:`` write ``tmp``; on success it replaces
+  ``path`` in one ``os.replace`` (a reader sees the old or the new file, never a half-written
+  one), on an exception the temporary file is removed. Temporary names are unique per process and
+  call (``.<name>.<pid>.<random>.tmp``), so two writers never share one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import json
+import os
+import socket
+import sys
+import time
+import uuid
+import warnings
+from collections.abc import Iterator
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any, Final
+
+from sspinn.errors import UserError
+
+LOCK_NAME: Final = ".lock"
+
+
+class RunFolderBusyError(UserError):
+    """Another live process owns the run folder; the message names it."""
+
+
+@dataclass(frozen=True)
+class LockOwner:
+    """Who holds a run folder: process id, host name, start time (s since the epoch, UTC) and
+    the command line."""
+
+    pid: int
+    host: str
+    started: float
+    command: str
+
+    @classmethod
+    def this_process(cls) -> LockOwner:
+        return cls(pid=os.getpid(), host=socket.gethostname(), started=time.time(), command=" ".join(sys.argv))
+
+    @classmethod
+    def parse(cls, text: str) -> LockOwner | None:
+        """The owner recorded in a lock file's text, or None if it is empty or unreadable."""
+        try:
+            data: Any = json.loads(text)
+            return cls(pid=int(data["pid"]), host=str(data["host"]), started=float(data["started"]),
+                       command=str(data.get("command", "")))
+        except (ValueError, TypeError, KeyError):
+            return None
+
+    def describe(self) -> str:
+        when = time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(self.started))
+        return f"PID {self.pid} on host {self.host} since {when} ({self.command or 'unknown command'})"
+
+    def is_alive_here(self) -> bool | None:
+        """True/False if the owner runs on this host and is alive/dead; None on another host."""
+        if self.host != socket.gethostname():
+            return None
+        try:
+            os.kill(self.pid, 0)
+        except ProcessLookupError:
+            return False
+        except PermissionError:  # exists, owned by another user
+            return True
+        return True
+
+
+class RunLock:
+    """Exclusive ownership of a run folder for the life of a ``with`` block (or until
+    :meth:`release`). Raises :class:`RunFolderBusyError` naming the owner if another process
+    holds it. Re-entrant within one process is not supported: lock a folder once."""
+
+    def __init__(self, folder: str | Path) -> None:
+        self.folder = Path(folder)
+        self.path = self.folder / LOCK_NAME
+        self._fd: int | None = None
+
+    def acquire(self) -> RunLock:
+        self.folder.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(fd)
+            owner = LockOwner.parse(self.path.read_text(errors="replace"))
+            who = owner.describe() if owner else "another process"
+            raise RunFolderBusyError(
+                f"{self.folder}: this run folder is in use by {who}; wait for it to finish, stop it, "
+                "or choose another output folder"
+            ) from None
+        previous = LockOwner.parse(os.pread(fd, 1 << 16, 0).decode(errors="replace"))
+        if previous is not None and previous.pid != os.getpid():
+            # we hold the flock, so the recorded owner no longer holds it: it died (or ran on
+            # another host whose lock this filesystem cannot see; warn either way)
+            state = {False: "is no longer running", None: "ran on another host"}.get(previous.is_alive_here(), "released it")
+            warnings.warn(
+                f"{self.folder}: taking over a stale lock of {previous.describe()}, which {state}", stacklevel=3
+            )
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, json.dumps(asdict(LockOwner.this_process())).encode(), 0)
+        os.fsync(fd)
+        self._fd = fd
+        return self
+
+    def release(self) -> None:
+        if self._fd is None:
+            return
+        with contextlib.suppress(OSError):
+            os.ftruncate(self._fd, 0)  # a clean exit leaves no owner behind
+        os.close(self._fd)  # closing releases the flock
+        self._fd = None
+
+    def __enter__(self) -> RunLock:
+        return self.acquire()
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """Yield a unique temporary path beside ``path``; replace ``path`` with it on success."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` to ``path`` atomically (see :func:`atomic_path`)."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+    return Path(path)
