@@ -17,6 +17,7 @@ half-written file.
 from __future__ import annotations
 
 import pickle
+import warnings
 import zipfile
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -31,6 +32,7 @@ from sspinn.run_folder import atomic_path
 FORMAT_VERSION: Final = 1
 #: Kinds of file (the ``"format"`` entry).
 MODEL: Final = "sspinn-model"
+_ZIP_MAGIC: Final = b"PK\x03\x04"
 CHECKPOINT: Final = "sspinn-checkpoint"
 
 
@@ -79,20 +81,26 @@ def load_torch_file(
         raise fail(f"is a folder, not a {what} file")
     if path.stat().st_size == 0:
         raise fail(f"the file is empty (an interrupted copy or write?), not a {what} file")
+    with path.open("rb") as fh:
+        magic = fh.read(4)
+    if magic != _ZIP_MAGIC:
+        raise fail(f"not a torch file (it starts with {magic!r}; torch files written by sspinn are zip archives)")
+    if not zipfile.is_zipfile(path):
+        raise fail("truncated (the end of the archive is missing: an interrupted write or copy?)")
     try:
-        state = torch.load(path, map_location=map_location, weights_only=True)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            state = torch.load(path, map_location=map_location, weights_only=True)
     except pickle.UnpicklingError as exc:
-        if "weights_only" in str(exc) or "Weights only load failed" in str(exc):
+        if "GLOBAL" in str(exc):
             raise fail(
                 "holds Python objects other than tensors and plain data, which could run code when loaded; "
                 "refusing to load it (only use files written by sspinn itself)"
             ) from None
-        raise fail(f"not a readable torch file ({_first_line(exc)})") from None
+        raise fail(f"not a readable torch file ({_last_line(exc)})") from None
     except (RuntimeError, EOFError, OSError, zipfile.BadZipFile, ValueError, KeyError, IndexError,
             AttributeError, TypeError, UnicodeDecodeError, MemoryError, OverflowError) as exc:
-        truncated = "central directory" in str(exc) or isinstance(exc, (EOFError, OSError))
-        problem = "truncated (an interrupted write or copy?)" if truncated else "not a torch file"
-        raise fail(f"{problem}: {_first_line(exc)}") from None
+        raise fail(f"damaged or not a torch file ({_last_line(exc)})") from None
     if not isinstance(state, dict):
         raise fail(f"holds a {type(state).__name__}, not a {what} (a dict of weights and settings)")
     kind = state.get("format")
@@ -118,7 +126,8 @@ def check_finite_weights(path: str | Path, weights: Mapping[str, torch.Tensor], 
             raise ModelFileError(f"{path}: weight {name!r} has {bad} non-finite value(s); {hint}")
 
 
-def _first_line(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()
-    return text[0] if text else type(exc).__name__
+def _last_line(exc: BaseException) -> str:
+    """The most specific line of a (torch) error message."""
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip() and not line.startswith("Check the documentation")]
+    return lines[-1] if lines else type(exc).__name__
 
