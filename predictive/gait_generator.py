@@ -56,8 +56,14 @@ from sspinn import dynamics, kinematics
 from sspinn.body import BodyParameters
 from sspinn.contact import ContactParameters
 from sspinn.conventions import GRAVITY, N_TAU
+from sspinn.model_file import load_torch_file, save_torch_file
 from sspinn.passive import passive_parameters, passive_torque
+from sspinn.run_folder import RunLock, atomic_write_text
 from sspinn.yaml_config import apply_setting, construct, read_section
+
+#: Kinds of file (see :mod:`sspinn.model_file`): a trained generator and a training checkpoint.
+GENERATOR = "gait-generator"
+GENERATOR_CHECKPOINT = "gait-generator-checkpoint"
 
 #: Forward-simulation friction slip velocity of the Gymnasium environment, m/s (envs.sagittal_walker).
 ENV_SLIP_VELOCITY = 0.2
@@ -348,6 +354,12 @@ class GeneratorTrainer:
         return cfg.lr * (0.1 + 0.9 * 0.5 * (1 + math.cos(math.pi * min(x, 1.0))))
 
     def fit(self, resume: bool = False) -> GaitGenerator:
+        """Train (continuing from ``<out>/checkpoint.pt`` with ``resume``); the run folder is
+        owned by this run while it trains (:class:`sspinn.run_folder.RunLock`)."""
+        with RunLock(self.out):
+            return self._fit(resume)
+
+    def _fit(self, resume: bool) -> GaitGenerator:
         from tqdm.auto import tqdm
 
         cfg = self.config
@@ -359,7 +371,7 @@ class GeneratorTrainer:
             if not ckpt.exists():
                 raise FileNotFoundError(f"resume: no checkpoint at {ckpt}")
             self._load(ckpt)
-        (self.out / "config.yaml").write_text(yaml.safe_dump({"generator": cfg.to_dict()}, sort_keys=False))
+        atomic_write_text(self.out / "config.yaml", yaml.safe_dump({"generator": cfg.to_dict()}, sort_keys=False))
         start = time.perf_counter() - self.wall
         bar = tqdm(total=self.total_steps, initial=self.step, desc="gait generator", unit="step", dynamic_ncols=True)
         try:
@@ -413,12 +425,13 @@ class GeneratorTrainer:
             "wall": self.wall, "history": self.history_, "rng": self.rng.bit_generator.state,
             "torch_rng": torch.get_rng_state(), "config": self.config.to_dict(),
         }
-        tmp = path.with_suffix(".tmp")
-        torch.save(state, tmp)
-        tmp.replace(path)
+        save_torch_file(path, GENERATOR_CHECKPOINT, state)
 
     def _load(self, path: Path) -> None:
-        state = torch.load(path, weights_only=False)
+        state = load_torch_file(
+            path, (GENERATOR_CHECKPOINT,), ("model", "optimizer", "step", "wall", "history", "rng", "torch_rng"),
+            "delete it (or choose a new output folder) to start afresh",
+        )
         self.model_.load_state_dict(state["model"])
         self.optimizer.load_state_dict(state["optimizer"])
         self.step, self.wall, self.history_ = state["step"], state["wall"], state["history"]
@@ -437,9 +450,7 @@ class GeneratorTrainer:
 
 def save_generator(model: GaitGenerator, path: str | Path, config: GeneratorConfig, wall_s: float = float("nan")) -> Path:
     """Weights + config (+ the training wall time so far, s) in one file."""
-    path = Path(path)
-    torch.save({"state": model.state_dict(), "config": config.to_dict(), "wall_s": wall_s}, path)
-    return path
+    return save_torch_file(path, GENERATOR, {"state": model.state_dict(), "config": config.to_dict(), "wall_s": wall_s})
 
 
 def load_generator(path: str | Path) -> tuple[GaitGenerator, GeneratorConfig]:
@@ -448,8 +459,8 @@ def load_generator(path: str | Path) -> tuple[GaitGenerator, GeneratorConfig]:
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"{path}: no gait generator here (train one with `python -m predictive generator`)")
-    data = torch.load(path, weights_only=False)
-    cfg = GeneratorConfig(**data["config"])
+    data = load_torch_file(path, (GENERATOR,), ("state", "config"), "train one with `python -m predictive train-generator`")
+    cfg = construct(GeneratorConfig, dict(data["config"]), path)
     model = GaitGenerator(cfg.harmonics, cfg.hidden, cfg.layers).double()
     model.load_state_dict(data["state"])
     model.training_wall_s_ = float(data.get("wall_s", float("nan")))
