@@ -222,10 +222,19 @@ class BatchedSagittalWalker(gymnasium.vector.VectorEnv):
     # ------------------------------------------------------------------------------------------
     def step(self, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, dict[str, Any]]:
         """Advance all environments by one control interval (0.01 s) under ``actions`` (N, 6) in
-        [−1, 1] (clipped); returns (obs, reward, terminated, truncated, info)."""
-        a = torch.as_tensor(actions, dtype=self.dtype, device=self.device).clamp(-1.0, 1.0)
+        [−1, 1] (clipped; a non-finite action is a ``ValueError``); returns (obs, reward,
+        terminated, truncated, info)."""
+        a = torch.as_tensor(actions, dtype=self.dtype, device=self.device)
         if a.shape != (self.num_envs, N_TAU):
             raise ValueError(f"actions must have shape ({self.num_envs}, {N_TAU}), got {tuple(a.shape)}")
+        finite_actions = torch.isfinite(a).all(-1)
+        if not bool(finite_actions.all()):
+            rows = torch.nonzero(~finite_actions).flatten().tolist()
+            raise ValueError(
+                f"actions must be finite; environment(s) {rows[:10]} got {a[rows[0]].tolist()} (first shown): "
+                "check the policy's output"
+            )
+        a = a.clamp(-1.0, 1.0)
         tau = a * self._tau_max
         q0, u0 = self.q, self.u
         q, u, grf = q0, u0, self.grf

@@ -131,6 +131,11 @@ class SagittalWalkerEnv(gymnasium.Env):
       (1.0 rad), or the state becomes non-finite (never observed with the default physics).
     * Truncation (``truncated``): after ``max_episode_steps`` steps (default 1000 = 10 s). The
       environment truncates by itself; it is registered without a ``TimeLimit`` wrapper.
+    * After the episode ended, call ``reset()``. As Gymnasium's own environments do (e.g.
+      CartPole), a ``step()`` after ``terminated`` or ``truncated`` warns (once per episode),
+      still advances the physics, keeps ``terminated``/``truncated`` true and gives reward 0.
+    * An action with NaN or inf is a ``ValueError`` naming the action (it would otherwise turn
+      into a NaN reward and poison returns); finite actions outside [−1, 1] are clipped.
 
     ## Physics step (chosen by measurement)
 
@@ -289,6 +294,8 @@ class SagittalWalkerEnv(gymnasium.Env):
         self._x0 = 0.0
         self._work = 0.0
         self._steps = 0
+        self._ended = (False, False)  # (terminated, truncated) of the last step, until reset
+        self._warned_after_end = False
         self._renderer: Any = None
 
     # ------------------------------------------------------------------------------------------
@@ -341,14 +348,26 @@ class SagittalWalkerEnv(gymnasium.Env):
         self._x0 = float(self._q[0])
         self._work = 0.0
         self._steps = 0
+        self._ended = (False, False)
+        self._warned_after_end = False
         if self.render_mode == "human":
             self.render()
         return self._obs(), {"target_speed": float(self._target), "x_position": self._x0}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        a = np.minimum(np.maximum(np.asarray(action, dtype=np.float64), -1.0), 1.0)
+        a = np.asarray(action, dtype=np.float64)
         if a.shape != (N_TAU,):
             raise ValueError(f"action must have shape ({N_TAU},), got {a.shape}")
+        if not np.isfinite(a).all():
+            raise ValueError(f"action must be finite, got {a.tolist()}: check the policy's output")
+        ended_before = self._ended
+        if (ended_before[0] or ended_before[1]) and not self._warned_after_end:
+            gymnasium.logger.warn(
+                "step() called after the episode ended (terminated or truncated); call reset() first: "
+                "terminated/truncated stay true and the reward is 0 until then"
+            )
+            self._warned_after_end = True
+        a = np.minimum(np.maximum(a, -1.0), 1.0)
         np.multiply(a, self._tau_max, out=self._tau)
         q_before = self._q.copy()
         u_before = self._u.copy()
@@ -364,6 +383,10 @@ class SagittalWalkerEnv(gymnasium.Env):
         terminated = bool(task.unhealthy(self._q, self._standing, self.config)) or not finite
         total, tracking, alive, effort = task.reward(speed, self._target, a, terminated, self.config)
         truncated = self._steps >= self.setup["max_episode_steps"] and not terminated
+        if ended_before[0] or ended_before[1]:  # sticky, as in Gymnasium's environments
+            terminated, truncated = ended_before[0] or terminated, ended_before[1] and not terminated
+            total = tracking = alive = effort = 0.0
+        self._ended = (terminated, truncated)
         distance = float(self._q[0]) - self._x0
         info = {
             "speed": float(speed),

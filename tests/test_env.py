@@ -147,7 +147,8 @@ def test_target_speed_sampling_truncation_and_info() -> None:
     assert e.reset(seed=0, options={"target_speed": 1.1})[1]["target_speed"] == 1.1
     flags = [e.step(np.zeros(6, dtype=np.float32))[2:4] for _ in range(3)]
     assert flags == [(False, False), (False, False), (False, True)]
-    *_, info = e.step(np.full(6, 0.5, dtype=np.float32))
+    with pytest.warns(UserWarning, match="after the episode ended"):
+        *_, info = e.step(np.full(6, 0.5, dtype=np.float32))
     np.testing.assert_allclose(info["torques"], 0.5 * 3.0 * e.body.segment_mass_total)
     assert {"speed", "distance", "cost_of_transport", "grf", "torques", "x_position"} <= set(info)
 
