@@ -91,10 +91,10 @@ def _infer(args: argparse.Namespace) -> int:
 
     model, segments, _ = load_model(args.model)
     recs = load_recordings(args.data, args.split, args.periods, args.height, args.mass)
-    for rec in recs:
-        est = estimate_recording(model, rec, segments)
-        path = est.to_csv(args.out / f"{rec.name}_estimate.csv")
-        print(f"{rec.name}: {len(est.time)} samples → {path}")
+    estimates = [estimate_recording(model, rec, segments) for rec in recs]  # all checked before any is written
+    for est in estimates:
+        path = est.to_csv(args.out / f"{est.name}_estimate.csv")
+        print(f"{est.name}: {len(est.time)} samples → {path}")
     return 0
 
 

@@ -17,11 +17,13 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS
 from sspinn.dataset import SAMPLE_RATE_HZ, Recording
+from sspinn.errors import UserError
 from sspinn.inference import GaitEstimate
 
 ANGLES = ("pelvis_tilt", *JOINTS)
@@ -116,12 +118,18 @@ def write_report(estimates: list[GaitEstimate], recordings: list[Recording], out
     from sspinn.body import BodyParameters
     from sspinn.plotting import draw_stick_figure
 
-    out.mkdir(parents=True, exist_ok=True)
+    for est, rec in zip(estimates, recordings):  # everything is checked before anything is written
+        est.check_finite()
+        if not 0 <= skip < rec.n_samples:
+            raise UserError(f"{rec.name}: --skip {skip} leaves no samples of its {rec.n_samples} to evaluate")
     per = {e.name: compute_metrics(e, r, skip) for e, r in zip(estimates, recordings)}
     mean = mean_metrics(list(per.values()))
+    out.mkdir(parents=True, exist_ok=True)
     lines = [f"# {title}", "", "| recording | JAE (deg) | JTE (%BW·BH) | GRFE (%BW) | speed error (m/s) | jitter (rad/s³) |", "|---|---|---|---|---|---|"]
     for name, m in [*per.items(), ("**mean**", mean)]:
-        lines.append(f"| {name} | {m.jae_deg:.2f} | {m.jte_pct_bwbh:.2f} | {m.grfe_pct_bw:.2f} | {m.speed_error_mps:.3f} | {m.jitter:.0f} |")
+        cells = [_cell(v, f) for v, f in ((m.jae_deg, ".2f"), (m.jte_pct_bwbh, ".2f"), (m.grfe_pct_bw, ".2f"),
+                                          (m.speed_error_mps, ".3f"), (m.jitter, ".0f"))]
+        lines.append(f"| {name} | {' | '.join(cells)} |")
     for est, rec in zip(estimates, recordings):
         body = BodyParameters.from_anthropometry(rec.height, rec.mass)
         fig, axes = plt.subplots(2, 3, figsize=(14, 7))
@@ -168,5 +176,21 @@ def write_report(estimates: list[GaitEstimate], recordings: list[Recording], out
         lines.append(f"\n![{est.name}]({est.name}.png)")
     (out / "report.md").write_text("\n".join(lines) + "\n")
     result = {"title": title, "mean": mean.as_dict(), "recordings": {k: v.as_dict() for k, v in per.items()}, **(extra or {})}
-    (out / "metrics.json").write_text(json.dumps(result, indent=2))
+    # a metric without the labels it needs is NaN: written as null (valid JSON), never as NaN
+    (out / "metrics.json").write_text(json.dumps(_finite_or_null(result), indent=2, allow_nan=False))
     return result
+
+
+def _cell(value: float, fmt: str) -> str:
+    return format(value, fmt) if np.isfinite(value) else "n/a"
+
+
+def _finite_or_null(value: Any) -> Any:
+    """``value`` with every non-finite float replaced by None (JSON null), recursively."""
+    if isinstance(value, dict):
+        return {k: _finite_or_null(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_or_null(v) for v in value]
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value

@@ -21,8 +21,14 @@ from sspinn.body import BodyParameters, IMUPlacement
 from sspinn.contact import ContactParameters
 from sspinn.conventions import COORDINATES, GRF, JOINTS
 from sspinn.dataset import SAMPLE_RATE_HZ, DataFormatError, Recording
+from sspinn.errors import UserError
 from sspinn.network import N_OUTPUTS, SSPINNposeNet, decode, output_affine
+from sspinn.run_folder import atomic_path
 from sspinn.training import input_features
+
+
+class NonFiniteEstimateError(UserError):
+    """The network produced NaN or inf for a recording; nothing is written."""
 
 
 @dataclass
@@ -43,6 +49,21 @@ class GaitEstimate:
     ankle: np.ndarray
     mu_hat: np.ndarray
 
+    def check_finite(self) -> GaitEstimate:
+        """``self`` if every estimated value is finite, else :class:`NonFiniteEstimateError`
+        naming the quantity and the first sample."""
+        for name in ("q", "u", "qdd", "tau", "grf", "w", "ankle", "mu_hat"):
+            values = np.asarray(getattr(self, name))
+            bad = ~np.isfinite(values.reshape(len(values), -1))
+            if bad.any():
+                k = int(np.argmax(bad.any(axis=1)))
+                raise NonFiniteEstimateError(
+                    f"{self.name}: the estimate's {name} is not finite from sample {k} on ({int(bad.sum())} values); "
+                    "nothing written: the model may be damaged or diverged (retrain it), or the recording is far "
+                    "outside what it was trained on"
+                )
+        return self
+
     def columns(self) -> dict[str, np.ndarray]:
         cols = {"time": self.time}
         cols |= {c: self.q[:, i] for i, c in enumerate(COORDINATES)}
@@ -54,10 +75,12 @@ class GaitEstimate:
         return cols
 
     def to_csv(self, path: str | Path) -> Path:
+        """Write the estimate as CSV (atomically; refused if any value is not finite)."""
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
+        self.check_finite()
         cols = self.columns()
-        np.savetxt(path, np.column_stack(list(cols.values())), delimiter=",", header=",".join(cols), comments="", fmt="%.7g")
+        with atomic_path(path) as tmp:
+            np.savetxt(tmp, np.column_stack(list(cols.values())), delimiter=",", header=",".join(cols), comments="", fmt="%.7g")
         return path
 
 
@@ -93,7 +116,7 @@ def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str
     raw, _ = model(torch.as_tensor(x, dtype=torch.float32, device=device)[None])
     body = BodyParameters.from_anthropometry(rec.height, rec.mass)
     out = {k: v[0].cpu().numpy() for k, v in _outputs(raw.cpu(), body).items()}
-    return GaitEstimate(name=rec.name, time=rec.time, **out)
+    return GaitEstimate(name=rec.name, time=rec.time, **out).check_finite()
 
 
 # Streaming: a hand-written single-step LSTM (see StreamingEstimator for why it exists).

@@ -55,3 +55,29 @@ def shared_data(name: str) -> Path:
     if not path.exists():
         pytest.skip(f"real data {path} not present (../shared/data is optional; CI provides it)")
     return path
+
+
+@pytest.fixture(scope="session")
+def tiny_run(tmp_path_factory):
+    """A tiny dataset, a tiny training config and a finished 4-step run: (root, data folder,
+    config path, training recordings, run folder)."""
+    import yaml
+
+    from sspinn.dataset import Dataset
+    from sspinn.training import TrainConfig, Trainer
+    from tests.test_dataset import make_recording
+
+    root = tmp_path_factory.mktemp("tiny_run")
+    rng = np.random.default_rng(3)
+    data = root / "data"
+    Dataset.write(data, {"train": [make_recording("a", "s1", 150, rng), make_recording("b", "s2", 150, rng)],
+                         "test": [make_recording("c", "s3", 120, rng)]})
+    cfg = root / "tiny.yaml"
+    cfg.write_text(yaml.safe_dump({"train": {
+        "network": {"hidden": 8, "layers": 1, "dropout": 0.0, "dense": 8}, "steps": 4, "batch_size": 2, "window": 32,
+        "log_every": 1, "checkpoint_every": 2, "device": "cpu",
+    }}))
+    train = Dataset.open(data).load("train")
+    run = root / "run"
+    Trainer(TrainConfig.from_yaml(cfg), run).fit(train)
+    return root, data, cfg, train, run

@@ -11,32 +11,11 @@ import sys
 import numpy as np
 import pytest
 import torch
-import yaml
 
 from sspinn.cli import main
-from sspinn.dataset import Dataset
 from sspinn.model_file import FORMAT_VERSION, ModelFileError, load_torch_file, save_torch_file
 from sspinn.run_folder import RunFolderBusyError, RunLock, atomic_path
 from sspinn.training import TrainConfig, Trainer, load_model
-from tests.test_dataset import make_recording
-
-
-@pytest.fixture(scope="module")
-def tiny(tmp_path_factory):
-    root = tmp_path_factory.mktemp("tiny_models")
-    rng = np.random.default_rng(3)
-    data = root / "data"
-    Dataset.write(data, {"train": [make_recording("a", "s1", 150, rng), make_recording("b", "s2", 150, rng)],
-                         "test": [make_recording("c", "s3", 120, rng)]})
-    cfg = root / "tiny.yaml"
-    cfg.write_text(yaml.safe_dump({"train": {
-        "network": {"hidden": 8, "layers": 1, "dropout": 0.0, "dense": 8}, "steps": 4, "batch_size": 2, "window": 32,
-        "log_every": 1, "checkpoint_every": 2, "device": "cpu",
-    }}))
-    train = Dataset.open(data).load("train")
-    run = root / "run"
-    Trainer(TrainConfig.from_yaml(cfg), run).fit(train)
-    return root, data, cfg, train, run
 
 
 class _RunsCode:
@@ -49,7 +28,7 @@ class _RunsCode:
         return (os.system, (f"touch {self.marker}",))
 
 
-def test_a_crafted_file_runs_no_code(tiny, tmp_path):
+def test_a_crafted_file_runs_no_code(tiny_run, tmp_path):
     evil = tmp_path / "model.pt"
     marker = tmp_path / "pwned"
     torch.save({"model": _RunsCode(str(marker))}, evil)
@@ -73,8 +52,8 @@ def test_a_crafted_file_runs_no_code(tiny, tmp_path):
     ],
     ids=["random-bytes", "empty", "truncated", "folder", "no-keys", "a-list", "newer-version", "other-kind", "missing"],
 )
-def test_broken_model_files_name_the_file_and_the_problem(tiny, tmp_path, capsys, make, message):
-    _, data, _, _, run = tiny
+def test_broken_model_files_name_the_file_and_the_problem(tiny_run, tmp_path, capsys, make, message):
+    _, data, _, _, run = tiny_run
     bad = tmp_path / "broken.pt"
     make(bad, run / "model.pt")
     with pytest.raises(ModelFileError, match=message) as info:
@@ -86,8 +65,8 @@ def test_broken_model_files_name_the_file_and_the_problem(tiny, tmp_path, capsys
     assert not (tmp_path / "o").exists()
 
 
-def test_nan_weights_are_refused_before_anything_is_written(tiny, tmp_path, capsys):
-    _, data, _, _, run = tiny
+def test_nan_weights_are_refused_before_anything_is_written(tiny_run, tmp_path, capsys):
+    _, data, _, _, run = tiny_run
     state = torch.load(run / "model.pt", weights_only=True)
     next(iter(state["model"].values())).fill_(float("nan"))
     torch.save(state, tmp_path / "nan.pt")
@@ -98,8 +77,8 @@ def test_nan_weights_are_refused_before_anything_is_written(tiny, tmp_path, caps
     assert not (tmp_path / "o").exists() and not (tmp_path / "e").exists()
 
 
-def test_files_without_a_format_entry_still_load(tiny, tmp_path):
-    _, _, _, _, run = tiny
+def test_files_without_a_format_entry_still_load(tiny_run, tmp_path):
+    _, _, _, _, run = tiny_run
     state = torch.load(run / "model.pt", weights_only=True)
     assert state["format"] == "sspinn-model" and state["version"] == FORMAT_VERSION
     del state["format"], state["version"]
@@ -108,8 +87,8 @@ def test_files_without_a_format_entry_still_load(tiny, tmp_path):
     assert segments == tuple(state["segments"])
 
 
-def test_resume_from_a_truncated_checkpoint_or_another_network_is_a_clear_error(tiny, tmp_path, capsys):
-    _, data, cfg, train, run = tiny
+def test_resume_from_a_truncated_checkpoint_or_another_network_is_a_clear_error(tiny_run, tmp_path, capsys):
+    _, data, cfg, train, run = tiny_run
     out = tmp_path / "run"
     out.mkdir()
     good = (run / "checkpoint.pt").read_bytes()
@@ -127,8 +106,8 @@ def test_resume_from_a_truncated_checkpoint_or_another_network_is_a_clear_error(
     assert "is a 'sspinn-model' file, not one of ['sspinn-checkpoint']" in capsys.readouterr().err
 
 
-def test_debug_flag_shows_the_traceback(tiny, tmp_path):
-    _, data, _, _, _ = tiny
+def test_debug_flag_shows_the_traceback(tiny_run, tmp_path):
+    _, data, _, _, _ = tiny_run
     with pytest.raises(ModelFileError):
         main(["infer", "--debug", "--model", str(tmp_path / "nope.pt"), "--data", str(data), "--out", str(tmp_path / "o")])
 
@@ -148,8 +127,8 @@ def test_saved_files_are_atomic_with_unique_temporary_names(tmp_path):
 
 
 # ---------------------------------------------------------------------------------- run lock
-def test_a_second_run_into_the_same_folder_is_refused(tiny, tmp_path, capsys):
-    _, data, cfg, train, _ = tiny
+def test_a_second_run_into_the_same_folder_is_refused(tiny_run, tmp_path, capsys):
+    _, data, cfg, train, _ = tiny_run
     out = tmp_path / "busy"
     with RunLock(out):
         with pytest.raises(RunFolderBusyError, match=rf"in use by PID {os.getpid()} on host"):
@@ -193,8 +172,8 @@ def _weights(trainer: Trainer) -> list[torch.Tensor]:
 
 
 @pytest.mark.parametrize("how", ["sigint", "exception-mid-step"])
-def test_ctrl_c_then_resume_is_bit_identical_to_an_uninterrupted_run(tiny, tmp_path, monkeypatch, how):
-    _, _, cfg, train, _ = tiny
+def test_ctrl_c_then_resume_is_bit_identical_to_an_uninterrupted_run(tiny_run, tmp_path, monkeypatch, how):
+    _, _, cfg, train, _ = tiny_run
     config = TrainConfig.from_yaml(cfg, steps=5)
     full = Trainer(config, tmp_path / "full")
     full.fit(train)
@@ -232,8 +211,8 @@ def test_ctrl_c_then_resume_is_bit_identical_to_an_uninterrupted_run(tiny, tmp_p
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
-def test_bad_options_are_one_line_errors(tiny, tmp_path, capsys):
-    _, data, cfg, _, _ = tiny
+def test_bad_options_are_one_line_errors(tiny_run, tmp_path, capsys):
+    _, data, cfg, _, _ = tiny_run
     base = ["train", "--config", str(cfg), "--data", str(data), "--out", str(tmp_path / "r")]
     for extra, message in (
         (["--set", "window=abc"], "option window must be an integer, got 'abc'"),

@@ -1,0 +1,80 @@
+"""Issue #12 item 4: no estimate or report is written with non-finite values, and nothing is
+written when a command fails."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from sspinn.cli import main
+from sspinn.dataset import Dataset
+from sspinn.inference import NonFiniteEstimateError, estimate_recording
+from sspinn.network import SSPINNposeNet
+from sspinn.training import load_model
+
+
+@pytest.fixture()
+def nan_network(monkeypatch):
+    real = SSPINNposeNet.forward
+
+    def forward(self, x, *a, **k):
+        raw, state = real(self, x, *a, **k)
+        raw = raw.clone()
+        raw[:, 30:, 5] = float("nan")  # a NaN from sample 30 on
+        return raw, state
+
+    monkeypatch.setattr(SSPINNposeNet, "forward", forward)
+
+
+def test_a_nan_estimate_is_an_error_naming_the_quantity_and_sample(tiny_run, nan_network):
+    _, data, _, _, run = tiny_run
+    model, segments, _ = load_model(run / "model.pt")
+    rec = Dataset.open(data).load("test")[0]
+    with pytest.raises(NonFiniteEstimateError, match=r"c: the estimate's q is not finite from sample 30 on"):
+        estimate_recording(model, rec, segments)
+
+
+@pytest.mark.parametrize("command", ["infer", "evaluate"])
+def test_infer_and_evaluate_write_nothing_from_a_nan_network(tiny_run, nan_network, tmp_path, capsys, command):
+    _, data, _, _, run = tiny_run
+    assert main([command, "--model", str(run / "model.pt"), "--data", str(data), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "not finite from sample 30" in err and err.count("\n") == 1
+    assert not (tmp_path / "o").exists()
+
+
+def test_evaluate_without_labels_or_with_too_large_skip_leaves_no_folder(tiny_run, tmp_path, capsys):
+    _, data, _, _, run = tiny_run
+    rec = Dataset.open(data).load("test")[0]
+    rec.labels = None
+    Dataset.write(tmp_path / "unlabelled", {"test": [rec]})
+    args = ["evaluate", "--model", str(run / "model.pt"), "--out", str(tmp_path / "rep")]
+    assert main([*args, "--data", str(tmp_path / "unlabelled")]) == 2
+    assert "no labels to evaluate against" in capsys.readouterr().err
+    assert main([*args, "--data", str(data), "--skip", "500"]) == 2
+    assert "--skip 500 leaves no samples" in capsys.readouterr().err
+    assert not (tmp_path / "rep").exists()
+
+
+def test_metrics_without_a_label_group_are_null_not_nan(tiny_run, tmp_path):
+    _, data, _, _, run = tiny_run
+    rec = Dataset.open(data).load("test")[0]
+    rec.labels.tau = None  # no torque labels: the torque error is not defined
+    Dataset.write(tmp_path / "d", {"test": [rec]})
+    assert main(["evaluate", "--model", str(run / "model.pt"), "--data", str(tmp_path / "d"), "--out", str(tmp_path / "r"),
+                 "--skip", "10"]) == 0
+    text = (tmp_path / "r" / "metrics.json").read_text()
+    assert "NaN" not in text and json.loads(text)["mean"]["jte_pct_bwbh"] is None
+    assert "n/a" in (tmp_path / "r" / "report.md").read_text() and "nan" not in (tmp_path / "r" / "report.md").read_text()
+
+
+def test_a_saved_estimate_is_finite(tiny_run, tmp_path):
+    _, data, _, _, run = tiny_run
+    model, segments, _ = load_model(run / "model.pt")
+    est = estimate_recording(model, Dataset.open(data).load("test")[0], segments)
+    est.grf[3, 1] = np.inf
+    with pytest.raises(NonFiniteEstimateError, match="grf is not finite from sample 3"):
+        est.to_csv(tmp_path / "e.csv")
+    assert not list(tmp_path.iterdir())
