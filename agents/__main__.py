@@ -40,49 +40,52 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point; returns the exit status."""
+    """Entry point; returns the exit status (2 and one line on stderr for a user error,
+    ``--debug`` for the traceback; see :func:`sspinn.errors.run_cli`)."""
+    from sspinn.errors import run_cli
+
+    return run_cli(_main, "python -m agents", argv, user_errors=(ValueError,))
+
+
+def _main(argv: list[str]) -> int:
     args = build_parser().parse_args(argv)
     from agents.config import ConfigError, load_config
 
-    try:
-        if args.command == "train":
-            from agents.train import train
+    if args.command == "train":
+        from agents.train import train
 
-            config = load_config(args.config)
-            if args.algo is not None and args.algo != config.algo:
-                raise ConfigError(f"--algo {args.algo} but {args.config} has algo: {config.algo}")
-            overrides = {k: v for k, v in (("total_timesteps", args.total_timesteps), ("seed", args.seed))
-                         if v is not None}
-            if args.target_speed is not None:
-                env = config.to_dict()["env"]
-                env["kwargs"] = {**env["kwargs"], "target_speed": args.target_speed}
-                env["eval_target_speed"] = args.target_speed
-                overrides["env"] = env
-            if overrides:
-                config = config.with_overrides(**overrides)
-            train(config, args.out, resume=args.resume)
-        elif args.command == "evaluate":
-            from agents.evaluate import evaluate
+        config = load_config(args.config)
+        if args.algo is not None and args.algo != config.algo:
+            raise ConfigError(f"--algo {args.algo} but {args.config} has algo: {config.algo}")
+        overrides = {k: v for k, v in (("total_timesteps", args.total_timesteps), ("seed", args.seed))
+                     if v is not None}
+        if args.target_speed is not None:
+            env = config.to_dict()["env"]
+            env["kwargs"] = {**env["kwargs"], "target_speed": args.target_speed}
+            env["eval_target_speed"] = args.target_speed
+            overrides["env"] = env
+        if overrides:
+            config = config.with_overrides(**overrides)
+        train(config, args.out, resume=args.resume)
+    elif args.command == "evaluate":
+        from agents.evaluate import evaluate
 
-            report = evaluate(args.checkpoint, args.out, episodes=args.episodes, seed=args.seed,
-                              target_speed=args.target_speed, max_steps=args.max_steps,
-                              video=not args.no_video, fps=args.fps)
-            s = report["summary"]
-            cot = s["mean_cost_of_transport"]
-            print(f"{s['episodes']} episodes at {report['target_speed']:.2f} m/s: distance {s['mean_distance_m']:.2f} m "
-                  f"(min {s['min_distance_m']:.2f}), speed {s['mean_speed_m_s']:.2f} m/s "
-                  f"(|error| {s['mean_abs_speed_error_m_s']:.3f}), CoT {'n/a' if cot is None else f'{cot:.2f}'}, "
-                  f"falls {s['falls']}, cadence {s['mean_cadence_steps_per_min']:.0f} steps/min, "
-                  f"foot slide {s['mean_foot_slide_m']:.2f} m; written to {args.out}")
-        else:
-            from agents.evaluate import record
+        report = evaluate(args.checkpoint, args.out, episodes=args.episodes, seed=args.seed,
+                          target_speed=args.target_speed, max_steps=args.max_steps,
+                          video=not args.no_video, fps=args.fps)
+        s = report["summary"]
+        cot = s["mean_cost_of_transport"]
+        print(f"{s['episodes']} episodes at {report['target_speed']:.2f} m/s: distance {s['mean_distance_m']:.2f} m "
+              f"(min {s['min_distance_m']:.2f}), speed {s['mean_speed_m_s']:.2f} m/s "
+              f"(|error| {s['mean_abs_speed_error_m_s']:.3f}), CoT {'n/a' if cot is None else f'{cot:.2f}'}, "
+              f"falls {s['falls']}, cadence {s['mean_cadence_steps_per_min']:.0f} steps/min, "
+              f"foot slide {s['mean_foot_slide_m']:.2f} m; written to {args.out}")
+    else:
+        from agents.evaluate import record
 
-            result = record(args.checkpoint, args.out, seed=args.seed, target_speed=args.target_speed,
-                            max_steps=args.max_steps, fps=args.fps)
-            print(f"distance {result.distance:.2f} m in {result.duration:.2f} s, fell: {result.fell}; wrote {args.out}")
-    except (ConfigError, FileNotFoundError, FileExistsError, ValueError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+        result = record(args.checkpoint, args.out, seed=args.seed, target_speed=args.target_speed,
+                        max_steps=args.max_steps, fps=args.fps)
+        print(f"distance {result.distance:.2f} m in {result.duration:.2f} s, fell: {result.fell}; wrote {args.out}")
     return 0
 
 

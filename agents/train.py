@@ -39,6 +39,7 @@ from agents.checkpoints import (
 )
 from agents.config import ACTIVATIONS, ALGORITHMS, AgentConfig, save_config
 from agents.rollout import run_episode, summarize
+from sspinn.run_folder import RunLock
 
 #: Info fields of the environment written to the Monitor CSV of every training episode.
 MONITOR_INFO_KEYS: tuple[str, ...] = ("distance", "cost_of_transport")
@@ -181,8 +182,14 @@ def train(config: AgentConfig, out: str | Path, resume: bool = False) -> BaseAlg
     With ``resume``, the latest checkpoint in ``<out>/checkpoints`` and its VecNormalize statistics
     are loaded and training continues up to ``total_timesteps`` (``reset_num_timesteps=False``, so
     step counts, schedules and TensorBoard curves carry on). Without it, ``out`` must not hold
-    checkpoints already.
+    checkpoints already. The run directory is owned by this run while it trains
+    (:class:`sspinn.run_folder.RunLock`): a second run into it stops with an error naming this one.
     """
+    with RunLock(out):
+        return _train(config, Path(out), resume)
+
+
+def _train(config: AgentConfig, out: Path, resume: bool) -> BaseAlgorithm:
     # 1. run directory, threads, seeds (a resumed run continues from seed + steps done, so that its
     #    environments do not replay the initial states of the first part)
     run_dir = Path(out)

@@ -10,13 +10,18 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
+
+import numpy as np
 
 from predictive import compare_cli, generator_cli, synth_cli, tracking_cli
 from predictive.analysis import DEFAULT_DATA_DIR, compare_with_reference, load_winter, plot_gait
 from predictive.collocation import OCPError, solve_predictive
+from predictive.limits import check_body, check_speed, solution_problems
 from predictive.solution import GaitSolution
+from sspinn.errors import UserError, run_cli
 
 #: Speeds below this are compared with Winter's walking data, m/s.
 WALKING_MAX_SPEED = 2.0
@@ -48,9 +53,23 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _check_solve_args(args: argparse.Namespace) -> None:
+    """Reject what the model cannot do before anything is built (see predictive.limits)."""
+    check_speed(args.speed, "--speed")
+    check_body(args.height, args.mass)
+    for name, value, low in (("--nodes", args.nodes, 4), ("--rate-hz", args.rate_hz, 1e-9), ("--duration", args.duration, 1e-9)):
+        if value is not None and not (math.isfinite(value) and value >= low):
+            raise UserError(f"{name} {value} must be a finite number ≥ {low:g}")
+    if args.w_acc is not None and not (math.isfinite(args.w_acc) and args.w_acc >= 0):
+        raise UserError(f"--w-acc {args.w_acc} must be a finite number ≥ 0")
+    if args.duration is not None and not 0.2 <= args.duration <= 3.0:
+        raise UserError(f"--duration {args.duration} s is not a human stride duration (0.2–3 s)")
+
+
 def _solve(args: argparse.Namespace) -> int:
     from sspinn.body import BodyParameters
 
+    _check_solve_args(args)
     body = BodyParameters.from_anthropometry(args.height, args.mass)
     extra = {} if args.w_acc is None else {"w_acc": args.w_acc}
     guess = GaitSolution.load(args.guess) if args.guess is not None else None
@@ -74,6 +93,13 @@ def _solve(args: argparse.Namespace) -> int:
             path = exc.solution.save(args.out.with_name(args.out.name + "_failed"))
             print(f"last iterate written to {path}", file=sys.stderr)
         return 1
+    problems = solution_problems(sol)
+    if problems:
+        print(f"FAILED: IPOPT reported {sol.status}, but the solution is not acceptable: {'; '.join(problems)}", file=sys.stderr)
+        if all(np.isfinite(getattr(sol, k)).all() for k in ("q", "u", "tau", "grf")):
+            path = sol.save(args.out.with_name(args.out.name + "_failed"))
+            print(f"the rejected solution is written to {path} for inspection", file=sys.stderr)
+        return 1
     summary = sol.summary()
     reference = None
     if args.speed < WALKING_MAX_SPEED:
@@ -96,6 +122,12 @@ def _solve(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Entry point: the exit status (2 and one line on stderr for a user error, ``--debug`` for
+    the traceback; see :func:`sspinn.errors.run_cli`)."""
+    return run_cli(_main, "python -m predictive", argv, user_errors=(ValueError,))
+
+
+def _main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
     if args.command == "solve":
         return _solve(args)

@@ -86,6 +86,7 @@ from typing import Any, Literal
 import casadi as ca
 import numpy as np
 
+from predictive.limits import check_speed
 from predictive.solution import GaitSolution, mirror_states
 from sspinn import dynamics as dyn
 from sspinn.body import BodyParameters, JointLimits
@@ -665,6 +666,7 @@ def solve_predictive(
     Raises:
         OCPError: IPOPT did not return ``Solve_Succeeded`` (and ``raise_on_failure``).
     """
+    speed = check_speed(speed)  # predictive.limits: reject what the model cannot do, before building
     if rate_hz is not None:
         if free_duration:
             raise ValueError("rate_hz needs a fixed stride duration (free_duration=False)")

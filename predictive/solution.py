@@ -20,6 +20,7 @@ from sspinn import dynamics as dyn
 from sspinn.body import BodyParameters
 from sspinn.contact import ContactParameters
 from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS, N_Q
+from sspinn.errors import UserError
 
 #: Permutation that swaps the right and left leg in q (and u, q̈).
 MIRROR_Q = np.array([0, 1, 2, 6, 7, 8, 3, 4, 5])
@@ -205,6 +206,9 @@ class GaitSolution:
         """Write ``<path>.npz`` (arrays) and ``<path>.json`` (scalars, settings, summary of
         names and units). ``path`` may carry either suffix or none. Returns the npz path."""
         base = _base(path)
+        bad = [k for k in _ARRAYS if not np.isfinite(np.asarray(getattr(self, k), dtype=float)).all()]
+        if bad:
+            raise UserError(f"{base}: refusing to write a gait solution with non-finite {bad}")
         base.parent.mkdir(parents=True, exist_ok=True)
         np.savez(_with_ext(base, ".npz"), **{k: getattr(self, k) for k in _ARRAYS})
         meta = {
@@ -249,9 +253,15 @@ class GaitSolution:
         for p in (npz_path, json_path):
             if not p.exists():
                 raise FileNotFoundError(f"gait solution file {p} not found (save() writes .npz + .json)")
-        meta = json.loads(json_path.read_text())
-        with np.load(npz_path) as data:
-            arrays = {k: data[k] for k in _ARRAYS}
+        try:
+            meta = json.loads(json_path.read_text())
+            with np.load(npz_path) as data:
+                arrays = {k: data[k] for k in _ARRAYS}
+        except (ValueError, KeyError, OSError, EOFError) as exc:  # bad JSON, missing arrays, not an npz
+            raise UserError(f"{base}: not a readable gait solution (.npz + .json from save()): {exc}") from None
+        missing = [k for k in ("speed", "duration", "body_parameters", "status") if not isinstance(meta, dict) or k not in meta]
+        if missing:
+            raise UserError(f"{json_path}: not a gait solution's metadata (missing {missing})")
         fields = (
             "speed",
             "duration",

@@ -51,10 +51,12 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command; returns the exit code (1 if IPOPT failed on every start)."""
     from predictive.label_comparison import compare_with_labels, plot_against_labels, write_comparison
+    from predictive.limits import check_body
     from predictive.tracking import solve_imu_tracking
     from sspinn.body import BodyParameters
     from sspinn.readers import read_averaged_stride
 
+    check_body(args.height, args.mass)
     t0 = time.perf_counter()
     recording = read_averaged_stride(args.data, height=args.height, mass=args.mass, periods=1)
     body = BodyParameters.from_anthropometry(args.height, args.mass)
