@@ -38,7 +38,8 @@ import numpy as np
 
 from sspinn.body import IMUPlacement, ParameterError
 from sspinn.conventions import COORDINATES, GRAVITY, GRF, IMU_CHANNELS, JOINTS, SEGMENTS
-from sspinn.errors import UserError
+from sspinn.errors import DataFormatError
+from sspinn.plausibility import check_imu_plausibility
 
 FORMAT: Final = "sspinn-recording"
 VERSION: Final = 1
@@ -66,10 +67,6 @@ UNITS: Final[dict[str, str]] = {
     "w": "1 (0 toe ... 1 heel)",
     "speed": "m/s",
 }
-
-
-class DataFormatError(UserError):
-    """A recording or dataset file is malformed; the message names the file and what is wrong."""
 
 
 @dataclass
@@ -337,20 +334,7 @@ def validate_recording(rec: Recording, source: str) -> None:
     cols = rec.imu_columns()
     flat = rec.imu.reshape(rec.n_samples, -1)
     _check_finite(source, flat, cols)
-    acc = rec.imu[:, :, :2]
-    gyr = rec.imu[:, :, 2]
-    if rec.n_samples >= 10:
-        norm = np.median(np.linalg.norm(acc, axis=-1), axis=0)
-        for s, n in zip(rec.segments, norm):
-            if n < 0.3 * GRAVITY:
-                raise DataFormatError(
-                    f"{source}: {s}_acc_x/y median magnitude {n:.3g} is far below g = {GRAVITY} m/s²: "
-                    "accelerometers look like units of g (multiply by 9.81) or lack gravity (need specific force)"
-                )
-    big = np.abs(gyr).max(axis=0)
-    for s, m in zip(rec.segments, big):
-        if m > 40.0:
-            raise DataFormatError(f"{source}: {s}_gyr_z reaches {m:.4g}: gyroscopes look like deg/s (need rad/s)")
+    check_imu_plausibility(source, rec.imu, rec.segments, SAMPLE_RATE_HZ, rec.height, rec.placement)
     if rec.labels is None:
         return
     for group in rec.labels.available():

@@ -33,6 +33,11 @@ class UserError(ValueError):
     """Bad input that the user can fix; the message names the file, field or value and what to do."""
 
 
+class DataFormatError(UserError):
+    """A recording or dataset file is malformed; the message names the file and what is wrong
+    (re-exported by :mod:`sspinn.dataset`, where the format is defined)."""
+
+
 #: Exceptions from the operating system that are about the user's paths, not bugs.
 _PATH_ERRORS: Final = (FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError, FileExistsError)
 

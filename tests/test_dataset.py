@@ -122,11 +122,12 @@ def test_csv_reader_converts_units_and_resamples(tmp_path):
     fs = 200.0
     t = np.arange(400) / fs
     path = tmp_path / "raw.csv"
-    cols = {"ax": np.full_like(t, 0.1), "ay": np.full_like(t, 1.0), "gz": 57.29577951308232 * np.sin(t)}
+    # accelerations that vary a little (a constant channel is a dead sensor, see sspinn.plausibility)
+    cols = {"ax": 0.1 + 0.01 * np.sin(3 * t), "ay": 1.0 + 0.01 * np.cos(t), "gz": 57.29577951308232 * np.sin(t)}
     np.savetxt(path, np.column_stack(list(cols.values())), delimiter=",", header="ax,ay,gz", comments="")
     rec = read_csv_recording(path, {"foot_r_acc_x": "ax", "foot_r_acc_y": "ay", "foot_r_gyr_z": "gz"}, fs, 1.75, 70, gyro_unit="deg/s", acc_unit="g")
     assert rec.segments == ("foot_r",) and rec.n_samples == 200
-    np.testing.assert_allclose(rec.imu[:, 0, 1], GRAVITY)
+    np.testing.assert_allclose(rec.imu[:, 0, 1], GRAVITY * (1.0 + 0.01 * np.cos(np.arange(200) / 100.0)), rtol=1e-6)
     np.testing.assert_allclose(rec.imu[:, 0, 2], np.sin(np.arange(200) / 100.0), atol=1e-6)
     with pytest.raises(DataFormatError, match="incomplete"):
         read_csv_recording(path, {"foot_r_acc_x": "ax"}, fs, 1.75, 70)
