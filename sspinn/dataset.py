@@ -29,6 +29,7 @@ accelerometers in g, GRFs in body weights, angles in degrees, shape mismatches.
 
 from __future__ import annotations
 
+import io
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -233,11 +234,17 @@ class Recording:
             raise DataFormatError(f"{csv}: needs at least 2 samples, found {len(t)}")
         dt = np.diff(t)
         expected = 1.0 / SAMPLE_RATE_HZ
-        if np.abs(dt - expected).max() > 1e-4:
-            k = int(np.argmax(np.abs(dt - expected)))
+        # each step within 0.1 ms, and the clock never drifts half a sample from the 100 Hz grid
+        # (a 100.9 Hz recording passes the first test: 9.91 ms steps)
+        drift = np.abs((t - t[0]) - np.arange(len(t)) * expected)
+        if np.abs(dt - expected).max() > 1e-4 or drift.max() > 0.5 * expected:
+            k = int(np.argmax(np.abs(dt - expected))) if np.abs(dt - expected).max() > 1e-4 else int(np.argmax(drift)) - 1
+            median = float(np.median(dt))
+            rate = f"{1 / median:.4g} Hz" if median > 0 else "not increasing"
             raise DataFormatError(
                 f"{csv}: column 'time' must advance by {expected} s (100 Hz); found a step of {dt[k]:.6g} s at row {k + 2}"
-                f" (median step {np.median(dt):.6g} s ≈ {1 / np.median(dt):.4g} Hz); resample to 100 Hz first"
+                f" and {drift.max():.4g} s of drift from the 100 Hz grid by row {int(np.argmax(drift)) + 2}"
+                f" (median step {median:.6g} s, {rate}); resample to 100 Hz first"
             )
         segments = tuple(meta["imu"]["segments"])
         unknown = [s for s in segments if s not in SEGMENTS]
@@ -262,12 +269,18 @@ class Recording:
         placement = IMUPlacement()
         if placement_meta:
             try:
+                positions = {s: tuple(_number(sidecar_path, f"imu.placement.{s}.position_m", x) for x in v["position_m"])
+                             for s, v in placement_meta.items()}
+                bad = [s for s, xy in positions.items() if len(xy) != 2]
+                if bad:
+                    raise ValueError(f"position_m of {bad} is not [x, y]")
                 placement = IMUPlacement(
-                    positions={s: tuple(v["position_m"]) for s, v in placement_meta.items()},
-                    angles={s: float(v["angle_rad"]) for s, v in placement_meta.items()},
+                    positions=positions,  # type: ignore[arg-type]
+                    angles={s: _number(sidecar_path, f"imu.placement.{s}.angle_rad", v["angle_rad"]) for s, v in placement_meta.items()},
                 )
-            except (KeyError, TypeError, ParameterError) as exc:
-                raise DataFormatError(f"{sidecar_path}: bad imu.placement: {exc}") from None
+            except (KeyError, TypeError, ValueError, AttributeError, ParameterError) as exc:
+                raise DataFormatError(f"{sidecar_path}: bad imu.placement ({type(exc).__name__}: {exc}); expected "
+                                      "{segment: {position_m: [x, y], angle_rad: a}} for every segment") from None
         subject = meta["subject"]
         try:
             return cls(
@@ -281,14 +294,18 @@ class Recording:
 
 def _read_sidecar(path: Path) -> dict[str, Any]:
     try:
-        meta = json.loads(path.read_text())
+        meta = json.loads(path.read_text(encoding="utf-8-sig"))  # a UTF-8 byte-order mark is fine
     except json.JSONDecodeError as exc:
         raise DataFormatError(f"{path}: not valid JSON ({exc})") from None
+    except UnicodeDecodeError as exc:
+        raise DataFormatError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    if not isinstance(meta, dict):
+        raise DataFormatError(f"{path}: expected a JSON object with format, version, subject and imu; got a {type(meta).__name__}")
     if meta.get("format") != FORMAT:
         raise DataFormatError(f"{path}: 'format' must be {FORMAT!r}, got {meta.get('format')!r}")
     if meta.get("version") != VERSION:
         raise DataFormatError(f"{path}: unsupported version {meta.get('version')!r} (this sspinn reads version {VERSION})")
-    if float(meta.get("sample_rate_hz", -1)) != SAMPLE_RATE_HZ:
+    if _number(path, "sample_rate_hz", meta.get("sample_rate_hz", -1)) != SAMPLE_RATE_HZ:
         raise DataFormatError(f"{path}: sample_rate_hz must be {SAMPLE_RATE_HZ}, got {meta.get('sample_rate_hz')!r}; resample first")
     for key, sub in (("subject", ("height_m", "mass_kg")), ("imu", ("segments",))):
         if key not in meta or not isinstance(meta[key], dict):
@@ -296,25 +313,75 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
         for k in sub:
             if k not in meta[key]:
                 raise DataFormatError(f"{path}: missing {key}.{k}")
+    for k in ("height_m", "mass_kg"):
+        meta["subject"][k] = _number(path, f"subject.{k}", meta["subject"][k])
+    segments = meta["imu"]["segments"]
+    if not isinstance(segments, list) or not all(isinstance(x, str) for x in segments):
+        raise DataFormatError(f"{path}: imu.segments must be a list of segment names, got {segments!r}")
+    for key in ("placement", "provenance"):
+        value = (meta["imu"] if key == "placement" else meta).get(key)
+        if value is not None and not isinstance(value, dict):
+            raise DataFormatError(f"{path}: {'imu.' if key == 'placement' else ''}{key} must be a JSON object, got {value!r}")
+    if meta.get("labels") is not None and not (isinstance(meta["labels"], list) and all(isinstance(x, str) for x in meta["labels"])):
+        raise DataFormatError(f"{path}: labels must be a list of column names, got {meta['labels']!r}")
     return meta
+
+
+def _number(path: Path, field_name: str, value: Any) -> float:
+    """``value`` as a float if it is a JSON number (not a string, null or bool), else a
+    DataFormatError naming the field."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise DataFormatError(f"{path}: {field_name} must be a number (SI units, no unit text), got {value!r}")
+    return float(value)
 
 
 def read_csv_table(path: Path) -> tuple[list[str], np.ndarray]:
     """(column names, (rows, columns) float array) of a comma-separated file with one header
-    line; clear errors for duplicate columns, unreadable numbers and ragged rows."""
-    with path.open() as fh:
-        header = fh.readline().strip()
-    names = [n.strip() for n in header.split(",")]
+    line; clear errors for duplicate or empty columns, unreadable numbers, ragged rows and a last
+    line cut short (a file must end with a newline). A UTF-8 byte-order mark is ignored."""
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise DataFormatError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    lines = text.splitlines()
+    if not lines or not lines[0].strip():
+        raise DataFormatError(f"{path}: empty file or empty header line (expected column names)")
+    if not text.endswith(("\n", "\r")) and len(lines) > 1:
+        raise DataFormatError(
+            f"{path}: the last line (row {len(lines)}) does not end with a newline: the file looks cut short "
+            "(an interrupted copy or export); re-export it, or add the newline if it is complete"
+        )
+    names = [n.strip() for n in lines[0].split(",")]
+    if "" in names:
+        raise DataFormatError(f"{path}: empty column name at position {names.index('') + 1} of the header")
     if len(set(names)) != len(names):
         dup = sorted({n for n in names if names.count(n) > 1})
         raise DataFormatError(f"{path}: duplicate column(s) {dup}")
+    try:  # the fast path; on failure the rows are read one by one to name the bad one
+        table = np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1, ndmin=2)
+    except ValueError:
+        table = None
+    if table is not None and table.shape[0] > 0 and table.shape[1] == len(names):
+        return names, table
+    rows = [(k + 2, line) for k, line in enumerate(lines[1:]) if line.strip()]
+    if not rows:
+        raise DataFormatError(f"{path}: no data rows after the header")
+    for row, line in rows:
+        fields = line.split(",")
+        if len(fields) != len(names):
+            raise DataFormatError(f"{path}: row {row} has {len(fields)} values but the header has {len(names)} columns")
+        for name, value in zip(names, fields):
+            if not _is_number(value):
+                raise DataFormatError(f"{path}: row {row}, column {name!r}: {value.strip()!r} is not a number")
+    raise DataFormatError(f"{path}: unreadable numbers")  # pragma: no cover - loadtxt and the row check agree
+
+
+def _is_number(text: str) -> bool:
     try:
-        table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-    except ValueError as exc:
-        raise DataFormatError(f"{path}: unreadable numbers ({exc})") from None
-    if table.shape[1] != len(names):
-        raise DataFormatError(f"{path}: {len(names)} header columns but {table.shape[1]} values per row")
-    return names, table
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 # ---------------------------------------------------------------------- validation

@@ -137,7 +137,7 @@ def _check_gravity(source: str, segment: str, acc: np.ndarray, sample_rate_hz: f
     if median > high:
         raise ImplausibleRecordingError(
             f"{source}: {columns} median magnitude {median * GRAVITY:.4g} m/s² is {median:.3g} g, far above the ≈ 1 g "
-            "of gait: accelerometers look like cm/s² (divide by 100) or mm/s² (divide by 1000)"
+            "of gait: wrong units or scale (cm/s²: divide by 100, mm/s²: by 1000)"
         )
     window = int(round(LOW_PASS_WINDOW_S * sample_rate_hz))
     if acc.shape[0] < window or window < 2:
@@ -149,7 +149,7 @@ def _check_gravity(source: str, segment: str, acc: np.ndarray, sample_rate_hz: f
     if not low <= low_freq <= high:
         raise ImplausibleRecordingError(
             f"{source}: the low-frequency specific force of {columns} ({LOW_PASS_WINDOW_S:g} s means) has median "
-            f"magnitude {low_freq:.3g} g, but gravity keeps it near 1 g: the signals lack gravity or are scaled wrongly"
+            f"magnitude {low_freq:.2f} g, but gravity keeps it near 1 g: the signals lack gravity or are scaled wrongly"
         )
 
 

@@ -10,7 +10,9 @@ Resampling uses SciPy's cubic splines (periodic for averaged strides).
 
 from __future__ import annotations
 
+import contextlib
 import json
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +30,16 @@ _AVERAGED_LABELS = {
     **{f"{OPENSIM_NAMES[j]}_angle": j for j in JOINTS},
     **{f"{OPENSIM_NAMES[j]}_moment": f"tau_{j}" for j in JOINTS},
 }
+
+
+@contextlib.contextmanager
+def _named(path: Path, name: str) -> Iterator[None]:
+    """Re-raise a validation error of the recording ``name`` made from ``path`` naming the file
+    (sample numbers are those of the recording resampled to 100 Hz)."""
+    try:
+        yield
+    except DataFormatError as exc:
+        raise DataFormatError(f"{path} (as 100 Hz samples): {str(exc).removeprefix(name + ': ')}") from None
 
 
 def _read_table(path: Path) -> tuple[list[str], np.ndarray]:
@@ -62,7 +74,15 @@ def read_averaged_stride(
     meta_path = folder / "meta.json"
     if not meta_path.exists():
         raise DataFormatError(f"{meta_path}: file not found")
-    meta: dict[str, Any] = json.loads(meta_path.read_text())
+    try:
+        meta: dict[str, Any] = json.loads(meta_path.read_text(encoding="utf-8-sig"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise DataFormatError(f"{meta_path}: not valid JSON ({exc})") from None
+    if not isinstance(meta, dict):
+        raise DataFormatError(f"{meta_path}: expected a JSON object, got a {type(meta).__name__}")
+    for key in ("units", "speed_mps", "participant"):
+        if not isinstance(meta.get(key, {}), dict):
+            raise DataFormatError(f"{meta_path}: {key} must be a JSON object, got {meta[key]!r}")
     try:
         duration = float(meta["stride_duration_s"]["mean"])
         n_file = int(meta["samples_per_stride"])
@@ -98,24 +118,33 @@ def read_averaged_stride(
             labels[g] = resample(data[:, col[g]]) * weight
     speed = meta.get("speed_mps", {}).get("mean")
     if speed is not None:
+        if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not np.isfinite(speed):
+            raise DataFormatError(f"{meta_path}: speed_mps.mean must be a finite number (m/s), got {speed!r}")
         labels["speed"] = np.full(n_out, float(speed))
     positions = meta.get("imu_position_in_segment_frame_m") or {}
     if placement is None:
         placement = IMUPlacement.default(height)
         if positions:
-            placement = IMUPlacement(positions={s: tuple(positions.get(s, placement.positions[s])[:2]) for s in SEGMENTS})
-    return Recording(
-        name=folder.name,
-        imu=imu,
-        segments=segments,
-        height=height,
-        mass=mass,
-        subject=str(meta.get("participant", {}).get("participantName", folder.name)),
-        placement=placement,
-        labels=Labels.from_columns(labels, n_out) if labels else None,
-        provenance={"source": str(folder), "kind": "averaged stride", "periods": periods, "stride_duration_s": duration,
-                    "assumed_height_m": height, "assumed_mass_kg": mass, "original": meta.get("source", "")},
-    )
+            try:
+                placement = IMUPlacement(positions={
+                    s: (float(positions.get(s, placement.positions[s])[0]), float(positions.get(s, placement.positions[s])[1]))
+                    for s in SEGMENTS})
+            except (TypeError, ValueError, IndexError, KeyError, AttributeError) as exc:
+                raise DataFormatError(f"{meta_path}: imu_position_in_segment_frame_m must map segments to [x, y, ...] "
+                                      f"in metres ({type(exc).__name__}: {exc})") from None
+    with _named(folder / "signals.csv", folder.name):
+        return Recording(
+            name=folder.name,
+            imu=imu,
+            segments=segments,
+            height=height,
+            mass=mass,
+            subject=str(meta.get("participant", {}).get("participantName", folder.name)),
+            placement=placement,
+            labels=Labels.from_columns(labels, n_out) if labels else None,
+            provenance={"source": str(folder), "kind": "averaged stride", "periods": periods, "stride_duration_s": duration,
+                        "assumed_height_m": height, "assumed_mass_kg": mass, "original": meta.get("source", "")},
+        )
 
 
 def read_csv_recording(
@@ -164,8 +193,9 @@ def read_csv_recording(
         for j, c in enumerate(IMU_CHANNELS):
             x = data[:, col[column_map[f"{s}_{c}"]]] * (gyro_scale if c == "gyr_z" else acc_scale)
             imu[:, i, j] = CubicSpline(t_in, x)(t_out) if sample_rate_hz != SAMPLE_RATE_HZ else x
-    return Recording(
-        name=path.stem, imu=imu, segments=segments, height=height, mass=mass, subject=subject,
-        placement=placement or IMUPlacement.default(height),
-        provenance={"source": str(path), "sample_rate_hz_original": sample_rate_hz, "column_map": column_map},
-    )
+    with _named(path, path.stem):
+        return Recording(
+            name=path.stem, imu=imu, segments=segments, height=height, mass=mass, subject=subject,
+            placement=placement or IMUPlacement.default(height),
+            provenance={"source": str(path), "sample_rate_hz_original": sample_rate_hz, "column_map": column_map},
+        )
