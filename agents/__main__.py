@@ -6,10 +6,12 @@ import argparse
 import sys
 from collections.abc import Sequence
 
+from sspinn.errors import ArgumentParser
+
 
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
-    parser = argparse.ArgumentParser(prog="python -m agents", description="SB3 agents for sspinn/SagittalWalker-v0")
+    parser = ArgumentParser(prog="python -m agents", description="SB3 agents for sspinn/SagittalWalker-v0")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("train", help="train an agent from a YAML config")

@@ -21,14 +21,14 @@ from predictive.analysis import DEFAULT_DATA_DIR, compare_with_reference, load_w
 from predictive.collocation import OCPError, solve_predictive
 from predictive.limits import check_body, check_speed, solution_problems
 from predictive.solution import GaitSolution
-from sspinn.errors import UserError, run_cli
+from sspinn.errors import ArgumentParser, UserError, run_cli
 
 #: Speeds below this are compared with Winter's walking data, m/s.
 WALKING_MAX_SPEED = 2.0
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m predictive", description=__doc__.splitlines()[0])
+    parser = ArgumentParser(prog="python -m predictive", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     solve = sub.add_parser("solve", help="solve a predictive gait problem and write the solution + plot")
     solve.add_argument("--speed", type=float, required=True, help="average speed, m/s")
@@ -95,10 +95,11 @@ def _solve(args: argparse.Namespace) -> int:
         return 1
     problems = solution_problems(sol)
     if problems:
-        print(f"FAILED: IPOPT reported {sol.status}, but the solution is not acceptable: {'; '.join(problems)}", file=sys.stderr)
+        where = ""
         if all(np.isfinite(getattr(sol, k)).all() for k in ("q", "u", "tau", "grf")):
-            path = sol.save(args.out.with_name(args.out.name + "_failed"))
-            print(f"the rejected solution is written to {path} for inspection", file=sys.stderr)
+            where = f"; the rejected solution is written to {sol.save(args.out.with_name(args.out.name + '_failed'))} for inspection"
+        print(f"FAILED: IPOPT reported {sol.status}, but the solution is not acceptable: {'; '.join(problems)}{where}",
+              file=sys.stderr)
         return 1
     summary = sol.summary()
     reference = None

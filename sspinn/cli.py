@@ -16,7 +16,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from sspinn.dataset import DataFormatError, Dataset, Recording
-from sspinn.errors import run_cli
+from sspinn.errors import ArgumentParser, run_cli
 
 
 def load_recordings(data: Path, split: str = "train", periods: int = 10, height: float = 1.75, mass: float = 70.0) -> list[Recording]:
@@ -71,27 +71,36 @@ def _train(args: argparse.Namespace, finetune: bool) -> int:
     return 0
 
 
-def _evaluate(args: argparse.Namespace) -> int:
-    from sspinn.evaluation import write_report
-    from sspinn.inference import estimate_recording
+def _estimates(args: argparse.Namespace, recs: list[Recording]) -> list:
+    """Estimates of every recording (all checked finite before anything is written); errors
+    name the model and the data."""
+    from sspinn.inference import NonFiniteEstimateError, estimate_recording
     from sspinn.training import load_model
 
     model, segments, _ = load_model(args.model)
+    try:
+        return [estimate_recording(model, r, segments) for r in recs]
+    except NonFiniteEstimateError as exc:
+        raise NonFiniteEstimateError(f"{args.model} on {args.data}, recording {exc}") from None
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    from sspinn.evaluation import EvaluationError, write_report
+
     recs = load_recordings(args.data, args.split, args.periods, args.height, args.mass)
-    ests = [estimate_recording(model, r, segments) for r in recs]
-    result = write_report(ests, recs, args.out, title=f"{args.model} on {args.data} ({args.split})", skip=args.skip)
+    ests = _estimates(args, recs)
+    try:
+        result = write_report(ests, recs, args.out, title=f"{args.model} on {args.data} ({args.split})", skip=args.skip)
+    except EvaluationError as exc:
+        raise EvaluationError(f"{args.data} ({args.split} split), recording {exc}") from None
     print(json.dumps(result["mean"], indent=2))
     print(f"report: {args.out / 'report.md'}")
     return 0
 
 
 def _infer(args: argparse.Namespace) -> int:
-    from sspinn.inference import estimate_recording
-    from sspinn.training import load_model
-
-    model, segments, _ = load_model(args.model)
     recs = load_recordings(args.data, args.split, args.periods, args.height, args.mass)
-    estimates = [estimate_recording(model, rec, segments) for rec in recs]  # all checked before any is written
+    estimates = _estimates(args, recs)
     for est in estimates:
         path = est.to_csv(args.out / f"{est.name}_estimate.csv")
         print(f"{est.name}: {len(est.time)} samples → {path}")
@@ -129,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _main(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(prog="sspinn", description="Sagittal gait dynamics from IMUs, self-supervised.",
+    parser = ArgumentParser(prog="sspinn", description="Sagittal gait dynamics from IMUs, self-supervised.",
                                      epilog="--debug anywhere shows the traceback of an error")
     sub = parser.add_subparsers(dest="command", required=True)
 

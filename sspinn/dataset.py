@@ -397,7 +397,8 @@ def validate_recording(rec: Recording, source: str) -> None:
     for name, value, lo, hi in (("height", rec.height, 0.5, 2.5), ("mass", rec.mass, 10.0, 300.0)):
         if not np.isfinite(value) or not lo <= value <= hi:
             unit = "m" if name == "height" else "kg"
-            raise DataFormatError(f"{source}: subject {name} {value} outside {lo}–{hi} {unit} (units: {unit})")
+            hint = " (a height in cm? give metres)" if name == "height" and value > 100 else ""
+            raise DataFormatError(f"{source}: subject {name} {value} outside {lo}–{hi} {unit} (units: {unit}){hint}")
     cols = rec.imu_columns()
     flat = rec.imu.reshape(rec.n_samples, -1)
     _check_finite(source, flat, cols)

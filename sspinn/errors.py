@@ -14,10 +14,11 @@ This module is part of the core: it imports nothing from ``envs``, ``predictive`
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 from collections.abc import Callable, Sequence
-from typing import Final
+from typing import Final, NoReturn
 
 #: Exit status of a user error (argparse uses the same for usage errors).
 EXIT_USER_ERROR: Final = 2
@@ -40,6 +41,15 @@ class DataFormatError(UserError):
 
 #: Exceptions from the operating system that are about the user's paths, not bugs.
 _PATH_ERRORS: Final = (FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError, FileExistsError)
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """An :class:`argparse.ArgumentParser` whose usage errors are one line on stderr (the
+    option, the value, what is wrong, where to look) with exit status 2, like every other user
+    error; its sub-command parsers are of this class too."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_USER_ERROR, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
 
 
 def one_line(message: object) -> str:

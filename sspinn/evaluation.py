@@ -29,6 +29,10 @@ from sspinn.inference import GaitEstimate
 ANGLES = ("pelvis_tilt", *JOINTS)
 
 
+class EvaluationError(UserError):
+    """The recordings cannot be evaluated as asked (no labels, nothing left after ``skip``)."""
+
+
 @dataclass
 class Metrics:
     jae_deg: float
@@ -61,7 +65,7 @@ def compute_metrics(est: GaitEstimate, rec: Recording, skip: int = 0) -> Metrics
     """Metrics of one estimate against its recording's labels, ignoring the first ``skip``
     samples (the LSTM's warm-up)."""
     if rec.labels is None:
-        raise ValueError(f"{rec.name}: no labels to evaluate against")
+        raise EvaluationError(f"{rec.name}: no labels to evaluate against (use `sspinn infer` for recordings without labels)")
     lab = rec.labels
     sl = slice(skip, None)
     have = set(lab.columns())
@@ -121,7 +125,7 @@ def write_report(estimates: list[GaitEstimate], recordings: list[Recording], out
     for est, rec in zip(estimates, recordings):  # everything is checked before anything is written
         est.check_finite()
         if not 0 <= skip < rec.n_samples:
-            raise UserError(f"{rec.name}: --skip {skip} leaves no samples of its {rec.n_samples} to evaluate")
+            raise EvaluationError(f"{rec.name}: --skip {skip} leaves no samples of its {rec.n_samples} to evaluate")
     per = {e.name: compute_metrics(e, r, skip) for e, r in zip(estimates, recordings)}
     mean = mean_metrics(list(per.values()))
     out.mkdir(parents=True, exist_ok=True)

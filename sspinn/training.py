@@ -502,8 +502,15 @@ def _load_weights(model: SSPINNposeNet, state: dict[str, Any], path: Path) -> No
         theirs = state.get("hyperparameters")
         raise ModelFileError(
             f"{path}: its network ({theirs}) does not fit this run's ({model.hyperparameters()}): "
-            f"{str(exc).splitlines()[0]}; use the same network settings, or another run folder"
+            f"{_first_mismatch(exc)}; use the same network settings, or another run folder"
         ) from None
+
+
+def _first_mismatch(exc: BaseException) -> str:
+    """The first specific line of a ``load_state_dict`` error (e.g. "size mismatch for ...")."""
+    lines = [line.strip().rstrip(".") for line in str(exc).splitlines() if line.strip()]
+    specific = [line for line in lines if not line.startswith("Error(s) in loading")]
+    return (specific or lines or [type(exc).__name__])[0]
 
 
 def load_model(path: str | Path, device: str | torch.device = "cpu") -> tuple[SSPINNposeNet, tuple[str, ...], dict[str, Any]]:

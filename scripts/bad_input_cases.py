@@ -1,0 +1,430 @@
+"""Try every bad-input case of issue #12 and print the Markdown table of ``docs/bad_input.md``:
+the case, what was run, the exit status (or exception/warning) and the exact message the user sees.
+
+Each case is run in-process (the command lines through their ``main``, stderr captured) on a
+tiny dataset and a 4-step model made in a temporary folder; paths are shown relative to it as
+``<tmp>``. A case counts as a **clear error** when it ends as expected (exit status 2 with one
+line on stderr, 1 with one ``FAILED`` line for a rejected solution, or the documented exception
+or warning) and the message contains what it must name (the file, column, field or value).
+
+Usage::
+
+    python scripts/bad_input_cases.py > docs/bad_input_table.md   # ~30 s
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import pickle
+import re
+import socket
+import subprocess
+import sys
+import tempfile
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from sspinn.conventions import SEGMENTS  # noqa: E402
+from sspinn.dataset import Dataset, Recording  # noqa: E402
+from tests.test_dataset import make_recording  # noqa: E402
+
+
+@dataclass
+class Outcome:
+    status: str  # "exit 2", "ValueError", "UserWarning", ...
+    message: str
+
+
+@dataclass
+class Case:
+    item: str
+    name: str
+    run: str  # what the user did
+    expect_status: str
+    must_name: str  # a substring the message must contain
+    call: Callable[[], Outcome]
+
+
+def cli(main: Callable[[list[str]], int], argv: list[str]) -> Outcome:
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        try:
+            code = main(argv)
+        except SystemExit as exc:  # argparse
+            code = exc.code
+    lines = [line for line in err.getvalue().splitlines() if line.strip()]
+    status = f"exit {code}" + ("" if len(lines) == 1 or (code == 0 and not lines) else f" ({len(lines)} lines)")
+    return Outcome(status, lines[-1] if lines else "")
+
+
+def raises(fn: Callable[[], object]) -> Outcome:
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            fn()
+        except Exception as exc:  # noqa: BLE001 - the point is to show what comes out
+            return Outcome(type(exc).__name__, str(exc))
+    if caught:
+        return Outcome(caught[0].category.__name__, str(caught[0].message))
+    return Outcome("no error", "")
+
+
+def main() -> None:
+    from agents.__main__ import main as agents_main
+    from envs import BatchedSagittalWalker, SagittalWalkerEnv
+    from predictive import __main__ as predictive_cli
+    from sspinn.cli import main as sspinn_main
+    from sspinn.run_folder import RunLock
+    from sspinn.training import TrainConfig, Trainer
+
+    tmp = Path(tempfile.mkdtemp(prefix="bad_input_"))
+    rng = np.random.default_rng(3)
+    data = tmp / "data"
+    Dataset.write(data, {"train": [make_recording("a", "s1", 150, rng), make_recording("b", "s2", 150, rng)],
+                         "test": [make_recording("c", "s3", 120, rng)]})
+    cfg = tmp / "tiny.yaml"
+    cfg.write_text(yaml.safe_dump({"train": {
+        "network": {"hidden": 8, "layers": 1, "dropout": 0.0, "dense": 8}, "steps": 4, "batch_size": 2,
+        "window": 32, "log_every": 1, "checkpoint_every": 2, "device": "cpu"}}))
+    run = tmp / "run"
+    with contextlib.redirect_stderr(io.StringIO()):
+        Trainer(TrainConfig.from_yaml(cfg), run).fit(Dataset.open(data).load("train"))
+    model = run / "model.pt"
+    train = ["train", "--config", str(cfg), "--data", str(data)]
+
+    def infer_with(path: Path) -> Outcome:
+        return cli(sspinn_main, ["infer", "--model", str(path), "--data", str(data), "--out", str(tmp / "o")])
+
+    def model_file(name: str, make: Callable[[Path], object]) -> Path:
+        path = tmp / "models" / name
+        path.parent.mkdir(exist_ok=True)
+        make(path)
+        return path
+
+    class RunsCode:
+        def __reduce__(self):
+            return (os.system, (f"touch {tmp / 'pwned'}",))
+
+    # a walking-like recording to corrupt
+    def recording(edit_csv: Callable[[list[str]], list[str]] | None = None, edit_meta: Callable[[dict], object] | None = None,
+                  raw: Callable[[bytes], bytes] | None = None) -> Path:
+        folder = tmp / f"rec{len(list(tmp.glob('rec*')))}"
+        rec = make_recording("walk", "s1", 300, np.random.default_rng(0))
+        t = np.arange(300) / 100.0
+        for i, s in enumerate(SEGMENTS):
+            rec.imu[:, i, 2] = {"pelvis": 1.0, "femur": 3.0, "tibia": 5.0, "foot": 8.0}[s.split("_")[0]] * np.sin(2 * np.pi * t / 1.1 + i)
+        csv = Recording(name=rec.name, imu=rec.imu, segments=rec.segments, height=1.75, mass=70.0).save(folder)
+        if edit_csv:
+            csv.write_text("\n".join(edit_csv(csv.read_text().splitlines())) + "\n")
+        if edit_meta:
+            meta = json.loads(csv.with_suffix(".json").read_text())
+            out = edit_meta(meta)
+            csv.with_suffix(".json").write_text(json.dumps(meta if out is None else out))
+        if raw:
+            csv.write_bytes(raw(csv.read_bytes()))
+        return csv
+
+    def column(name: str, fn: Callable[[float], float]) -> Callable[[list[str]], list[str]]:
+        def edit(lines: list[str]) -> list[str]:
+            k = lines[0].split(",").index(name)
+            out = [lines[0]]
+            for line in lines[1:]:
+                v = line.split(",")
+                v[k] = repr(float(fn(float(v[k]))))
+                out.append(",".join(v))
+            return out
+        return edit
+
+    def columns(names: list[str], fn: Callable[[float], float]) -> Callable[[list[str]], list[str]]:
+        def edit(lines: list[str]) -> list[str]:
+            for n in names:
+                lines = column(n, fn)(lines)
+            return lines
+        return edit
+
+    def infer_rec(csv: Path) -> Outcome:
+        return cli(sspinn_main, ["infer", "--model", str(model), "--data", str(csv), "--out", str(tmp / "o")])
+
+    def sidecar(edit: Callable[[dict], object]) -> Path:
+        return recording(edit_meta=edit)
+
+    def nan_network(command: str) -> Outcome:
+        from sspinn.network import SSPINNposeNet
+
+        real = SSPINNposeNet.forward
+
+        def forward(self, x, *a, **k):
+            raw, state = real(self, x, *a, **k)
+            raw = raw.clone()
+            raw[:, 30:, 5] = float("nan")
+            return raw, state
+
+        SSPINNposeNet.forward = forward
+        try:
+            return cli(sspinn_main, [command, "--model", str(model), "--data", str(data), "--out", str(tmp / "o")])
+        finally:
+            SSPINNposeNet.forward = real
+
+    def stale_lock() -> Outcome:
+        dead = subprocess.Popen([sys.executable, "-c", "pass"])
+        dead.wait()
+        folder = tmp / "stale"
+        folder.mkdir()
+        (folder / ".lock").write_text(json.dumps({"pid": dead.pid, "host": socket.gethostname(), "started": 0.0,
+                                                  "command": "sspinn train ..."}))
+        return raises(lambda: RunLock(folder).acquire().release())
+
+    def busy() -> Outcome:
+        with RunLock(tmp / "busy"):
+            return cli(sspinn_main, [*train, "--out", str(tmp / "busy")])
+
+    def truncated_checkpoint(flag: str, extra: tuple[str, ...] = ()) -> Outcome:
+        out = tmp / f"resume{flag}{len(extra)}"
+        out.mkdir()
+        good = (run / "checkpoint.pt").read_bytes()
+        (out / "checkpoint.pt").write_bytes(good if extra else good[: len(good) // 3])
+        return cli(sspinn_main, [*train, "--out", str(out), flag, *extra])
+
+    def model_as_checkpoint() -> Outcome:
+        out = tmp / "resume_model"
+        out.mkdir()
+        (out / "checkpoint.pt").write_bytes(model.read_bytes())
+        return cli(sspinn_main, [*train, "--out", str(out), "--resume"])
+
+    def nan_weights(path: Path) -> None:
+        state = torch.load(model, weights_only=True)
+        next(iter(state["model"].values())).fill_(float("nan"))
+        torch.save(state, path)
+
+    def unlabelled() -> Outcome:
+        rec = Dataset.open(data).load("test")[0]
+        rec.labels = None
+        Dataset.write(tmp / "unlabelled", {"test": [rec]})
+        return cli(sspinn_main, ["evaluate", "--model", str(model), "--data", str(tmp / "unlabelled"), "--out", str(tmp / "rep")])
+
+    def bad_solution() -> Outcome:
+        from predictive.collocation import solve_predictive
+
+        sol = solve_predictive(0.0, n_nodes=6, duration=0.4)
+        sol.tau = sol.tau + 50.0
+        real = predictive_cli.solve_predictive
+        predictive_cli.solve_predictive = lambda *a, **k: sol
+        try:
+            return cli(predictive_cli.main, ["solve", "--speed", "0", "--nodes", "6", "--duration", "0.4", "--out", str(tmp / "s")])
+        finally:
+            predictive_cli.solve_predictive = real
+
+    def nan_stride() -> Outcome:
+        folder = tmp / "stride"
+        folder.mkdir()
+        (folder / "meta.json").write_text('{"stride_duration_s": {"mean": 1.1}, "samples_per_stride": 2}')
+        (folder / "signals.csv").write_text("pelvis_acc_x,pelvis_acc_y,pelvis_gyr_z\n0,9.8,nan\n0,9.8,0.1\n")
+        return cli(predictive_cli.main, ["track-imu", "--data", str(folder), "--out", str(tmp / "t")])
+
+    def env_step(action: np.ndarray) -> Callable[[], object]:
+        def go() -> None:
+            env = SagittalWalkerEnv()
+            env.reset(seed=0)
+            env.step(action)
+        return go
+
+    def after_end(truncate: bool) -> Callable[[], object]:
+        def go() -> None:
+            env = SagittalWalkerEnv(max_episode_steps=1)
+            env.reset(seed=0)
+            if not truncate:
+                q, u = env.state
+                q[2] = 1.2
+                env.set_state(q, u)
+            env.step(np.zeros(6))
+            env.step(np.zeros(6))
+        return go
+
+    def batched_nan() -> None:
+        env = BatchedSagittalWalker(3, device="cpu")
+        env.reset(seed=0)
+        a = torch.zeros(3, 6, dtype=env.dtype)
+        a[1, 4] = float("nan")
+        env.step(a)
+
+    def time_at(rate: float) -> Callable[[list[str]], list[str]]:
+        return lambda lines: [lines[0]] + [f"{k / rate!r}," + line.split(",", 1)[1] for k, line in enumerate(lines[1:])]
+
+    def cell(k: int, value: str) -> Callable[[list[str]], list[str]]:
+        def edit(lines: list[str]) -> list[str]:
+            v = lines[6].split(",")
+            v[k] = value
+            return [*lines[:6], ",".join(v), *lines[7:]]
+        return edit
+
+    def placement_cm(meta: dict) -> None:
+        meta["imu"]["placement"]["tibia_r"]["position_m"] = [0.0, -22.5]
+
+    def placement_empty(meta: dict) -> None:
+        meta["imu"]["placement"]["pelvis"]["position_m"] = []
+
+    acc = [f"pelvis_acc_{a}" for a in "xy"]
+    cases = [
+        # 1. one run per folder
+        Case("1", "second training into a folder in use", "sspinn train --out <run in use>", "exit 2", "in use by PID", busy),
+        Case("1", "stale lock of a dead process", "sspinn train --out <folder of a killed run>", "UserWarning", "stale lock of PID", stale_lock),
+        # 2. model files
+        Case("2", "crafted pickle that runs a shell command", "sspinn infer --model evil.pt", "exit 2", "could run code",
+             lambda: infer_with(model_file("evil.pt", lambda p: torch.save({"model": RunsCode()}, p)))),
+        Case("2", "random bytes", "sspinn infer --model random.pt", "exit 2", "random.pt",
+             lambda: infer_with(model_file("random.pt", lambda p: p.write_bytes(np.random.default_rng(0).bytes(4096))))),
+        Case("2", "empty file", "sspinn infer --model empty.pt", "exit 2", "empty.pt",
+             lambda: infer_with(model_file("empty.pt", lambda p: p.write_bytes(b"")))),
+        Case("2", "truncated model", "sspinn infer --model half.pt", "exit 2", "truncated",
+             lambda: infer_with(model_file("half.pt", lambda p: p.write_bytes(model.read_bytes()[: model.stat().st_size // 2])))),
+        Case("2", "a folder", "sspinn infer --model folder.pt", "exit 2", "is a folder",
+             lambda: infer_with(model_file("folder.pt", lambda p: p.mkdir()))),
+        Case("2", "torch file without the model entries", "sspinn infer --model keys.pt", "exit 2", "lacks the entries",
+             lambda: infer_with(model_file("keys.pt", lambda p: torch.save({"weights": torch.zeros(3)}, p)))),
+        Case("2", "torch file holding a list", "sspinn infer --model list.pt", "exit 2", "holds a list",
+             lambda: infer_with(model_file("list.pt", lambda p: torch.save([1, 2, 3], p)))),
+        Case("2", "newer format version", "sspinn infer --model v2.pt", "exit 2", "newer than this sspinn",
+             lambda: infer_with(model_file("v2.pt", lambda p: torch.save({"format": "sspinn-model", "version": 2}, p)))),
+        Case("2", "another kind of file (a gait generator)", "sspinn infer --model gen.pt", "exit 2", "gait-generator",
+             lambda: infer_with(model_file("gen.pt", lambda p: torch.save({"format": "gait-generator", "version": 1}, p)))),
+        Case("2", "raw pickle (not a torch zip)", "sspinn infer --model pickle.pt", "exit 2", "not a torch file",
+             lambda: infer_with(model_file("pickle.pt", lambda p: p.write_bytes(pickle.dumps({"model": 1}))))),
+        Case("2", "missing file", "sspinn infer --model missing.pt", "exit 2", "no such file",
+             lambda: infer_with(tmp / "models" / "missing.pt")),
+        Case("2/4", "NaN weights", "sspinn infer --model nan.pt", "exit 2", "non-finite",
+             lambda: infer_with(model_file("nan.pt", nan_weights))),
+        Case("2", "--resume on a truncated checkpoint", "sspinn train --resume", "exit 2", "checkpoint.pt: truncated",
+             lambda: truncated_checkpoint("--resume")),
+        Case("2", "--auto-resume on a truncated checkpoint", "sspinn train --auto-resume", "exit 2", "checkpoint.pt: truncated",
+             lambda: truncated_checkpoint("--auto-resume")),
+        Case("2", "--resume with another network size", "sspinn train --resume --set network.hidden=16", "exit 2",
+             "does not fit this run", lambda: truncated_checkpoint("--resume", ("--set", "network.hidden=16", "--steps", "5"))),
+        Case("2", "a model file given as checkpoint", "cp model.pt checkpoint.pt; sspinn train --resume", "exit 2",
+             "not one of ['sspinn-checkpoint']", model_as_checkpoint),
+        # 3. recordings
+        Case("3", "pelvis gyroscope in deg/s (peak 35)", "sspinn infer --data walk.csv", "exit 2", "'pelvis_gyr_z'",
+             lambda: infer_rec(recording(column("pelvis_gyr_z", lambda v: np.degrees(v) * 0.6)))),
+        Case("3", "foot gyroscope in deg/s", "sspinn infer --data walk.csv", "exit 2", "'foot_r_gyr_z'",
+             lambda: infer_rec(recording(column("foot_r_gyr_z", np.degrees)))),
+        Case("3", "accelerometers in cm/s²", "sspinn infer --data walk.csv", "exit 2", "cm/s²",
+             lambda: infer_rec(recording(columns(acc, lambda v: v * 100)))),
+        Case("3", "accelerometers ×6 (wrong scale)", "sspinn infer --data walk.csv", "exit 2", "far above",
+             lambda: infer_rec(recording(columns(acc, lambda v: v * 6)))),
+        Case("3", "accelerometers in g", "sspinn infer --data walk.csv", "exit 2", "units of g",
+             lambda: infer_rec(recording(columns(acc, lambda v: v / 9.81)))),
+        Case("3", "accelerometer value 1e308", "sspinn infer --data walk.csv", "exit 2", "1e+308",
+             lambda: infer_rec(recording(column("pelvis_acc_x", lambda v: 1e308)))),
+        Case("3", "accelerometers without gravity (linear acceleration)", "sspinn infer --data walk.csv", "exit 2", "lack gravity",
+             lambda: infer_rec(recording(column("pelvis_acc_y", lambda v: v - 9.81)))),
+        Case("3", "all-zero gyroscope (dead sensor)", "sspinn infer --data walk.csv", "exit 2", "'tibia_l_gyr_z' is constant",
+             lambda: infer_rec(recording(column("tibia_l_gyr_z", lambda v: 0.0)))),
+        Case("3", "saturated gyroscope (clipped at 6 rad/s)", "sspinn infer --data walk.csv", "exit 2", "clipped at 6",
+             lambda: infer_rec(recording(column("foot_r_gyr_z", lambda v: min(v, 6.0))))),
+        Case("3", "IMU placement in cm", "sspinn infer --data walk.csv", "exit 2", "placement of tibia_r",
+             lambda: infer_rec(sidecar(placement_cm))),
+        Case("3", "last CSV line cut inside its final field", "sspinn infer --data walk.csv", "exit 2", "does not end with a newline",
+             lambda: infer_rec(recording(raw=lambda b: b[:-3]))),
+        Case("3", "time column at 100.9 Hz", "sspinn infer --data walk.csv", "exit 2", "drift from the 100 Hz grid",
+             lambda: infer_rec(recording(time_at(100.9)))),
+        Case("3", "time column at 50 Hz", "sspinn infer --data walk.csv", "exit 2", "column 'time'",
+             lambda: infer_rec(recording(time_at(50.0)))),
+        Case("3", "NaN in a channel", "sspinn infer --data walk.csv", "exit 2", "non-finite",
+             lambda: infer_rec(recording(cell(3, "nan")))),
+        Case("3", "a decimal comma (ragged row)", "sspinn infer --data walk.csv", "exit 2", "row 7 has",
+             lambda: infer_rec(recording(cell(3, "12,5")))),
+        Case("3", "text in a number field", "sspinn infer --data walk.csv", "exit 2", "'1.2.3' is not a number",
+             lambda: infer_rec(recording(cell(3, "1.2.3")))),
+        Case("3", "sidecar height_m: null", "sspinn infer --data walk.csv", "exit 2", "subject.height_m",
+             lambda: infer_rec(sidecar(lambda m: m["subject"].update(height_m=None)))),
+        Case("3", 'sidecar height_m: "1.75 m"', "sspinn infer --data walk.csv", "exit 2", "'1.75 m'",
+             lambda: infer_rec(sidecar(lambda m: m["subject"].update(height_m="1.75 m")))),
+        Case("3", "sidecar height in cm (175)", "sspinn infer --data walk.csv", "exit 2", "height 175",
+             lambda: infer_rec(sidecar(lambda m: m["subject"].update(height_m=175)))),
+        Case("3", "sidecar is a JSON list", "sspinn infer --data walk.csv", "exit 2", "got a list",
+             lambda: infer_rec(sidecar(lambda m: [m]))),
+        Case("3", "UTF-8 BOM in the CSV (accepted: not an error)", "sspinn infer --data walk.csv", "exit 0", "",
+             lambda: infer_rec(recording(raw=lambda b: b"\xef\xbb\xbf" + b))),
+        Case("3", "fuzz: placement position_m []", "sspinn infer --data walk.csv", "exit 2", "bad imu.placement",
+             lambda: infer_rec(sidecar(placement_empty))),
+        Case("3", "fuzz: sidecar segments not a list", "sspinn infer --data walk.csv", "exit 2", "imu.segments",
+             lambda: infer_rec(sidecar(lambda m: m["imu"].update(segments="pelvis")))),
+        Case("3", "fuzz: empty column name in the header", "sspinn infer --data walk.csv", "exit 2", "empty column name",
+             lambda: infer_rec(recording(lambda lines: [lines[0] + ","] + [line + ",0" for line in lines[1:]]))),
+        Case("3", "fuzz: averaged stride with a corrupt value", "python -m predictive track-imu --data stride", "exit 2", "signals.csv",
+             lambda: cli(predictive_cli.main, ["track-imu", "--data", str(_corrupt_stride(tmp)), "--out", str(tmp / "t")])),
+        Case("3", "--periods 0", "sspinn infer --periods 0", "exit 2", "--periods",
+             lambda: cli(sspinn_main, ["infer", "--model", str(model), "--data", str(data), "--out", "o", "--periods", "0"])),
+        Case("3", "--periods -3", "sspinn infer --periods -3", "exit 2", "--periods",
+             lambda: cli(sspinn_main, ["infer", "--model", str(model), "--data", str(data), "--out", "o", "--periods", "-3"])),
+        # 4. outputs
+        Case("4", "network producing NaN: infer", "sspinn infer (NaN network)", "exit 2", "not finite from sample 30",
+             lambda: nan_network("infer")),
+        Case("4", "network producing NaN: evaluate", "sspinn evaluate (NaN network)", "exit 2", "not finite from sample 30",
+             lambda: nan_network("evaluate")),
+        Case("4", "evaluate without labels (no folder left)", "sspinn evaluate --data unlabelled", "exit 2", "no labels", unlabelled),
+        Case("4", "evaluate --skip beyond the recording", "sspinn evaluate --skip 500", "exit 2", "--skip 500",
+             lambda: cli(sspinn_main, ["evaluate", "--model", str(model), "--data", str(data), "--out", str(tmp / "r"), "--skip", "500"])),
+        # 5. predictive
+        *[Case("5", f"solve {' '.join(a)}", f"python -m predictive solve {' '.join(a)}", "exit 2", m,
+               lambda a=a: cli(predictive_cli.main, ["solve", *a, "--out", str(tmp / "x")]))
+          for a, m in ((("--speed", "50"), "--speed 50"), (("--speed", "-1"), "--speed -1"), (("--speed", "nan"), "--speed nan"),
+                       (("--speed", "1.3", "--height", "175"), "height 175"), (("--speed", "1.3", "--mass", "0"), "mass 0"),
+                       (("--speed", "1.3", "--nodes", "2"), "--nodes 2"), (("--speed", "1.3", "--guess", "missing.npz"), "missing.npz"))],
+        Case("5", "solution violating the dynamics (residual at its nodes)", "python -m predictive solve (bad solution)", "exit 1",
+             "Kane residual at its own nodes", bad_solution),
+        Case("5", "track-imu on a missing folder", "python -m predictive track-imu --data nowhere", "exit 2", "nowhere",
+             lambda: cli(predictive_cli.main, ["track-imu", "--data", str(tmp / "nowhere"), "--out", str(tmp / "t")])),
+        Case("5", "track-imu with NaN in the data", "python -m predictive track-imu --data stride", "exit 2", "pelvis_gyr_z", nan_stride),
+        # 6. environment
+        Case("6", "NaN action", "env.step([0, 0, nan, 0, 0, 0])", "ValueError", "nan", lambda: raises(env_step(np.array([0, 0, np.nan, 0, 0, 0])))),
+        Case("6", "inf action", "env.step([inf, ...])", "ValueError", "inf", lambda: raises(env_step(np.array([np.inf, 0, 0, 0, 0, 0])))),
+        Case("6", "NaN action, batched env", "BatchedSagittalWalker.step(actions with NaN in row 1)", "ValueError", "[1]", lambda: raises(batched_nan)),
+        Case("6", "step after terminated", "env.step() after terminated", "UserWarning", "call reset()", lambda: raises(after_end(False))),
+        Case("6", "step after truncated", "env.step() after truncated", "UserWarning", "call reset()", lambda: raises(after_end(True))),
+        # 7. options
+        *[Case("7", f"--set {s}", f"sspinn train --set {s}", "exit 2", m, lambda s=s: cli(sspinn_main, [*train, "--out", str(tmp / "r"), "--set", s]))
+          for s, m in (("window=abc", "window"), ("lr=nan", "lr"), ("lr=fast", "lr"), ("lr=-1", "lr"), ("network.hidden=big", "network.hidden"))],
+        Case("all", "agents: missing config", "python -m agents train --config missing.yaml", "exit 2", "missing.yaml",
+             lambda: cli(agents_main, ["train", "--config", str(tmp / "missing.yaml"), "--out", str(tmp / "ag")])),
+    ]
+
+    rows, clear = [], 0
+    for k, case in enumerate(cases, 1):
+        out = case.call()
+        ok = out.status == case.expect_status and case.must_name in out.message
+        clear += ok
+        message = re.sub(r"\x1b\[[0-9;]*m", "", out.message).replace(str(tmp), "<tmp>").replace("|", "\\|")
+        rows.append(f"| {k} | {case.item} | {case.name} | `{case.run}` | {out.status} | {message or '–'} | {'yes' if ok else '**no**'} |")
+    assert not (tmp / "pwned").exists(), "the crafted model file ran code"
+    print("| # | item | case | what was run | result | what the user sees | clear |")
+    print("|---|---|---|---|---|---|---|")
+    print("\n".join(rows))
+    print(f"\n**{clear} of {len(cases)} cases → a clear error (or the documented correct behaviour).**")
+
+
+def _corrupt_stride(tmp: Path) -> Path:
+    source = ROOT.parent / "shared" / "data" / "dorschky_P03_walking"
+    folder = tmp / "corrupt_stride"
+    folder.mkdir(exist_ok=True)
+    if not source.exists():
+        return folder / "missing"
+    (folder / "meta.json").write_text((source / "meta.json").read_text())
+    text = (source / "signals.csv").read_text()
+    (folder / "signals.csv").write_text(text[:21521] + text[21524:])  # the fuzz-found deletion
+    return folder
+
+
+if __name__ == "__main__":
+    main()
