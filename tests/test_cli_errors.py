@@ -82,3 +82,36 @@ def test_the_core_never_imports_envs_predictive_or_agents() -> None:
         if f"import {pkg}" in p.read_text() or f"from {pkg}" in p.read_text()
     ]
     assert offenders == []
+
+
+class _RunsCode:
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self):
+        return (os.system, (f"touch {self.marker}",))
+
+
+def test_agent_files_run_no_code(tmp_path: Path) -> None:
+    pytest.importorskip("stable_baselines3")
+    import base64
+    import json
+    import pickle
+    import zipfile
+
+    from agents.checkpoints import UnsafeCheckpointError, load_statistics, safe_custom_objects
+    from tests.test_agents import tiny
+
+    marker = tmp_path / "pwned"
+    evil = base64.b64encode(pickle.dumps(_RunsCode(marker))).decode()
+    with zipfile.ZipFile(tmp_path / "model.zip", "w") as archive:
+        archive.writestr("data", json.dumps({"policy_class": {":serialized:": evil}, "payload": {":serialized:": evil}}))
+    with pytest.raises(UnsafeCheckpointError, match=r"model.zip: holds pickled Python objects \['payload'\]"):
+        safe_custom_objects(tmp_path / "model.zip", tiny())
+    (tmp_path / "stats.pkl").write_bytes(pickle.dumps(_RunsCode(marker)))
+    with pytest.raises(UnsafeCheckpointError, match=r"stats.pkl: not VecNormalize statistics \(refusing to load posix.system\)"):
+        load_statistics(tmp_path / "stats.pkl")
+    (tmp_path / "junk.zip").write_bytes(b"not a zip")
+    with pytest.raises(UnsafeCheckpointError, match="junk.zip: not an SB3 checkpoint"):
+        safe_custom_objects(tmp_path / "junk.zip", tiny())
+    assert not marker.exists()
