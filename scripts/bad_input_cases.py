@@ -396,6 +396,10 @@ def main() -> None:
         # 7. options
         *[Case("7", f"--set {s}", f"sspinn train --set {s}", "exit 2", m, lambda s=s: cli(sspinn_main, [*train, "--out", str(tmp / "r"), "--set", s]))
           for s, m in (("window=abc", "window"), ("lr=nan", "lr"), ("lr=fast", "lr"), ("lr=-1", "lr"), ("network.hidden=big", "network.hidden"))],
+        Case("2", "agents: crafted SB3 checkpoint with a pickled payload", "python -m agents evaluate --checkpoint evil.zip",
+             "exit 2", "refusing", lambda: crafted_agent(tmp, RunsCode(), agents_main)),
+        Case("2", "agents: crafted VecNormalize statistics", "load_agent(...) reading evil_vecnormalize.pkl", "UnsafeCheckpointError",
+             "refusing to load posix.system", lambda: raises(lambda: _load_statistics(tmp, RunsCode()))),
         Case("all", "agents: missing config", "python -m agents train --config missing.yaml", "exit 2", "missing.yaml",
              lambda: cli(agents_main, ["train", "--config", str(tmp / "missing.yaml"), "--out", str(tmp / "ag")])),
     ]
@@ -412,6 +416,29 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|")
     print("\n".join(rows))
     print(f"\n**{clear} of {len(cases)} cases → a clear error (or the documented correct behaviour).**")
+
+
+def crafted_agent(tmp: Path, payload: object, agents_main: Callable[[list[str]], int]) -> Outcome:
+    import base64
+    import zipfile
+
+    from agents.config import save_config
+    from tests.test_agents import tiny
+
+    folder = tmp / "agent"
+    folder.mkdir(exist_ok=True)
+    save_config(tiny(), folder / "config.yaml")
+    evil = base64.b64encode(pickle.dumps(payload)).decode()
+    with zipfile.ZipFile(folder / "evil.zip", "w") as archive:
+        archive.writestr("data", json.dumps({"policy_class": {":serialized:": evil}, "payload": {":serialized:": evil}}))
+    return cli(agents_main, ["evaluate", "--checkpoint", str(folder / "evil.zip"), "--out", str(tmp / "ev")])
+
+
+def _load_statistics(tmp: Path, payload: object) -> object:
+    from agents.checkpoints import load_statistics
+
+    (tmp / "evil_vecnormalize.pkl").write_bytes(pickle.dumps(payload))
+    return load_statistics(tmp / "evil_vecnormalize.pkl")
 
 
 def _corrupt_stride(tmp: Path) -> Path:
