@@ -47,8 +47,11 @@ def run(args: argparse.Namespace) -> int:
             print(f"trained {trainer.step} steps in {trainer.wall:.0f} s → {args.out / 'generator.pt'}")
             return 0
         from predictive.analysis import compare_with_reference, load_winter, plot_gait
+        from predictive.limits import check_body, check_speed
         from sspinn.body import BodyParameters
 
+        check_speed(args.speed, "--speed")
+        check_body(args.height, args.mass)
         model, config = load_generator(args.model)
         body = BodyParameters.from_anthropometry(args.height, args.mass)
         sol = generate(model, args.speed, body, refine_iterations=args.refine, config=config)

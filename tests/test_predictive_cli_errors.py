@@ -95,3 +95,12 @@ def test_broken_solution_files_are_one_line(tmp_path: Path, capsys) -> None:
 def test_debug_shows_the_traceback(tmp_path: Path) -> None:
     with pytest.raises(RequestError):
         predictive_cli.main(["solve", "--speed", "50", "--debug", "--out", str(tmp_path / "x")])
+
+
+def test_generate_rejects_impossible_requests_before_loading(tmp_path: Path, capsys) -> None:
+    for args, message in ((["--speed", "50"], "--speed 50.0 m/s is outside"), (["--speed", "1.3", "--height", "175"], "a height in cm?")):
+        code = predictive_cli.main(["generate", "--model", str(tmp_path / "none.pt"), *args, "--out", str(tmp_path / "g")])
+        err = capsys.readouterr().err
+        assert code == 2 and message in err and err.count("\n") == 1, err
+    code = predictive_cli.main(["generate", "--model", str(tmp_path / "none.pt"), "--speed", "1.3", "--out", str(tmp_path / "g")])
+    assert code == 2 and "no gait generator" in capsys.readouterr().err
