@@ -50,6 +50,12 @@ def _train(args: argparse.Namespace, finetune: bool) -> int:
     resume = args.resume or (args.auto_resume and (args.out / "checkpoint.pt").exists())
     trainer.fit(train, resume=resume, init_from=None if resume else getattr(args, "model", None))
     print(f"trained {trainer.step} steps → {args.out / 'model.pt'}")
+    if trainer.stopped_by == "time_limit":
+        print(
+            f"WARNING: stopped by the safety time limit ({config.time_limit_s:.0f} s) at step {trainer.step} of "
+            f"{config.steps}, not by the step count: the result depends on this machine's speed and load",
+            file=sys.stderr,
+        )
     return 0
 
 

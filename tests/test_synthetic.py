@@ -165,7 +165,7 @@ def test_config_files_load() -> None:
     default = SynthConfig.from_yaml(CONFIGS / "default.yaml")
     full = SynthConfig.from_yaml(CONFIGS / "full.yaml")
     assert default.n_subjects == 4 and default.duration_s >= 20
-    assert sorted({v for p in full.programs for v in p}) == [0.9, 1.3, 1.8, 2.5, 3.5, 4.9]
+    assert sorted({v for p in full.programs for v in p}) == [0.9, 1.3, 1.8, 2.5, 3.0, 3.5]
     assert SynthConfig.from_dict(default.to_dict()) == default
     assert default.key() != full.key()
     with pytest.raises(ValueError, match="unknown setting"):
@@ -219,3 +219,85 @@ def test_stride_plans_cover_the_duration_with_bounded_speed_changes() -> None:
     again = plan_strides([0.9, 1.3, 1.8], 20.0, _FakeReference(), var, 0.01, np.random.default_rng(1))
     assert again == plans
     assert bucket_for(70) == 78 and bucket_for(24) == 24
+
+
+# ------------------------------------------------------------------------------ fallback ladder
+@pytest.fixture(scope="module")
+def running_chain_setup():
+    """A nominal body's periodic 3.5 m/s gait (reference) and a shared solver cache."""
+    from predictive.stride_chain import PeriodicReference, StrideSettings, StrideSolverCache
+    from predictive.synthetic import _solve_periodic_ladder
+
+    body = BodyParameters.from_anthropometry(1.75, 70.0)
+    settings = StrideSettings()
+    reference = PeriodicReference([_solve_periodic_ladder(3.5, body, settings, None)])
+    return body, reference, StrideSolverCache(settings)
+
+
+def _failing_solves(monkeypatch: pytest.MonkeyPatch, fail_calls: set[int]) -> list[int]:
+    """Make the stride solves numbered ``fail_calls`` (0-based, in call order) fail as IPOPT's
+    'Infeasible_Problem_Detected' would, without running IPOPT; returns the call log."""
+    from predictive import stride_chain
+
+    real = stride_chain.StrideProblem.solve
+    calls: list[int] = []
+
+    def solve(self, body, q_prev, u_prev, plans, *args, **kwargs):
+        n = len(calls)
+        calls.append(n)
+        if n in fail_calls:
+            nodes = sum(p.n_nodes for p in plans)
+            z = np.zeros((nodes, N_Q))
+            return stride_chain.StrideResult(
+                q=z, u=z, qdd=z, tau=np.zeros((nodes, 6)), node_counts=tuple(p.n_nodes for p in plans),
+                status="Infeasible_Problem_Detected", iterations=3, solve_time=0.0, objective=float("nan"),
+                max_residual=3.18,
+            )
+        return real(self, body, q_prev, u_prev, plans, *args, **kwargs)
+
+    monkeypatch.setattr(stride_chain.StrideProblem, "solve", solve)
+    return calls
+
+
+def _plans(reference) -> list[StridePlan]:
+    n = round(reference.nominal_duration(3.5) / 0.01)
+    return [StridePlan(3.5, n), StridePlan(3.57, n + 1, (1.2, 0.9, 1.1, 1.0, 0.8, 1.1)), StridePlan(3.5, n)]
+
+
+def test_a_failed_stride_goes_down_the_ladder(running_chain_setup, monkeypatch: pytest.MonkeyPatch) -> None:
+    from predictive.stride_chain import FALLBACKS, simulate_chain
+
+    body, reference, solvers = running_chain_setup
+    # stride 1 fails on warm, default, perturbed and nominal: solved on 'smaller_change'
+    calls = _failing_solves(monkeypatch, {1, 2, 3, 4})
+    chain = simulate_chain(body, _plans(reference), reference, solvers)
+    assert [r.fallback for r in chain.strides] == ["warm", "smaller_change", "warm"]
+    assert chain.strides[1].attempts == 5 and len(calls) == 7
+    assert chain.strides[1].planned_speed == pytest.approx(3.57)
+    assert chain.strides[1].speed == pytest.approx(0.5 * (3.57 + 3.5))  # half the planned change
+    assert not chain.ended_early
+    # the labels stay exact: Kane residual at every sample, speeds as solved
+    assert np.abs(chain.residual(body)).max() < 1e-6
+    start = chain.strides[0].n_nodes
+    x_prev = chain.q[start - 1, 0]
+    n1 = chain.strides[1].n_nodes
+    assert (chain.q[start + n1 - 1, 0] - x_prev) / (n1 * 0.01) == pytest.approx(chain.strides[1].speed, abs=1e-6)
+    assert set(FALLBACKS) >= {r.fallback for r in chain.strides}
+
+
+def test_a_stride_that_fails_every_rung_ends_the_recording_cleanly(
+    running_chain_setup, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from predictive.stride_chain import FALLBACKS, ChainError, ChainResult, simulate_chain
+
+    body, reference, solvers = running_chain_setup
+    _failing_solves(monkeypatch, set(range(1, 1 + len(FALLBACKS))))
+    chain = simulate_chain(body, _plans(reference), reference, solvers)
+    assert len(chain.strides) == 1 and chain.n_samples == chain.strides[0].n_nodes
+    assert chain.ended_early.startswith("ended after stride 0") and "Infeasible_Problem_Detected" in chain.ended_early
+    saved = ChainResult.load(chain.save(tmp_path / "chain"))
+    assert saved.ended_early == chain.ended_early and saved.strides == chain.strides
+    # a first stride that fails every rung cannot start a recording
+    _failing_solves(monkeypatch, set(range(len(FALLBACKS))))
+    with pytest.raises(ChainError, match="stride 0 .* every rung"):
+        simulate_chain(body, _plans(reference), reference, solvers)
