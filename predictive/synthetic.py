@@ -575,7 +575,24 @@ def template_library(
     for speed, guess_speed in _continuation_order(speeds):
         guess, guess_key = (None, None) if guess_speed is None else out[guess_speed]
         key = _periodic_key(speed, body, stride, guess_key)
-        sol = cache.periodic(key, lambda s=speed, g=guess: _solve_periodic_ladder(s, body, stride, g))
+        try:
+            sol = cache.periodic(key, lambda s=speed, g=guess: _solve_periodic_ladder(s, body, stride, g))
+        except OCPError as exc:
+            if guess_speed is None:
+                raise OCPError(exc.status, f"template gait at {speed} m/s (an anchor): {exc}") from exc
+            # continuation in two smaller steps: through the midpoint of the speeds
+            mid = round(0.5 * (speed + guess_speed), 6)
+            mid_key = _periodic_key(mid, body, stride, guess_key)
+            try:
+                mid_sol = cache.periodic(mid_key, lambda g=guess: _solve_periodic_ladder(mid, body, stride, g))
+                key = _periodic_key(speed, body, stride, mid_key)
+                sol = cache.periodic(key, lambda s=speed: _solve_periodic_ladder(s, body, stride, mid_sol))
+            except OCPError as exc2:
+                raise OCPError(
+                    exc2.status,
+                    f"template gait at {speed} m/s could not be reached by continuation from {guess_speed} m/s, "
+                    f"directly or through {mid} m/s ({exc2}); remove {speed} m/s from the programs",
+                ) from exc2
         out[speed] = (sol, key)
     return out
 
@@ -615,17 +632,28 @@ def periodic_library(
     stride: StrideSettings,
     cache: SynthCache,
     templates: Mapping[float, tuple[GaitSolution, str]],
+    events: list[dict[str, str]] | None = None,
+    name: str = "",
 ) -> dict[float, tuple[GaitSolution, str]]:
     """Periodic gaits of ``body`` at ``speeds`` (m/s), each warm-started from the template at the
     same speed with IPOPT's warm-start options (:data:`~predictive.stride_chain.WARM_START_IPOPT`:
-    faster, and it stays in the template's gait), falling back down :data:`PERIODIC_FALLBACKS`;
-    returns speed → (solution, cache key)."""
+    faster, and it stays in the template's gait), falling back down :data:`PERIODIC_FALLBACKS`.
+    If every rung fails, the nominal body's template serves as that speed's reference (it is only
+    the chain's initial guess and terminal target: the labels still come from stride OCPs of the
+    true body) and an event ``periodic_from_template`` naming ``name`` is appended to ``events``.
+    Returns speed → (solution, cache key)."""
     out: dict[float, tuple[GaitSolution, str]] = {}
     for speed in speeds:
         guess, guess_key = templates[speed]
         key = _periodic_key(speed, body, stride, guess_key)
-
-        solution = cache.periodic(key, lambda s=speed, g=guess: _solve_periodic_ladder(s, body, stride, g, True))
+        try:
+            solution = cache.periodic(key, lambda s=speed, g=guess: _solve_periodic_ladder(s, body, stride, g, True))
+        except OCPError as exc:
+            if events is not None:
+                detail = f"periodic gait at {speed} m/s failed on every rung ({exc}); the nominal template is the reference"
+                events.append({"recording": name, "event": "periodic_from_template", "detail": detail})
+            out[speed] = (guess, guess_key)
+            continue
         out[speed] = (solution, key)
     return out
 
@@ -706,8 +734,8 @@ def _gait_stats(chain: ChainResult, body: BodyParameters) -> dict[str, float]:
 @dataclass
 class SubjectOutput:
     """The recordings of one subject and how they were made; ``events`` lists what did not go as
-    planned (``{"recording", "event", "detail"}``; events: ``plan_redrawn``, ``ended_early``,
-    ``dropped``)."""
+    planned (``{"recording", "event", "detail"}``; events: ``periodic_from_template``,
+    ``plan_redrawn``, ``ended_early``, ``dropped``)."""
 
     recordings: list[Recording]
     strides: list[StrideRecord]
@@ -750,10 +778,10 @@ def generate_subject(
 
     report(f"{subject.id}: periodic gaits")
     templates = template_library(speeds_needed, stride_cfg, cache)
-    library = periodic_library(subject.body, speeds_needed, stride_cfg, cache, templates)
+    events: list[dict[str, str]] = []
+    library = periodic_library(subject.body, speeds_needed, stride_cfg, cache, templates, events, subject.id)
     recordings: list[Recording] = []
     strides: list[StrideRecord] = []
-    events: list[dict[str, str]] = []
     for j in programs:
         program_name = config.program_names[j]
         name = f"{subject.id}_{program_name}"

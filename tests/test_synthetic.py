@@ -301,3 +301,44 @@ def test_a_stride_that_fails_every_rung_ends_the_recording_cleanly(
     _failing_solves(monkeypatch, set(range(len(FALLBACKS))))
     with pytest.raises(ChainError, match="stride 0 .* every rung"):
         simulate_chain(body, _plans(reference), reference, solvers)
+
+
+class _MemoryCache:
+    """SynthCache stand-in that stores nothing."""
+
+    def periodic(self, key, solve):
+        return solve()
+
+
+def test_periodic_gaits_fall_back_without_aborting(monkeypatch: pytest.MonkeyPatch) -> None:
+    from predictive import synthetic
+    from predictive.collocation import OCPError
+    from predictive.stride_chain import StrideSettings
+
+    calls: list[tuple[float, object, object]] = []
+
+    def fake_solve(speed, body, stride, guess, options=None):
+        calls.append((speed, guess, options))
+        # 2.5 m/s fails from 3.5 m/s and from the generic guess; from the midpoint 3.0 it works
+        if speed == 2.5 and guess != "sol3.0":
+            raise OCPError("Infeasible_Problem_Detected", "fails")
+        if speed == 1.8 and guess is not None and guess != "sol1.3":  # the subject's own gait fails
+            raise OCPError("Restoration_Failed", "fails")
+        if speed == 1.8 and guess is None:
+            raise OCPError("Restoration_Failed", "fails")
+        return f"sol{speed}"
+
+    monkeypatch.setattr(synthetic, "_solve_periodic", fake_solve)
+    templates = synthetic.template_library([1.3, 1.8, 2.5, 3.5], StrideSettings(), _MemoryCache())
+    assert templates[2.5][0] == "sol2.5" and templates[3.5][0] == "sol3.5"
+    assert any(speed == 3.0 and guess == "sol3.5" for speed, guess, _ in calls)  # the midpoint
+    events: list[dict[str, str]] = []
+    body = BodyParameters.from_anthropometry(1.7, 65.0)
+    fine = {v: (f"sol{v}", f"key{v}") for v in (1.3, 1.8)}
+    library = synthetic.periodic_library(body, [1.3, 1.8], StrideSettings(), _MemoryCache(), fine, events, "S01")
+    assert library[1.3] == ("sol1.3", library[1.3][1]) and library[1.8] == ("sol1.8", "key1.8")  # the template
+    assert [e["event"] for e in events] == ["periodic_from_template"] and "1.8 m/s" in events[0]["detail"]
+    # an anchor that fails on every rung is a clear error naming it
+    monkeypatch.setattr(synthetic, "_solve_periodic", lambda *a, **k: (_ for _ in ()).throw(OCPError("X", "no")))
+    with pytest.raises(OCPError, match="anchor"):
+        synthetic.template_library([1.3], StrideSettings(), _MemoryCache())
