@@ -86,6 +86,7 @@ from typing import Any, Literal
 import casadi as ca
 import numpy as np
 
+from predictive import perturbation
 from predictive.limits import check_speed
 from predictive.solution import GaitSolution, mirror_states
 from sspinn import dynamics as dyn
@@ -416,6 +417,7 @@ class PredictiveGaitProblem:
             "sb": "no" if verbose else "yes",  # IPOPT's banner
         }
         opts.update(ipopt_options or {})
+        opts.update(perturbation.extra_ipopt_options())
         plugin_opts = {"ipopt": opts, "print_time": False, "error_on_fail": False}
         return ca.nlpsol("predictive_gait", "ipopt", self._nlp, plugin_opts)
 
@@ -503,7 +505,7 @@ class PredictiveGaitProblem:
         solver = self._get_solver(ipopt_options, verbose)
         build_time = time.perf_counter() - t0
         t0 = time.perf_counter()
-        result = solver(x0=z0, **bounds)
+        result = solver(x0=perturbation.perturb_guess(z0, bounds["lbx"], bounds["ubx"]), **bounds)
         solve_time = time.perf_counter() - t0
         stats = solver.stats()
         status = str(stats.get("return_status", "unknown"))

@@ -62,6 +62,7 @@ from typing import Any, Final
 import casadi as ca
 import numpy as np
 
+from predictive import perturbation
 from predictive.collocation import OCPSettings, _joint_type_values, default_joint_limits
 from predictive.solution import GaitSolution
 from sspinn import dynamics as dyn
@@ -368,6 +369,7 @@ class StrideProblem:
             "print_level": 0,
             "sb": "yes",
             **self.ipopt_options,
+            **perturbation.extra_ipopt_options(),
         }
         plugin = {"ipopt": opts, "print_time": False, "error_on_fail": False, "expand": True}
         return ca.nlpsol("stride_chain", "ipopt", nlp, plugin)
@@ -453,7 +455,8 @@ class StrideProblem:
         z0 = self._pack_guess(q_prev, u_prev, guess_q, guess_tau, sc, active)
         lbx, ubx = self._bounds(body)
         t0 = time.perf_counter()
-        out = self._solver(x0=np.clip(z0, lbx, ubx), p=params, lbx=lbx, ubx=ubx, lbg=0.0, ubg=0.0)
+        x0 = perturbation.perturb_guess(np.clip(z0, lbx, ubx), lbx, ubx)
+        out = self._solver(x0=x0, p=params, lbx=lbx, ubx=ubx, lbg=0.0, ubg=0.0)
         solve_time = time.perf_counter() - t0
         stats = self._solver.stats()
         nodes = np.asarray(out["x"]).reshape(self.n, _PER_NODE)[active]
@@ -683,8 +686,10 @@ def _blend_into(q: np.ndarray, q_ref_prev: np.ndarray, q_prev: np.ndarray, width
 # ---------------------------------------------------------------------------------------------
 @dataclass
 class StrideRecord:
-    """Statistics of one kept stride: its plan, IPOPT's status, iterations and time, the number
-    of attempts, and the max Kane residual at its nodes (BW / BW·H)."""
+    """Statistics of one kept stride: its plan (speed m/s, nodes), IPOPT's status, iterations and
+    time (s, all attempts), the number of attempts, the objective, the max Kane residual at its
+    nodes (BW / BW·H), the rung of :data:`FALLBACKS` that solved it and the speed it was planned
+    at (differs from ``speed`` on the rungs that change the plan)."""
 
     index: int
     speed: float
@@ -695,6 +700,8 @@ class StrideRecord:
     attempts: int
     objective: float
     max_residual: float
+    fallback: str = "warm"
+    planned_speed: float = float("nan")
 
 
 @dataclass
@@ -711,6 +718,8 @@ class ChainResult:
         q_prev, u_prev: (9,) the state before the first sample.
         strides: per-stride statistics.
         h: time step, s.
+        ended_early: empty, or why the chain ended before its last planned stride (every rung of
+            the fallback ladder failed; see :func:`simulate_chain`).
     """
 
     q: np.ndarray
@@ -725,6 +734,7 @@ class ChainResult:
     u_prev: np.ndarray
     strides: list[StrideRecord]
     h: float
+    ended_early: str = ""
 
     _ARRAYS = ("q", "u", "qdd", "tau", "grf", "w", "speed", "stride", "q_prev", "u_prev")
 
@@ -742,7 +752,13 @@ class ChainResult:
         path.parent.mkdir(parents=True, exist_ok=True)
         stats = np.array([tuple(asdict(r).values()) for r in self.strides], dtype=_STRIDE_DTYPE)
         tmp = path.with_name(path.stem + ".tmp.npz")
-        np.savez(tmp, h=self.h, strides=stats, **{k: getattr(self, k) for k in self._ARRAYS})
+        np.savez(
+            tmp,
+            h=self.h,
+            strides=stats,
+            ended_early=np.array(self.ended_early),
+            **{k: getattr(self, k) for k in self._ARRAYS},
+        )
         tmp.replace(path)
         return path
 
@@ -753,7 +769,7 @@ class ChainResult:
             strides = [
                 StrideRecord(**{name: row[name].item() for name in _STRIDE_DTYPE.names}) for row in data["strides"]
             ]
-            return cls(**arrays, strides=strides, h=float(data["h"]))
+            return cls(**arrays, strides=strides, h=float(data["h"]), ended_early=str(data["ended_early"]))
 
 
 _STRIDE_DTYPE = np.dtype(
@@ -767,8 +783,29 @@ _STRIDE_DTYPE = np.dtype(
         ("attempts", "i8"),
         ("objective", "f8"),
         ("max_residual", "f8"),
+        ("fallback", "U16"),
+        ("planned_speed", "f8"),
     ]
 )
+
+
+#: The fallback ladder of a stride, tried in this order until one solves (see :func:`simulate_chain`).
+FALLBACKS: Final[tuple[str, ...]] = ("warm", "default", "perturbed", "nominal", "smaller_change", "previous_speed")
+
+#: Relative size of the "perturbed" rung's guess perturbation (joint angles and torques).
+PERTURBATION: Final = 0.02
+
+
+def _rung_plan(rung: str, plan: StridePlan, previous_speed: float, reference: PeriodicReference, h: float) -> StridePlan:
+    """The stride plan that ``rung`` of :data:`FALLBACKS` solves instead of ``plan``."""
+    if rung in ("warm", "default", "perturbed"):
+        return plan
+    speed = {
+        "nominal": plan.speed,
+        "smaller_change": 0.5 * (plan.speed + previous_speed),
+        "previous_speed": previous_speed,
+    }[rung]
+    return StridePlan(speed=speed, n_nodes=max(2, int(round(reference.nominal_duration(speed) / h))))
 
 
 def simulate_chain(
@@ -779,12 +816,34 @@ def simulate_chain(
     *,
     lookahead: int = 0,
     on_stride: Callable[[StrideRecord], None] | None = None,
+    min_strides: int = 1,
 ) -> ChainResult:
     """Solve the strides ``plans`` one after the other (see the module docstring).
 
     The chain starts from the reference's periodic state at the first plan's speed (pelvis_tx 0
     before the first sample). Each horizon holds the kept stride and ``lookahead`` further
     strides (the last plan repeated past the end).
+
+    **Fallback ladder.** One IPOPT run from one guess is one sample of a distribution (another
+    machine's rounding can end in ``Infeasible_Problem_Detected`` where this one succeeds), so a
+    stride that fails is tried again down :data:`FALLBACKS`, and the first rung that reaches
+    ``Solve_Succeeded`` with a node residual ≤ ``residual_tol`` is kept:
+
+    1. ``warm``: the plan, the carried (lookahead) or reference guess, warm-start IPOPT options;
+    2. ``default``: the plan, the reference guess blended into the previous state, IPOPT's
+       default options;
+    3. ``perturbed``: as 2 with joint angles and torques of the guess perturbed by
+       :data:`PERTURBATION` (relative, seeded by the stride index: deterministic);
+    4. ``nominal``: the planned speed at the reference's nominal duration and unit effort
+       weights (no stride-to-stride variability), default options;
+    5. ``smaller_change``: half the planned change of speed from the previous stride, nominal
+       duration and effort;
+    6. ``previous_speed``: the previous stride's speed (a steady stride), nominal duration.
+
+    Rungs 4–6 change the stride's plan; the labels stay exact (they come from the solution) and
+    each :class:`StrideRecord` names its rung. If every rung fails, the recording **ends cleanly
+    after the last solved stride** (``ChainResult.ended_early`` says why) provided at least
+    ``min_strides`` were solved; otherwise :class:`ChainError` is raised.
 
     Args:
         body: the (true) body parameters.
@@ -793,9 +852,10 @@ def simulate_chain(
         solvers: compiled NLPs (shared between calls).
         lookahead: strides solved beyond the kept one (0 or more).
         on_stride: called with each kept stride's statistics (progress).
+        min_strides: strides that must be solved before the recording may end early.
 
     Raises:
-        ChainError: a stride failed with both the warm-start and the default IPOPT options.
+        ChainError: every rung failed for one of the first ``min_strides`` strides.
     """
     s = solvers.settings
     h = s.h
@@ -807,53 +867,50 @@ def simulate_chain(
     first = reference.stride(plans[0].speed, plans[0].n_nodes, h, 0.0)
     q_prev, u_prev = first.q_prev, first.u_prev
     q0_prev, u0_prev = q_prev.copy(), u_prev.copy()
+    previous_speed = plans[0].speed
     carried: tuple[np.ndarray, np.ndarray] | None = None  # solved lookahead (q, τ) of the next stride
     chunks: list[tuple[np.ndarray, ...]] = []
     records: list[StrideRecord] = []
-    for k, plan in enumerate(plans):
-        horizon = padded[k : k + 1 + lookahead]
-        guess: dict[str, list[np.ndarray]] = {"q": [], "tau": []}
-        plain: dict[str, list[np.ndarray]] = {"q": [], "tau": []}
-        x_last, q_last = q_prev[0], q_prev
-        target = first
-        for i, p in enumerate(horizon):
-            target = reference.stride(p.speed, p.n_nodes, h, x_last)
-            plain["q"].append(_blend_into(target.q, target.q_prev, q_prev) if i == 0 else target.q)
-            plain["tau"].append(target.tau)
-            if i == 0 and carried is not None:
-                guess["q"].append(carried[0])
-                guess["tau"].append(carried[1])
-            else:
-                guess["q"].append(_blend_into(target.q, target.q_prev, q_last))
-                guess["tau"].append(target.tau)
-            x_last, q_last = guess["q"][-1][-1, 0], guess["q"][-1][-1]
-        counts = [p.n_nodes for p in horizon]
-        attempts = [(True, guess), (False, plain)]
+    ended_early = ""
+    for k, planned in enumerate(plans):
         result: StrideResult | None = None
         total_iter, total_time, n_try = 0, 0.0, 0
-        for warm, g in attempts:
-            n_try += 1
-            problem = solvers.get(counts, warm=warm)
-            result = problem.solve(
-                body, q_prev, u_prev, horizon, target.q[-1], target.u[-1], np.vstack(g["q"]), np.vstack(g["tau"])
+        failures: list[str] = []
+        plan = planned
+        for rung in FALLBACKS:
+            plan = _rung_plan(rung, planned, previous_speed, reference, h)
+            if rung in ("nominal", "smaller_change", "previous_speed") and plan == planned:
+                continue  # nothing new to try on this rung
+            horizon = [plan] + padded[k + 1 : k + 1 + lookahead]
+            guess_q, guess_tau, target = _horizon_guess(
+                rung, horizon, reference, h, q_prev, carried if rung == "warm" else None, k
             )
+            n_try += 1
+            problem = solvers.get([p.n_nodes for p in horizon], warm=rung == "warm")
+            result = problem.solve(body, q_prev, u_prev, horizon, target.q[-1], target.u[-1], guess_q, guess_tau)
             total_iter += result.iterations
             total_time += result.solve_time
             if result.status in ACCEPTED_STATUSES and result.max_residual <= s.residual_tol:
                 break
-        assert result is not None
-        if not (result.status in ACCEPTED_STATUSES and result.max_residual <= s.residual_tol):
-            raise ChainError(
-                f"stride {k} (speed {plan.speed:.3f} m/s, {plan.n_nodes} nodes) failed: IPOPT status "
-                f"{result.status!r}, max Kane residual {result.max_residual:.3g} (BW, BW·H) after {n_try} attempts"
+            failures.append(f"{rung}: {result.status}, residual {result.max_residual:.3g}")
+            result = None
+        if result is None:
+            reason = (
+                f"stride {k} (speed {planned.speed:.3f} m/s, {planned.n_nodes} nodes) failed on every rung of the "
+                f"fallback ladder ({'; '.join(failures)})"
             )
+            if k < min_strides:
+                raise ChainError(reason)
+            ended_early = f"ended after stride {k - 1}: {reason}"
+            break
         q, u, qdd, tau = result.stride(0)
         chunks.append((q, u, qdd, tau, np.full(len(q), plan.speed), np.full(len(q), k)))
         carried = None
-        if lookahead:
+        if lookahead and plan == planned:
             nq, _, _, ntau = result.stride(1)
             carried = (nq, ntau)
         q_prev, u_prev = q[-1], u[-1]
+        previous_speed = plan.speed
         record = StrideRecord(
             index=k,
             speed=plan.speed,
@@ -864,6 +921,8 @@ def simulate_chain(
             attempts=n_try,
             objective=result.objective,
             max_residual=float(np.abs(node_residual(q, u, qdd, tau, body, solvers.contact)).max()),
+            fallback=rung,
+            planned_speed=planned.speed,
         )
         records.append(record)
         if on_stride is not None:
@@ -883,4 +942,42 @@ def simulate_chain(
         u_prev=u0_prev,
         strides=records,
         h=h,
+        ended_early=ended_early,
     )
+
+
+def _horizon_guess(
+    rung: str,
+    horizon: Sequence[StridePlan],
+    reference: PeriodicReference,
+    h: float,
+    q_prev: np.ndarray,
+    carried: tuple[np.ndarray, np.ndarray] | None,
+    index: int,
+) -> tuple[np.ndarray, np.ndarray, ReferenceStride]:
+    """Initial guess (q, τ) of a horizon on ``rung`` and the terminal target (the reference stride
+    of the horizon's last plan). ``warm``: the carried lookahead stride (if any) or the reference
+    blended from the previous guess; other rungs: the reference blended into ``q_prev``, on
+    ``perturbed`` with a deterministic relative perturbation of the angles and torques."""
+    qs: list[np.ndarray] = []
+    taus: list[np.ndarray] = []
+    x_last, q_last = q_prev[0], q_prev
+    target = None
+    for i, p in enumerate(horizon):
+        target = reference.stride(p.speed, p.n_nodes, h, x_last)
+        if i == 0 and carried is not None:
+            qs.append(carried[0])
+            taus.append(carried[1])
+        else:
+            start = q_last if rung == "warm" else (q_prev if i == 0 else target.q_prev)
+            qs.append(_blend_into(target.q, target.q_prev, start))
+            taus.append(target.tau)
+        x_last, q_last = qs[-1][-1, 0], qs[-1][-1]
+    assert target is not None
+    q, tau = np.vstack(qs), np.vstack(taus)
+    if rung == "perturbed":
+        rng = np.random.default_rng([index, 7])
+        q = q.copy()
+        q[:, 2:] += PERTURBATION * np.abs(q[:, 2:]).max(axis=0) * rng.standard_normal(q[:, 2:].shape)
+        tau = tau * (1 + PERTURBATION * rng.standard_normal(tau.shape))
+    return q, tau, target

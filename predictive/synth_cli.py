@@ -56,6 +56,13 @@ def run(args: argparse.Namespace) -> int:
             f"strides       {solver['strides_solved']} solved, {solver['solve_time_per_stride_s']:.2f} s and "
             f"{solver['iterations_mean']:.0f} IPOPT iterations per stride, {solver['retried_strides']} retried"
         )
+    used = {rung: n for rung, n in solver["fallbacks"].items() if n and rung != "warm"}
+    if used:
+        print(f"fallbacks     {', '.join(f'{n} stride(s) solved on {rung!r}' for rung, n in used.items())}")
+    else:
+        print("fallbacks     none needed (every stride solved on its first rung, 'warm')")
+    for event in info["events"]:
+        print(f"WARNING       {event['recording']}: {event['event'].replace('_', ' ')}: {event['detail']}")
     print(
         f"cache         periodic {cache['periodic_hits']} hit / {cache['periodic_solved']} solved, chains "
         f"{cache['chain_hits']} / {cache['chain_solved']}, recordings {cache['recording_hits']} / {cache['recording_made']}"

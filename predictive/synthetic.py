@@ -37,7 +37,15 @@ Method
    ×(1 + 2 % N(0, 1)) (stride-time CVs of healthy adults are of the order of 2 %; Hausdorff et al.
    1995, J Appl Physiol 78:349–358), and its per-joint effort weights are log-normal (σ = 0.2).
    Speed changes: the program's speeds are held for equal shares of the recording, and the
-   target moves to the next one by at most 0.25 m/s per stride.
+   target moves to the next one by at most 0.25 m/s per stride. **No recording is thrown away
+   for one stride**: a stride that IPOPT cannot solve goes down a ladder of fallbacks
+   (:data:`~predictive.stride_chain.FALLBACKS`: warm start, default options, a perturbed guess,
+   the nominal duration, half the speed change, the previous speed); if every rung fails the
+   recording ends cleanly after its last solved stride. Which rung solved each stride is in the
+   recording's provenance (``strides.fallback``, ``fallbacks``, ``ended_early``), the counts in
+   ``dataset.json`` (``info.solver.fallbacks``, ``info.events``), and ``predictive synth`` prints
+   them; an early end warns (:class:`SynthWarning`). Periodic gaits have a ladder of their own
+   (:data:`PERIODIC_FALLBACKS`).
 4. **IMUs**: :func:`sspinn.imu_errors.measure_imu` on the ground truth with the true body (noise,
    biases, drift, misplacement, soft-tissue artefact; the nominal placement
    ``IMUPlacement.default(height)`` is what the recording tells the estimator).
@@ -69,6 +77,7 @@ import json
 import math
 import shutil
 import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
@@ -82,6 +91,7 @@ from predictive.collocation import OCPError, solve_predictive, typical_stride_du
 from predictive.solution import GaitSolution
 from predictive.stride_chain import (
     DEFAULT_BOUNDARY,
+    FALLBACKS,
     WARM_START_IPOPT,
     ChainError,
     ChainResult,
@@ -98,8 +108,15 @@ from sspinn.conventions import COORDINATES, GRF, JOINTS, N_TAU, SEGMENTS, SIDES
 from sspinn.dataset import SPLITS, Dataset, Labels, Recording
 from sspinn.imu_errors import IMUErrorModel, measure_imu
 
+
+class SynthWarning(UserWarning):
+    """Something in a synthetic dataset did not go as planned (a recording ended early, a stride
+    plan was drawn again, a recording was dropped); also listed in ``dataset.json``
+    (``info.events``)."""
+
+
 #: Bump when the generator's output for the same configuration changes (invalidates the caches).
-CODE_VERSION: Final = 1
+CODE_VERSION: Final = 2
 
 #: Speeds at or above this are solved as running (template continuation from 3.5 m/s), m/s.
 RUN_SPEED: Final = 2.0
@@ -195,7 +212,7 @@ class SynthConfig:
     seed: int = 0
     n_subjects: int = 6
     splits: Mapping[str, int] = field(default_factory=lambda: {"train": 4, "val": 1, "test": 1})
-    programs: tuple[tuple[float, ...], ...] = ((0.9, 1.3, 1.8), (2.5, 3.5, 4.9))
+    programs: tuple[tuple[float, ...], ...] = ((0.9, 1.3, 1.8), (2.5, 3.0, 3.5))
     program_names: tuple[str, ...] = ("walk", "run")
     programs_per_subject: int = 1
     shuffle_speeds: bool = False
@@ -558,9 +575,55 @@ def template_library(
     for speed, guess_speed in _continuation_order(speeds):
         guess, guess_key = (None, None) if guess_speed is None else out[guess_speed]
         key = _periodic_key(speed, body, stride, guess_key)
-        sol = cache.periodic(key, lambda s=speed, g=guess: _solve_periodic(s, body, stride, g))
+        try:
+            sol = cache.periodic(key, lambda s=speed, g=guess: _solve_periodic_ladder(s, body, stride, g))
+        except OCPError as exc:
+            if guess_speed is None:
+                raise OCPError(exc.status, f"template gait at {speed} m/s (an anchor): {exc}") from exc
+            # continuation in two smaller steps: through the midpoint of the speeds
+            mid = round(0.5 * (speed + guess_speed), 6)
+            mid_key = _periodic_key(mid, body, stride, guess_key)
+            try:
+                mid_sol = cache.periodic(mid_key, lambda g=guess: _solve_periodic_ladder(mid, body, stride, g))
+                key = _periodic_key(speed, body, stride, mid_key)
+                sol = cache.periodic(key, lambda s=speed: _solve_periodic_ladder(s, body, stride, mid_sol))
+            except OCPError as exc2:
+                raise OCPError(
+                    exc2.status,
+                    f"template gait at {speed} m/s could not be reached by continuation from {guess_speed} m/s, "
+                    f"directly or through {mid} m/s ({exc2}); remove {speed} m/s from the programs",
+                ) from exc2
         out[speed] = (sol, key)
     return out
+
+
+#: Fallbacks of a periodic gait, in order: (use the continuation guess, IPOPT options). A failed
+#: warm start is retried with IPOPT's defaults, then from the generic guess with the default
+#: and then with a monotone barrier (a different path through the same problem).
+PERIODIC_FALLBACKS: Final[tuple[tuple[bool, Mapping[str, Any] | None], ...]] = (
+    (True, WARM_START_IPOPT),
+    (True, None),
+    (False, None),
+    (False, {"mu_strategy": "monotone", "mu_init": 0.1}),
+)
+
+
+def _solve_periodic_ladder(
+    speed: float, body: BodyParameters, stride: StrideSettings, guess: GaitSolution | None, warm_start: bool = False
+) -> GaitSolution:
+    """:func:`_solve_periodic` down :data:`PERIODIC_FALLBACKS` (rungs with the guess are skipped
+    when there is none, the warm-start rung unless ``warm_start``: the guess is the same speed's
+    solution of a similar body); raises the last :class:`OCPError` if every rung fails."""
+    error: OCPError | None = None
+    for use_guess, options in PERIODIC_FALLBACKS:
+        if (use_guess and guess is None) or (options is WARM_START_IPOPT and not warm_start):
+            continue
+        try:
+            return _solve_periodic(speed, body, stride, guess if use_guess else None, options)
+        except OCPError as exc:
+            error = exc
+    assert error is not None
+    raise error
 
 
 def periodic_library(
@@ -569,25 +632,29 @@ def periodic_library(
     stride: StrideSettings,
     cache: SynthCache,
     templates: Mapping[float, tuple[GaitSolution, str]],
+    events: list[dict[str, str]] | None = None,
+    name: str = "",
 ) -> dict[float, tuple[GaitSolution, str]]:
     """Periodic gaits of ``body`` at ``speeds`` (m/s), each warm-started from the template at the
     same speed with IPOPT's warm-start options (:data:`~predictive.stride_chain.WARM_START_IPOPT`:
-    faster, and it stays in the template's gait), falling back to IPOPT's defaults and then to the
-    generic guess; returns speed → (solution, cache key)."""
+    faster, and it stays in the template's gait), falling back down :data:`PERIODIC_FALLBACKS`.
+    If every rung fails, the nominal body's template serves as that speed's reference (it is only
+    the chain's initial guess and terminal target: the labels still come from stride OCPs of the
+    true body) and an event ``periodic_from_template`` naming ``name`` is appended to ``events``.
+    Returns speed → (solution, cache key)."""
     out: dict[float, tuple[GaitSolution, str]] = {}
     for speed in speeds:
         guess, guess_key = templates[speed]
         key = _periodic_key(speed, body, stride, guess_key)
-
-        def solve(s: float = speed, g: GaitSolution = guess) -> GaitSolution:
-            for guess_sol, options in ((g, WARM_START_IPOPT), (g, None)):
-                try:
-                    return _solve_periodic(s, body, stride, guess_sol, options)
-                except OCPError:
-                    pass
-            return _solve_periodic(s, body, stride, None)
-
-        out[speed] = (cache.periodic(key, solve), key)
+        try:
+            solution = cache.periodic(key, lambda s=speed, g=guess: _solve_periodic_ladder(s, body, stride, g, True))
+        except OCPError as exc:
+            if events is not None:
+                detail = f"periodic gait at {speed} m/s failed on every rung ({exc}); the nominal template is the reference"
+                events.append({"recording": name, "event": "periodic_from_template", "detail": detail})
+            out[speed] = (guess, guess_key)
+            continue
+        out[speed] = (solution, key)
     return out
 
 
@@ -666,13 +733,16 @@ def _gait_stats(chain: ChainResult, body: BodyParameters) -> dict[str, float]:
 
 @dataclass
 class SubjectOutput:
-    """The recordings of one subject and how they were made."""
+    """The recordings of one subject and how they were made; ``events`` lists what did not go as
+    planned (``{"recording", "event", "detail"}``; events: ``periodic_from_template``,
+    ``plan_redrawn``, ``ended_early``, ``dropped``)."""
 
     recordings: list[Recording]
     strides: list[StrideRecord]
     cache: CacheStats
     time_s: float
     build_time_s: float
+    events: list[dict[str, str]] = field(default_factory=list)
 
 
 def generate_subject(
@@ -708,7 +778,8 @@ def generate_subject(
 
     report(f"{subject.id}: periodic gaits")
     templates = template_library(speeds_needed, stride_cfg, cache)
-    library = periodic_library(subject.body, speeds_needed, stride_cfg, cache, templates)
+    events: list[dict[str, str]] = []
+    library = periodic_library(subject.body, speeds_needed, stride_cfg, cache, templates, events, subject.id)
     recordings: list[Recording] = []
     strides: list[StrideRecord] = []
     for j in programs:
@@ -717,8 +788,13 @@ def generate_subject(
         speeds = list(config.programs[j])
         if config.shuffle_speeds:
             speeds = [speeds[i] for i in _rng(config, 3, subject.index, j).permutation(len(speeds))]
-        chain, chain_key, attempt = _recording_chain(config, subject, j, speeds, library, cache, solvers, report)
+        found = _recording_chain(config, subject, j, speeds, library, cache, solvers, report, events)
+        if found is None:
+            continue
+        chain, chain_key, attempt = found
         strides.extend(chain.strides)
+        if chain.ended_early:
+            events.append({"recording": name, "event": "ended_early", "detail": chain.ended_early})
         imu_seed = [config.seed, 4, subject.index, j]
         rec_key = _hash(
             {
@@ -762,8 +838,12 @@ def generate_subject(
                     "plan_attempt": attempt,
                     "strides": {
                         "speed_mps": [r.speed for r in chain.strides],
+                        "planned_speed_mps": [r.planned_speed for r in chain.strides],
                         "n_samples": [r.n_nodes for r in chain.strides],
+                        "fallback": [r.fallback for r in chain.strides],
                     },
+                    "fallbacks": fallback_counts(chain.strides),
+                    "ended_early": chain.ended_early,
                     "gait": _gait_stats(chain, subject.body),
                     "state_before_first_sample": {"q": chain.q_prev.tolist(), "u": chain.u_prev.tolist()},
                     "ground_truth": {
@@ -785,7 +865,7 @@ def generate_subject(
     stats = dataclasses.replace(cache.stats)
     for f in dataclasses.fields(stats):
         setattr(stats, f.name, getattr(stats, f.name) - getattr(stats0, f.name))
-    return SubjectOutput(recordings, strides, stats, time.perf_counter() - t0, solvers.build_time - build0)
+    return SubjectOutput(recordings, strides, stats, time.perf_counter() - t0, solvers.build_time - build0, events)
 
 
 def _recording_chain(
@@ -797,10 +877,16 @@ def _recording_chain(
     cache: SynthCache,
     solvers: StrideSolverCache,
     report: Callable[[str, float], None],
-) -> tuple[ChainResult, str, int]:
-    """The (cached) chain of one recording. If a stride cannot be solved, the recording's stride
-    plan is drawn again from the next random stream (at most :data:`CHAIN_ATTEMPTS` times).
-    Returns (chain, cache key, attempt)."""
+    events: list[dict[str, str]],
+) -> tuple[ChainResult, str, int] | None:
+    """The (cached) chain of one recording.
+
+    A stride that fails goes down the fallback ladder of
+    :func:`~predictive.stride_chain.simulate_chain`; if every rung fails, the recording ends
+    cleanly after its last solved stride. Only when its *first* stride cannot be solved is the
+    recording's stride plan drawn again from the next random stream (at most
+    :data:`CHAIN_ATTEMPTS` times); after that the recording is dropped. Each of these events is
+    appended to ``events``. Returns (chain, cache key, attempt), or None if dropped."""
     stride_cfg = config.stride
     name = f"{subject.id}_{config.program_names[program]}"
     reference = PeriodicReference([library[v][0] for v in sorted(set(speeds))], boundary=config.boundary)
@@ -836,12 +922,20 @@ def _recording_chain(
             chain = cache.chain(key, solve)
         except ChainError as exc:
             error = exc
+            events.append({"recording": name, "event": "plan_redrawn", "detail": str(exc)})
             report(f"{name}: new stride plan after: {exc}", -done[0])
             continue
         if cache.stats.chain_hits > hits:
             report(f"{name}: cached", config.duration_s)
         return chain, key, attempt
-    raise ChainError(f"{name}: no stride plan could be solved in {CHAIN_ATTEMPTS} attempts; last error: {error}")
+    detail = f"no stride plan could be started in {CHAIN_ATTEMPTS} attempts; last error: {error}"
+    events.append({"recording": name, "event": "dropped", "detail": detail})
+    return None
+
+
+def fallback_counts(strides: Sequence[StrideRecord]) -> dict[str, int]:
+    """Strides per rung of :data:`~predictive.stride_chain.FALLBACKS` (every rung listed)."""
+    return {rung: sum(r.fallback == rung for r in strides) for rung in FALLBACKS}
 
 
 def _worker_groups(n_subjects: int, workers: int) -> list[list[int]]:
@@ -912,6 +1006,15 @@ def generate_dataset(
     by_split: dict[str, list[Recording]] = {s: [] for s in SPLITS if config.splits.get(s, 0) > 0}
     for subject, output in zip(subjects, outputs):
         by_split[subject.split].extend(output.recordings)
+    events = [e for o in outputs for e in o.events]
+    for e in events:
+        warnings.warn(f"{e['recording']}: {e['event'].replace('_', ' ')}: {e['detail']}", SynthWarning, stacklevel=2)
+    empty = [split for split, recs in by_split.items() if not recs]
+    if empty:
+        raise ChainError(
+            f"split(s) {empty} have no recording left: every recording of their subjects was dropped "
+            f"({'; '.join(e['detail'] for e in events if e['event'] == 'dropped')})"
+        )
     cache_stats = dataclasses.replace(cache.stats)  # everything when serial, the templates when parallel
     if config.workers > 1:
         for o in outputs:
@@ -940,7 +1043,7 @@ def generate_dataset(
             "code_version": CODE_VERSION,
             "config": config.to_dict(),
             "generation_time_s": round(time.perf_counter() - t0, 2),
-            "n_recordings": n_rec,
+            "n_recordings": len(per_rec),
             "total_duration_s": round(sum(v["duration_s"] for v in per_rec.values()), 2),
             "subjects": {
                 s.id: {
@@ -960,9 +1063,11 @@ def generate_dataset(
                 if strides
                 else None,
                 "retried_strides": int(sum(r.attempts > 1 for r in strides)),
+                "fallbacks": fallback_counts(strides),
                 "build_time_s": round(build_time, 2),
             },
             "cache": dataclasses.asdict(cache_stats),
+            "events": events,
             "recordings": per_rec,
         }
     )

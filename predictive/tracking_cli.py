@@ -39,7 +39,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
                    " or each channel's std over the cycle")
     p.add_argument("--speed-guess", type=float, nargs="+", default=None,
                    help="initial speed(s), m/s; several: multi-start, lowest objective wins (default: from the stride"
-                   " duration, label-free)")
+                   " duration × 0.85, 1, 1.2: a label-free multi-start)")
     p.add_argument("--fixed-speed", action="store_true", help="fix the speed to the (first) guess instead of optimising it")
     p.add_argument("--guess", choices=("predictive", "generic"), default="predictive", help="initial guess")
     p.add_argument("--align", choices=("data", "heel_strike"), default="data",

@@ -68,6 +68,12 @@ def _train(args: argparse.Namespace, finetune: bool) -> int:
     resume = args.resume or (args.auto_resume and (args.out / "checkpoint.pt").exists())
     trainer.fit(train, resume=resume, init_from=None if resume else getattr(args, "model", None))
     print(f"trained {trainer.step} steps → {args.out / 'model.pt'}")
+    if trainer.stopped_by == "time_limit":
+        print(
+            f"WARNING: stopped by the safety time limit ({config.time_limit_s:.0f} s) at step {trainer.step} of "
+            f"{config.steps}, not by the step count: the result depends on this machine's speed and load",
+            file=sys.stderr,
+        )
     return 0
 
 
@@ -89,13 +95,40 @@ def _evaluate(args: argparse.Namespace) -> int:
 
     recs = load_recordings(args.data, args.split, args.periods, args.height, args.mass)
     ests = _estimates(args, recs)
+    baseline = _trivial_predictor(args.data, args.split, recs)
     try:
-        result = write_report(ests, recs, args.out, title=f"{args.model} on {args.data} ({args.split})", skip=args.skip)
+        result = write_report(
+            ests, recs, args.out, title=f"{args.model} on {args.data} ({args.split})", skip=args.skip, baseline=baseline
+        )
     except EvaluationError as exc:
         raise EvaluationError(f"{args.data} ({args.split} split), recording {exc}") from None
     print(json.dumps(result["mean"], indent=2))
+    print(f"against the trivial predictors ({baseline.source}):")
+    for program, c in result["by_program"].items():
+        cells = [
+            f"{key} {c['model'][key]:.3g} vs {c['baseline'][key]:.3g}"
+            + (" (WORSE)" if key in c["worse_than_baseline"] else "")
+            for key in c["model"]
+            if key in c["baseline"] and key not in ("jitter", "n_samples")
+        ]
+        print(f"  {program:<5} " + "; ".join(cells))
+        if c["worse_than_baseline"]:
+            print(f"  FAILURE: on {program}, {', '.join(c['worse_than_baseline'])} no better than the trivial predictor")
     print(f"report: {args.out / 'report.md'}")
     return 0
+
+
+def _trivial_predictor(data: Path, split: str, evaluated: list[Recording]):
+    """The trivial predictor of the report: fitted on the dataset's labelled training split when
+    there is one (and it is not the evaluated split), else on the evaluated recordings (oracle)."""
+    from sspinn.baselines import TrivialPredictor
+
+    if split != "train" and (data / "dataset.json").exists() and "train" in Dataset.open(data).splits:
+        try:
+            return TrivialPredictor.fit(Dataset.open(data).load("train"), f"means of the training split of {data}")
+        except ValueError:
+            pass
+    return TrivialPredictor.fit(evaluated, "oracle: means of the evaluated recordings themselves")
 
 
 def _infer(args: argparse.Namespace) -> int:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -25,6 +25,9 @@ from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS
 from sspinn.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.errors import UserError
 from sspinn.inference import GaitEstimate
+
+if TYPE_CHECKING:
+    from sspinn.baselines import TrivialPredictor
 
 ANGLES = ("pelvis_tilt", *JOINTS)
 
@@ -109,9 +112,66 @@ def normalise_cycles(signal: np.ndarray, cycles: list[tuple[int, int]], points: 
     return np.array([np.interp(grid, np.linspace(0, 1, b - a + 1), signal[a : b + 1]) for a, b in cycles])
 
 
-def write_report(estimates: list[GaitEstimate], recordings: list[Recording], out: Path, title: str, skip: int = 0, extra: dict | None = None) -> dict:
+#: Metric → name of the trivial predictor it is compared with (:mod:`sspinn.baselines`).
+BASELINE_OF: dict[str, str] = {
+    "jae_deg": "mean posture",
+    "jte_pct_bwbh": "zero torque",
+    "grfe_pct_bw": "constant mean GRF",
+    "speed_error_mps": "mean speed",
+}
+_LABELS = {"jae_deg": "JAE (deg)", "jte_pct_bwbh": "JTE (%BW·BH)", "grfe_pct_bw": "GRFE (%BW)", "speed_error_mps": "speed error (m/s)"}
+
+
+def compare_with_baseline(
+    estimates: list[GaitEstimate], recordings: list[Recording], baseline: TrivialPredictor, skip: int = 0
+) -> dict[str, dict]:
+    """Per gait program (and pooled as "all" when there are several): the sample-weighted mean
+    metrics of the estimates and of the trivial predictor on the same recordings, and the
+    metrics on which the estimate is **worse** than the baseline."""
+    from sspinn.baselines import program_of
+
+    groups: dict[str, list[tuple[Metrics, Metrics]]] = {}
+    for est, rec in zip(estimates, recordings):
+        pair = (compute_metrics(est, rec, skip), compute_metrics(baseline.predict(rec), rec, skip))
+        groups.setdefault(program_of(rec), []).append(pair)
+    if len(groups) > 1:
+        groups["all"] = [pair for pairs in list(groups.values()) for pair in pairs]
+    out = {}
+    for program, pairs in groups.items():
+        model = mean_metrics([m for m, _ in pairs]).as_dict()
+        base = mean_metrics([b for _, b in pairs]).as_dict()
+        worse = [k for k in BASELINE_OF if np.isfinite(model[k]) and np.isfinite(base[k]) and model[k] >= base[k]]
+        out[program] = {"recordings": len(pairs), "model": model, "baseline": base, "worse_than_baseline": worse}
+    return out
+
+
+def baseline_lines(comparison: dict[str, dict], source: str) -> list[str]:
+    """Markdown tables of :func:`compare_with_baseline`, one per program."""
+    lines = ["", f"## Against the trivial predictors ({source})", ""]
+    for program, c in comparison.items():
+        lines += [f"### {program} ({c['recordings']} recording(s))", "", "| metric | estimate | trivial predictor | ratio | verdict |", "|---|---|---|---|---|"]
+        for k, name in BASELINE_OF.items():
+            m, b = c["model"][k], c["baseline"][k]
+            ratio = m / b if np.isfinite(m) and np.isfinite(b) and b > 0 else float("nan")
+            verdict = "**WORSE than the baseline**" if k in c["worse_than_baseline"] else ("beats it" if np.isfinite(ratio) else "–")
+            lines.append(f"| {_LABELS[k]} | {m:.3g} | {b:.3g} ({name}) | {ratio:.2f} | {verdict} |")
+        lines.append("")
+    return lines
+
+
+def write_report(
+    estimates: list[GaitEstimate],
+    recordings: list[Recording],
+    out: Path,
+    title: str,
+    skip: int = 0,
+    extra: dict | None = None,
+    baseline: TrivialPredictor | None = None,
+) -> dict:
     """Metrics table (Markdown + JSON) and PNG plots (stick figures over time, gait-cycle
-    normalised angles/torques/GRFs vs reference) for each recording; returns the metrics."""
+    normalised angles/torques/GRFs vs reference) for each recording; with ``baseline``, the
+    metrics of the trivial predictors on the same recordings per gait program
+    (:func:`compare_with_baseline`). Returns the metrics."""
     import json
 
     import matplotlib
@@ -128,12 +188,16 @@ def write_report(estimates: list[GaitEstimate], recordings: list[Recording], out
             raise EvaluationError(f"{rec.name}: --skip {skip} leaves no samples of its {rec.n_samples} to evaluate")
     per = {e.name: compute_metrics(e, r, skip) for e, r in zip(estimates, recordings)}
     mean = mean_metrics(list(per.values()))
+    comparison = compare_with_baseline(estimates, recordings, baseline, skip) if baseline is not None else None
     out.mkdir(parents=True, exist_ok=True)
     lines = [f"# {title}", "", "| recording | JAE (deg) | JTE (%BW·BH) | GRFE (%BW) | speed error (m/s) | jitter (rad/s³) |", "|---|---|---|---|---|---|"]
     for name, m in [*per.items(), ("**mean**", mean)]:
         cells = [_cell(v, f) for v, f in ((m.jae_deg, ".2f"), (m.jte_pct_bwbh, ".2f"), (m.grfe_pct_bw, ".2f"),
                                           (m.speed_error_mps, ".3f"), (m.jitter, ".0f"))]
         lines.append(f"| {name} | {' | '.join(cells)} |")
+    if comparison is not None:
+        assert baseline is not None
+        lines += baseline_lines(comparison, baseline.source)
     for est, rec in zip(estimates, recordings):
         body = BodyParameters.from_anthropometry(rec.height, rec.mass)
         fig, axes = plt.subplots(2, 3, figsize=(14, 7))
@@ -180,6 +244,10 @@ def write_report(estimates: list[GaitEstimate], recordings: list[Recording], out
         lines.append(f"\n![{est.name}]({est.name}.png)")
     (out / "report.md").write_text("\n".join(lines) + "\n")
     result = {"title": title, "mean": mean.as_dict(), "recordings": {k: v.as_dict() for k, v in per.items()}, **(extra or {})}
+    if comparison is not None:
+        assert baseline is not None
+        result["baseline_source"] = baseline.source
+        result["by_program"] = comparison
     # a metric without the labels it needs is NaN: written as null (valid JSON), never as NaN
     (out / "metrics.json").write_text(json.dumps(_finite_or_null(result), indent=2, allow_nan=False))
     return result

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import json
 import math
 import os
 import random
@@ -66,7 +67,7 @@ class TrainConfig:
     threads: int = 0  # torch intra-op threads on CPU; 0 = torch's default
     log_every: int = 20
     checkpoint_every: int = 200
-    time_limit_s: float = 0.0  # stop (with a checkpoint) after this wall time; 0 = no limit
+    time_limit_s: float = 0.0  # safety net: stop (with a checkpoint and a loud TimeLimitWarning) after this wall time, s; 0 = none
     amp: bool = True  # bfloat16 autocast of the network on CUDA (the physics stays float32)
 
     def __post_init__(self) -> None:
@@ -248,6 +249,8 @@ class Trainer:
         self.segments = IMU_CONFIGURATIONS[config.imus]
         self.device = resolve_device(config.device)
         self.step = 0
+        #: "steps" (the step count was reached) or "time_limit" (the safety net fired) after :meth:`fit`.
+        self.stopped_by = "steps"
         self.model: SSPINNposeNet | None = None
         self.history: list[dict[str, float]] = []
 
@@ -378,6 +381,7 @@ class Trainer:
         assert self.model is not None
         self.model.train()
         start_time = time.perf_counter()
+        self.stopped_by = "steps"
         bar = tqdm(total=cfg.steps, initial=self.step, desc="training", unit="step", dynamic_ncols=True, disable=not lead)
         autocast = (
             torch.autocast("cuda", dtype=torch.bfloat16) if cfg.amp and self.device.type == "cuda" else contextlib.nullcontext()
@@ -431,7 +435,14 @@ class Trainer:
                 if self._agree(interrupt.requested):
                     raise KeyboardInterrupt
                 if cfg.time_limit_s and self._agree(time.perf_counter() - start_time > cfg.time_limit_s):
-                    bar.write(f"time limit of {cfg.time_limit_s:.0f} s reached at step {self.step}")
+                    self.stopped_by = "time_limit"
+                    message = (
+                        f"WARNING: the safety time limit of {cfg.time_limit_s:.0f} s stopped training at step "
+                        f"{self.step} of {cfg.steps}: this result depends on the machine's speed and load and is "
+                        f"not reproducible; continue with --resume (or raise time_limit_s)"
+                    )
+                    bar.write(message)
+                    warnings.warn(message, TimeLimitWarning, stacklevel=2)
                     break
         except KeyboardInterrupt:
             if lead:
@@ -447,6 +458,13 @@ class Trainer:
         if lead:
             self.save_checkpoint()
             save_model(self.model, self.out / "model.pt", self.segments, self.config, self.imu_std)
+            summary = {
+                "steps": self.step,
+                "steps_planned": cfg.steps,
+                "stopped_by": self.stopped_by,
+                "wall_s_this_run": round(time.perf_counter() - start_time, 1),
+            }
+            (self.out / "training_summary.json").write_text(json.dumps(summary, indent=2))
         return self.model
 
     def _agree(self, flag: bool) -> bool:
@@ -458,6 +476,11 @@ class Trainer:
         t = torch.tensor([float(flag)], device=self.device)
         dist.all_reduce(t, op=dist.ReduceOp.MAX)
         return bool(t.item())
+
+
+class TimeLimitWarning(UserWarning):
+    """Training was stopped by its safety time limit, not by its step count: the result depends
+    on the machine's speed and load (see ``training_summary.json``)."""
 
 
 def _tensorboard(folder: Path):

@@ -165,7 +165,7 @@ def test_config_files_load() -> None:
     default = SynthConfig.from_yaml(CONFIGS / "default.yaml")
     full = SynthConfig.from_yaml(CONFIGS / "full.yaml")
     assert default.n_subjects == 4 and default.duration_s >= 20
-    assert sorted({v for p in full.programs for v in p}) == [0.9, 1.3, 1.8, 2.5, 3.5, 4.9]
+    assert sorted({v for p in full.programs for v in p}) == [0.9, 1.3, 1.8, 2.5, 3.0, 3.5]
     assert SynthConfig.from_dict(default.to_dict()) == default
     assert default.key() != full.key()
     with pytest.raises(ValueError, match="unknown setting"):
@@ -219,3 +219,126 @@ def test_stride_plans_cover_the_duration_with_bounded_speed_changes() -> None:
     again = plan_strides([0.9, 1.3, 1.8], 20.0, _FakeReference(), var, 0.01, np.random.default_rng(1))
     assert again == plans
     assert bucket_for(70) == 78 and bucket_for(24) == 24
+
+
+# ------------------------------------------------------------------------------ fallback ladder
+@pytest.fixture(scope="module")
+def running_chain_setup():
+    """A nominal body's periodic 3.5 m/s gait (reference) and a shared solver cache."""
+    from predictive.stride_chain import PeriodicReference, StrideSettings, StrideSolverCache
+    from predictive.synthetic import _solve_periodic_ladder
+
+    body = BodyParameters.from_anthropometry(1.75, 70.0)
+    settings = StrideSettings()
+    reference = PeriodicReference([_solve_periodic_ladder(3.5, body, settings, None)])
+    return body, reference, StrideSolverCache(settings)
+
+
+def _failing_solves(monkeypatch: pytest.MonkeyPatch, fail_calls: set[int]) -> list[int]:
+    """Make the stride solves numbered ``fail_calls`` (0-based, in call order) fail as IPOPT's
+    'Infeasible_Problem_Detected' would, without running IPOPT; returns the call log."""
+    from predictive import stride_chain
+
+    real = stride_chain.StrideProblem.solve
+    calls: list[int] = []
+
+    def solve(self, body, q_prev, u_prev, plans, *args, **kwargs):
+        n = len(calls)
+        calls.append(n)
+        if n in fail_calls:
+            nodes = sum(p.n_nodes for p in plans)
+            z = np.zeros((nodes, N_Q))
+            return stride_chain.StrideResult(
+                q=z, u=z, qdd=z, tau=np.zeros((nodes, 6)), node_counts=tuple(p.n_nodes for p in plans),
+                status="Infeasible_Problem_Detected", iterations=3, solve_time=0.0, objective=float("nan"),
+                max_residual=3.18,
+            )
+        return real(self, body, q_prev, u_prev, plans, *args, **kwargs)
+
+    monkeypatch.setattr(stride_chain.StrideProblem, "solve", solve)
+    return calls
+
+
+def _plans(reference) -> list[StridePlan]:
+    n = round(reference.nominal_duration(3.5) / 0.01)
+    return [StridePlan(3.5, n), StridePlan(3.57, n + 1, (1.2, 0.9, 1.1, 1.0, 0.8, 1.1)), StridePlan(3.5, n)]
+
+
+def test_a_failed_stride_goes_down_the_ladder(running_chain_setup, monkeypatch: pytest.MonkeyPatch) -> None:
+    from predictive.stride_chain import FALLBACKS, simulate_chain
+
+    body, reference, solvers = running_chain_setup
+    # stride 1 fails on warm, default, perturbed and nominal: solved on 'smaller_change'
+    calls = _failing_solves(monkeypatch, {1, 2, 3, 4})
+    chain = simulate_chain(body, _plans(reference), reference, solvers)
+    assert [r.fallback for r in chain.strides] == ["warm", "smaller_change", "warm"]
+    assert chain.strides[1].attempts == 5 and len(calls) == 7
+    assert chain.strides[1].planned_speed == pytest.approx(3.57)
+    assert chain.strides[1].speed == pytest.approx(0.5 * (3.57 + 3.5))  # half the planned change
+    assert not chain.ended_early
+    # the labels stay exact: Kane residual at every sample, speeds as solved
+    assert np.abs(chain.residual(body)).max() < 1e-6
+    start = chain.strides[0].n_nodes
+    x_prev = chain.q[start - 1, 0]
+    n1 = chain.strides[1].n_nodes
+    assert (chain.q[start + n1 - 1, 0] - x_prev) / (n1 * 0.01) == pytest.approx(chain.strides[1].speed, abs=1e-6)
+    assert set(FALLBACKS) >= {r.fallback for r in chain.strides}
+
+
+def test_a_stride_that_fails_every_rung_ends_the_recording_cleanly(
+    running_chain_setup, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from predictive.stride_chain import FALLBACKS, ChainError, ChainResult, simulate_chain
+
+    body, reference, solvers = running_chain_setup
+    _failing_solves(monkeypatch, set(range(1, 1 + len(FALLBACKS))))
+    chain = simulate_chain(body, _plans(reference), reference, solvers)
+    assert len(chain.strides) == 1 and chain.n_samples == chain.strides[0].n_nodes
+    assert chain.ended_early.startswith("ended after stride 0") and "Infeasible_Problem_Detected" in chain.ended_early
+    saved = ChainResult.load(chain.save(tmp_path / "chain"))
+    assert saved.ended_early == chain.ended_early and saved.strides == chain.strides
+    # a first stride that fails every rung cannot start a recording
+    _failing_solves(monkeypatch, set(range(len(FALLBACKS))))
+    with pytest.raises(ChainError, match="stride 0 .* every rung"):
+        simulate_chain(body, _plans(reference), reference, solvers)
+
+
+class _MemoryCache:
+    """SynthCache stand-in that stores nothing."""
+
+    def periodic(self, key, solve):
+        return solve()
+
+
+def test_periodic_gaits_fall_back_without_aborting(monkeypatch: pytest.MonkeyPatch) -> None:
+    from predictive import synthetic
+    from predictive.collocation import OCPError
+    from predictive.stride_chain import StrideSettings
+
+    calls: list[tuple[float, object, object]] = []
+
+    def fake_solve(speed, body, stride, guess, options=None):
+        calls.append((speed, guess, options))
+        # 2.5 m/s fails from 3.5 m/s and from the generic guess; from the midpoint 3.0 it works
+        if speed == 2.5 and guess != "sol3.0":
+            raise OCPError("Infeasible_Problem_Detected", "fails")
+        if speed == 1.8 and guess is not None and guess != "sol1.3":  # the subject's own gait fails
+            raise OCPError("Restoration_Failed", "fails")
+        if speed == 1.8 and guess is None:
+            raise OCPError("Restoration_Failed", "fails")
+        return f"sol{speed}"
+
+    monkeypatch.setattr(synthetic, "_solve_periodic", fake_solve)
+    templates = synthetic.template_library([1.3, 1.8, 2.5, 3.5], StrideSettings(), _MemoryCache())
+    assert templates[2.5][0] == "sol2.5" and templates[3.5][0] == "sol3.5"
+    assert any(speed == 3.0 and guess == "sol3.5" for speed, guess, _ in calls)  # the midpoint
+    events: list[dict[str, str]] = []
+    body = BodyParameters.from_anthropometry(1.7, 65.0)
+    fine = {v: (f"sol{v}", f"key{v}") for v in (1.3, 1.8)}
+    library = synthetic.periodic_library(body, [1.3, 1.8], StrideSettings(), _MemoryCache(), fine, events, "S01")
+    assert library[1.3] == ("sol1.3", library[1.3][1]) and library[1.8] == ("sol1.8", "key1.8")  # the template
+    assert [e["event"] for e in events] == ["periodic_from_template"] and "1.8 m/s" in events[0]["detail"]
+    # an anchor that fails on every rung is a clear error naming it
+    monkeypatch.setattr(synthetic, "_solve_periodic", lambda *a, **k: (_ for _ in ()).throw(OCPError("X", "no")))
+    with pytest.raises(OCPError, match="anchor"):
+        synthetic.template_library([1.3], StrideSettings(), _MemoryCache())

@@ -1,0 +1,111 @@
+"""Trivial predictors: what every accuracy figure must beat.
+
+An estimator's error means little without what a predictor that ignores the IMU data scores on
+the same recordings. :class:`TrivialPredictor` predicts, for every sample,
+
+* **zero torque** at every joint (JTE baseline),
+* the **mean posture** (the mean of each angle and pelvis tilt, rad; JAE baseline),
+* a **constant mean GRF** per GRF column, in body weights, times the recording's body weight
+  (GRFE baseline),
+* the **mean speed**, m/s (speed-error baseline),
+
+with the means taken over the labelled *reference* recordings — the training split's labels, the
+fair choice — per gait program (``walk``/``run``, from the recordings' provenance) when the
+reference has recordings of that program, else over all of them. When no labelled training data
+exist, :meth:`TrivialPredictor.fit` on the evaluated recordings themselves gives an *oracle*
+baseline (it knows the test means; harder to beat), and says so in ``source``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from sspinn.conventions import COORDINATES, GRAVITY, GRF, N_Q, N_TAU
+from sspinn.dataset import SAMPLE_RATE_HZ, Recording
+from sspinn.inference import GaitEstimate
+
+#: Program name of recordings whose provenance names none.
+ALL: str = "all"
+
+
+def program_of(rec: Recording) -> str:
+    """The recording's gait program (``provenance['program']['name']``, e.g. "walk", "run"),
+    else :data:`ALL`."""
+    program = rec.provenance.get("program") if isinstance(rec.provenance, dict) else None
+    name = program.get("name") if isinstance(program, dict) else None
+    return str(name) if name else ALL
+
+
+@dataclass(frozen=True)
+class ProgramMeans:
+    """Means of one program's reference labels: ``q`` (9,) coordinate means (m, rad; only the
+    angles and pelvis tilt are used), ``grf_bw`` (4,) mean GRF in body weights, ``speed`` (m/s),
+    and the number of samples they come from."""
+
+    q: np.ndarray
+    grf_bw: np.ndarray
+    speed: float
+    n_samples: int
+
+
+@dataclass(frozen=True)
+class TrivialPredictor:
+    """Per-program label means (see the module docstring); ``source`` says where they come from."""
+
+    means: dict[str, ProgramMeans]
+    source: str
+
+    @classmethod
+    def fit(cls, recordings: Sequence[Recording], source: str) -> TrivialPredictor:
+        """Means of the labels of ``recordings`` per program (and over all, key :data:`ALL`).
+
+        Raises:
+            ValueError: no recording has the labels q, GRF and speed.
+        """
+        groups: dict[str, list[Recording]] = {}
+        for rec in recordings:
+            lab = rec.labels
+            if lab is None or lab.q is None or lab.grf is None or lab.speed is None:
+                continue
+            groups.setdefault(program_of(rec), []).append(rec)
+            if program_of(rec) != ALL:
+                groups.setdefault(ALL, []).append(rec)
+        if not groups:
+            raise ValueError(f"{source}: no recording with the labels q, grf and speed to fit a trivial predictor on")
+        means = {}
+        for program, recs in groups.items():
+            q = np.concatenate([r.labels.q for r in recs])
+            grf = np.concatenate([r.labels.grf / (r.mass * GRAVITY) for r in recs])
+            speed = np.concatenate([r.labels.speed for r in recs])
+            means[program] = ProgramMeans(q.mean(0), grf.mean(0), float(speed.mean()), len(q))
+        return cls(means, source)
+
+    def means_for(self, rec: Recording) -> ProgramMeans:
+        """The means used for ``rec``: its program's, else those over all reference recordings."""
+        return self.means.get(program_of(rec), self.means[ALL] if ALL in self.means else next(iter(self.means.values())))
+
+    def predict(self, rec: Recording) -> GaitEstimate:
+        """The trivial estimate of ``rec`` (same samples; constant in time)."""
+        m = self.means_for(rec)
+        T = rec.n_samples
+        q = np.tile(m.q, (T, 1))
+        q[:, COORDINATES.index("pelvis_tx")] = m.speed * np.arange(T) / SAMPLE_RATE_HZ
+        u = np.zeros((T, N_Q))
+        u[:, 0] = m.speed
+        grf = np.tile(m.grf_bw * rec.mass * GRAVITY, (T, 1))
+        assert grf.shape[1] == len(GRF)
+        return GaitEstimate(
+            name=f"{rec.name} (trivial)",
+            time=np.arange(T) / SAMPLE_RATE_HZ,
+            q=q,
+            u=u,
+            qdd=np.zeros((T, N_Q)),
+            tau=np.zeros((T, N_TAU)),
+            grf=grf,
+            w=np.zeros((T, 2)),
+            ankle=np.zeros((T, 2, 6)),
+            mu_hat=np.zeros((T, 2)),
+        )

@@ -1,0 +1,73 @@
+"""Trivial predictors (sspinn/baselines.py) and the report's comparison with them."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sspinn.baselines import ALL, TrivialPredictor, program_of
+from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS, SEGMENTS
+from sspinn.dataset import Labels, Recording
+from sspinn.evaluation import compare_with_baseline, compute_metrics, write_report
+
+T = 300
+
+
+def _recording(name: str, program: str, speed: float, grf_bw: float, seed: int, mass: float = 70.0) -> Recording:
+    rng = np.random.default_rng(seed)
+    t = np.arange(T) / 100.0
+    imu = rng.standard_normal((T, len(SEGMENTS), 3))
+    imu[:, :, 1] += GRAVITY  # specific force: gravity on the vertical axis
+    cols = {c: 0.3 * np.sin(2 * np.pi * t + i) + 0.1 * i for i, c in enumerate(COORDINATES)}
+    cols["pelvis_tx"] = speed * t
+    cols |= {f"tau_{j}": 20 * np.sin(2 * np.pi * t + i) for i, j in enumerate(JOINTS)}
+    cols |= {g: grf_bw * mass * GRAVITY * (1 + 0.5 * np.sin(2 * np.pi * t)) for g in GRF}
+    cols["speed"] = np.full(T, speed)
+    return Recording(
+        name=name, imu=imu, segments=SEGMENTS, height=1.75, mass=mass,
+        labels=Labels.from_columns(cols, T), provenance={"program": {"name": program}},
+    )
+
+
+def test_means_are_per_program_and_the_prediction_is_constant() -> None:
+    walk, run = _recording("w", "walk", 1.3, 0.5, 0), _recording("r", "run", 3.0, 0.8, 1)
+    pred = TrivialPredictor.fit([walk, run], "train")
+    assert set(pred.means) == {"walk", "run", ALL}
+    assert pred.means["walk"].speed == pytest.approx(1.3) and pred.means["run"].speed == pytest.approx(3.0)
+    assert pred.means[ALL].speed == pytest.approx(2.15)
+    np.testing.assert_allclose(pred.means["run"].grf_bw, 0.8, rtol=1e-2)
+    heavy = _recording("x", "run", 3.3, 0.8, 2, mass=90.0)
+    est = pred.predict(heavy)
+    assert np.all(est.tau == 0) and np.allclose(est.u[:, 0], 3.0)
+    np.testing.assert_allclose(est.grf, np.tile(pred.means["run"].grf_bw * 90.0 * GRAVITY, (T, 1)))  # × body weight
+    assert np.ptp(est.q[:, 2:], axis=0).max() == 0  # constant posture
+    m = compute_metrics(est, heavy)
+    assert m.speed_error_mps == pytest.approx(0.3)
+    # a program the reference never saw falls back to the means over all recordings
+    assert pred.means_for(_recording("s", "sprint", 6.0, 1.0, 3)).speed == pytest.approx(2.15)
+    assert program_of(Recording("n", heavy.imu, SEGMENTS, 1.75, 70.0)) == ALL
+    with pytest.raises(ValueError, match="no recording with the labels"):
+        TrivialPredictor.fit([Recording("n", heavy.imu, SEGMENTS, 1.75, 70.0)], "nothing")
+
+
+def test_report_says_plainly_when_the_estimate_is_worse(tmp_path: Path) -> None:
+    train = [_recording("w", "walk", 1.3, 0.5, 0), _recording("r", "run", 3.0, 0.8, 1)]
+    tests = [_recording("w2", "walk", 1.4, 0.5, 4), _recording("r2", "run", 3.2, 0.8, 5)]
+    pred = TrivialPredictor.fit(train, "training split")
+    perfect = [pred.predict(r) for r in tests]
+    for est, rec in zip(perfect, tests):  # the true labels: every error zero except jitter
+        est.q[:] = rec.labels.q
+        est.tau[:] = rec.labels.tau
+        est.grf[:] = rec.labels.grf
+        est.u[:, 0] = rec.labels.speed
+    cmp = compare_with_baseline(perfect, tests, pred)
+    assert set(cmp) == {"walk", "run", "all"} and all(not c["worse_than_baseline"] for c in cmp.values())
+    # the trivial predictor itself is never better than itself: every metric flagged
+    cmp = compare_with_baseline([pred.predict(r) for r in tests], tests, pred)
+    assert set(cmp["walk"]["worse_than_baseline"]) == {"jae_deg", "jte_pct_bwbh", "grfe_pct_bw", "speed_error_mps"}
+    result = write_report([pred.predict(r) for r in tests], tests, tmp_path, "t", baseline=pred)
+    text = (tmp_path / "report.md").read_text()
+    assert "WORSE than the baseline" in text and "### walk" in text and "### run" in text
+    assert result["by_program"]["run"]["baseline"]["speed_error_mps"] == pytest.approx(0.2)
