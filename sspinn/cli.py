@@ -91,12 +91,13 @@ def _estimates(args: argparse.Namespace, recs: list[Recording]) -> list:
 
 
 def _evaluate(args: argparse.Namespace) -> int:
-    from sspinn.evaluation import EvaluationError, write_report
+    from sspinn.evaluation import EvaluationError, check_evaluable, write_report
 
     recs = load_recordings(args.data, args.split, args.periods, args.height, args.mass)
     ests = _estimates(args, recs)
-    baseline = _trivial_predictor(args.data, args.split, recs)
     try:
+        check_evaluable(ests, recs, args.skip)
+        baseline = _trivial_predictor(args.data, args.split, recs)
         result = write_report(
             ests, recs, args.out, title=f"{args.model} on {args.data} ({args.split})", skip=args.skip, baseline=baseline
         )

@@ -145,6 +145,17 @@ def compare_with_baseline(
     return out
 
 
+def check_evaluable(estimates: list[GaitEstimate], recordings: list[Recording], skip: int) -> None:
+    """Raise :class:`EvaluationError` (or NonFiniteEstimateError) unless every estimate is finite
+    and every recording has labels and samples left after ``skip``."""
+    for est, rec in zip(estimates, recordings):
+        est.check_finite()
+        if rec.labels is None:
+            raise EvaluationError(f"{rec.name}: no labels to evaluate against (use `sspinn infer` for recordings without labels)")
+        if not 0 <= skip < rec.n_samples:
+            raise EvaluationError(f"{rec.name}: --skip {skip} leaves no samples of its {rec.n_samples} to evaluate")
+
+
 def baseline_lines(comparison: dict[str, dict], source: str) -> list[str]:
     """Markdown tables of :func:`compare_with_baseline`, one per program."""
     lines = ["", f"## Against the trivial predictors ({source})", ""]
@@ -154,7 +165,7 @@ def baseline_lines(comparison: dict[str, dict], source: str) -> list[str]:
             m, b = c["model"][k], c["baseline"][k]
             ratio = m / b if np.isfinite(m) and np.isfinite(b) and b > 0 else float("nan")
             verdict = "**WORSE than the baseline**" if k in c["worse_than_baseline"] else ("beats it" if np.isfinite(ratio) else "–")
-            lines.append(f"| {_LABELS[k]} | {m:.3g} | {b:.3g} ({name}) | {ratio:.2f} | {verdict} |")
+            lines.append(f"| {_LABELS[k]} | {_cell(m, '.3g')} | {_cell(b, '.3g')} ({name}) | {_cell(ratio, '.2f')} | {verdict} |")
         lines.append("")
     return lines
 
@@ -182,10 +193,7 @@ def write_report(
     from sspinn.body import BodyParameters
     from sspinn.plotting import draw_stick_figure
 
-    for est, rec in zip(estimates, recordings):  # everything is checked before anything is written
-        est.check_finite()
-        if not 0 <= skip < rec.n_samples:
-            raise EvaluationError(f"{rec.name}: --skip {skip} leaves no samples of its {rec.n_samples} to evaluate")
+    check_evaluable(estimates, recordings, skip)  # everything is checked before anything is written
     per = {e.name: compute_metrics(e, r, skip) for e, r in zip(estimates, recordings)}
     mean = mean_metrics(list(per.values()))
     comparison = compare_with_baseline(estimates, recordings, baseline, skip) if baseline is not None else None
