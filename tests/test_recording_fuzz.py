@@ -22,7 +22,7 @@ from tests.test_dataset import make_recording
 
 #: 60 fixed examples per reader in the suite; SSPINN_FUZZ_EXAMPLES=5000 runs a longer random campaign.
 _CAMPAIGN = int(os.environ.get("SSPINN_FUZZ_EXAMPLES", "0"))
-FUZZ = settings(max_examples=_CAMPAIGN or 60, deadline=None, derandomize=not _CAMPAIGN,
+FUZZ = settings(max_examples=_CAMPAIGN or 60, deadline=None, derandomize=not _CAMPAIGN, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 
