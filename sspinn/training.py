@@ -85,6 +85,8 @@ class TrainConfig:
         for name in ("lr", "grad_clip"):
             if not math.isfinite(getattr(self, name)) or getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be a finite number > 0, got {getattr(self, name)}")
+        if self.seed < 0:
+            raise ValueError(f"seed must be >= 0, got {self.seed}")
         if not math.isfinite(self.input_noise) or self.input_noise < 0:
             raise ValueError(f"input_noise must be a finite number >= 0, got {self.input_noise}")
 

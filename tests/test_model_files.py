@@ -231,3 +231,41 @@ def test_bad_options_are_one_line_errors(tiny_run, tmp_path, capsys):
         assert info.value.code == 2
         assert "--periods" in capsys.readouterr().err
     assert TrainConfig.from_yaml(cfg, settings=["lr=1e-3"]).lr == 1e-3  # YAML 1.1 reads 1e-3 as a string
+
+
+def test_two_real_training_processes_and_a_real_ctrl_c(tiny_run, tmp_path, capsys):
+    """The issue's reproduction: a second `sspinn train` into the folder of a running one stops
+    with the owner's PID; Ctrl-C (SIGINT) to the first saves a checkpoint at a step boundary,
+    exits 130 and releases the folder."""
+    import time
+    from pathlib import Path
+
+    _, data, cfg, _, _ = tiny_run
+    out = tmp_path / "shared"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    first = subprocess.Popen(
+        [sys.executable, "-m", "sspinn", "train", "--config", str(cfg), "--data", str(data), "--out", str(out),
+         "--steps", "100000", "--set", "checkpoint_every=1"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while f'"pid": {first.pid}' not in ((out / ".lock").read_text() if (out / ".lock").exists() else ""):
+            assert first.poll() is None and time.monotonic() < deadline, "the first run did not start"
+            time.sleep(0.2)
+        while not (out / "checkpoint.pt").exists():  # set up, and training (a checkpoint every step)
+            assert first.poll() is None and time.monotonic() < deadline
+            time.sleep(0.2)
+        assert main(["train", "--config", str(cfg), "--data", str(data), "--out", str(out), "--steps", "2"]) == 2
+        assert f"in use by PID {first.pid} on host" in capsys.readouterr().err
+        first.send_signal(signal.SIGINT)
+        printed, err = first.communicate(timeout=120)
+    finally:
+        if first.poll() is None:
+            first.kill()
+    assert first.returncode == 130, err
+    assert "interrupted at step" in printed and "interrupt: finishing the current step" in err and "Traceback" not in err
+    state = torch.load(out / "checkpoint.pt", weights_only=True)
+    assert state["step"] >= 0 and (out / ".lock").read_text() == ""
+    assert main(["train", "--config", str(cfg), "--data", str(data), "--out", str(out), "--resume",
+                 "--steps", str(state["step"] + 1)]) == 0
