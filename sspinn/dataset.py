@@ -357,16 +357,15 @@ def read_csv_table(path: Path) -> tuple[list[str], np.ndarray]:
     if len(set(names)) != len(names):
         dup = sorted({n for n in names if names.count(n) > 1})
         raise DataFormatError(f"{path}: duplicate column(s) {dup}")
+    if not any(line.strip() for line in lines[1:]):
+        raise DataFormatError(f"{path}: no data rows after the header")
     try:  # the fast path; on failure the rows are read one by one to name the bad one
         table = np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1, ndmin=2)
     except ValueError:
         table = None
     if table is not None and table.shape[0] > 0 and table.shape[1] == len(names):
         return names, table
-    rows = [(k + 2, line) for k, line in enumerate(lines[1:]) if line.strip()]
-    if not rows:
-        raise DataFormatError(f"{path}: no data rows after the header")
-    for row, line in rows:
+    for row, line in ((k + 2, line) for k, line in enumerate(lines[1:]) if line.strip()):
         fields = line.split(",")
         if len(fields) != len(names):
             raise DataFormatError(f"{path}: row {row} has {len(fields)} values but the header has {len(names)} columns")
