@@ -14,9 +14,13 @@ import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from sspinn.dataset import DataFormatError, Dataset, Recording
 from sspinn.errors import ArgumentParser, run_cli
+
+if TYPE_CHECKING:
+    from sspinn.inference import GaitEstimate
 
 
 def load_recordings(data: Path, split: str = "train", periods: int = 10, height: float = 1.75, mass: float = 70.0) -> list[Recording]:
@@ -77,7 +81,7 @@ def _train(args: argparse.Namespace, finetune: bool) -> int:
     return 0
 
 
-def _estimates(args: argparse.Namespace, recs: list[Recording]) -> list:
+def _estimates(args: argparse.Namespace, recs: list[Recording]) -> list[GaitEstimate]:
     """Estimates of every recording (all checked finite before anything is written); errors
     name the model and the data."""
     from sspinn.inference import NonFiniteEstimateError, estimate_recording
