@@ -333,6 +333,7 @@ class Trainer:
             )
         assert self.model is not None
         _load_weights(self.model, state, path)
+        check_finite_weights(path, self.model.state_dict(), "the model is damaged or its training diverged")
         if weights_only:
             return
         if state["recordings"] != [d.recording.name for d in self.data]:

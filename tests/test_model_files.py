@@ -66,7 +66,7 @@ def test_broken_model_files_name_the_file_and_the_problem(tiny_run, tmp_path, ca
 
 
 def test_nan_weights_are_refused_before_anything_is_written(tiny_run, tmp_path, capsys):
-    _, data, _, _, run = tiny_run
+    _, data, cfg, _, run = tiny_run
     state = torch.load(run / "model.pt", weights_only=True)
     next(iter(state["model"].values())).fill_(float("nan"))
     torch.save(state, tmp_path / "nan.pt")
@@ -74,7 +74,10 @@ def test_nan_weights_are_refused_before_anything_is_written(tiny_run, tmp_path, 
         load_model(tmp_path / "nan.pt")
     assert main(["infer", "--model", str(tmp_path / "nan.pt"), "--data", str(data), "--out", str(tmp_path / "o")]) == 2
     assert main(["evaluate", "--model", str(tmp_path / "nan.pt"), "--data", str(data), "--out", str(tmp_path / "e")]) == 2
-    assert not (tmp_path / "o").exists() and not (tmp_path / "e").exists()
+    assert main(["finetune", "--config", str(cfg), "--model", str(tmp_path / "nan.pt"), "--data", str(data),
+                 "--out", str(tmp_path / "f")]) == 2
+    assert "non-finite" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists() and not (tmp_path / "e").exists() and not (tmp_path / "f" / "model.pt").exists()
 
 
 def test_files_without_a_format_entry_still_load(tiny_run, tmp_path):
