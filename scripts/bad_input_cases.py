@@ -160,7 +160,7 @@ def main() -> None:
     def sidecar(edit: Callable[[dict], object]) -> Path:
         return recording(edit_meta=edit)
 
-    def nan_network(command: str) -> Outcome:
+    def nan_network(command: str, column: int = 5, value: float = float("nan")) -> Outcome:
         from sspinn.network import SSPINNposeNet
 
         real = SSPINNposeNet.forward
@@ -168,7 +168,7 @@ def main() -> None:
         def forward(self, x, *a, **k):
             raw, state = real(self, x, *a, **k)
             raw = raw.clone()
-            raw[:, 30:, 5] = float("nan")
+            raw[:, 30:, column] = value
             return raw, state
 
         SSPINNposeNet.forward = forward
@@ -373,6 +373,10 @@ def main() -> None:
              lambda: nan_network("infer")),
         Case("4", "network producing NaN: evaluate", "sspinn evaluate (NaN network)", "exit 2", "not finite from sample 30",
              lambda: nan_network("evaluate")),
+        Case("4", "network producing an impossible joint angle: infer", "sspinn infer (patched network)", "exit 2",
+             "no human movement reaches", lambda: nan_network("infer", 5, 50.0)),
+        Case("4", "network producing an impossible pelvis speed: evaluate", "sspinn evaluate (patched network)", "exit 2",
+             "forward pelvis speed", lambda: nan_network("evaluate", 8, 500.0)),
         Case("4", "evaluate without labels (no folder left)", "sspinn evaluate --data unlabelled", "exit 2", "no labels", unlabelled),
         Case("4", "evaluate --skip beyond the recording", "sspinn evaluate --skip 500", "exit 2", "--skip 500",
              lambda: cli(sspinn_main, ["evaluate", "--model", str(model), "--data", str(data), "--out", str(tmp / "r"), "--skip", "500"])),

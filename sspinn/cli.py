@@ -84,14 +84,14 @@ def _train(args: argparse.Namespace, finetune: bool) -> int:
 def _estimates(args: argparse.Namespace, recs: list[Recording]) -> list[GaitEstimate]:
     """Estimates of every recording (all checked finite before anything is written); errors
     name the model and the data."""
-    from sspinn.inference import NonFiniteEstimateError, estimate_recording
+    from sspinn.inference import ImplausibleEstimateError, NonFiniteEstimateError, estimate_recording
     from sspinn.training import load_model
 
     model, segments, _ = load_model(args.model)
     try:
         return [estimate_recording(model, r, segments) for r in recs]
-    except NonFiniteEstimateError as exc:
-        raise NonFiniteEstimateError(f"{args.model} on {args.data}, recording {exc}") from None
+    except (NonFiniteEstimateError, ImplausibleEstimateError) as exc:
+        raise type(exc)(f"{args.model} on {args.data}, recording {exc}") from None
 
 
 def _evaluate(args: argparse.Namespace) -> int:

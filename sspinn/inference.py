@@ -19,7 +19,7 @@ from sspinn import dynamics
 from sspinn._generated import model_numba
 from sspinn.body import BodyParameters, IMUPlacement
 from sspinn.contact import ContactParameters
-from sspinn.conventions import COORDINATES, GRF, JOINTS
+from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS
 from sspinn.dataset import SAMPLE_RATE_HZ, DataFormatError, Recording
 from sspinn.errors import UserError
 from sspinn.network import N_OUTPUTS, SSPINNposeNet, decode, output_affine
@@ -29,6 +29,19 @@ from sspinn.training import input_features
 
 class NonFiniteEstimateError(UserError):
     """The network produced NaN or inf for a recording; nothing is written."""
+
+
+class ImplausibleEstimateError(UserError):
+    """The network's estimate is physically impossible for a human (see :data:`PHYSICAL_LIMITS`)."""
+
+
+#: Bounds no human gait exceeds (far beyond sprinting and landing values), used by
+#: :meth:`GaitEstimate.check_physical`: |pelvis tilt and joint angles| (rad), pelvis height
+#: (× body height), |forward pelvis speed| (m/s), |GRF| per component (× body weight),
+#: |joint torque| (N·m per kg of body mass).
+PHYSICAL_LIMITS: dict[str, float] = {
+    "angle_rad": math.pi, "pelvis_height_per_height": 1.0, "speed_m_s": 15.0, "grf_bw": 20.0, "torque_nm_per_kg": 20.0,
+}
 
 
 @dataclass
@@ -61,6 +74,29 @@ class GaitEstimate:
                     f"{self.name}: the estimate's {name} is not finite from sample {k} on ({int(bad.sum())} values); "
                     "nothing written: the model may be damaged or diverged (retrain it), or the recording is far "
                     "outside what it was trained on"
+                )
+        return self
+
+    def check_physical(self, height: float, mass: float) -> GaitEstimate:
+        """``self`` if it stays within :data:`PHYSICAL_LIMITS` for a subject of ``height`` (m)
+        and ``mass`` (kg), else :class:`ImplausibleEstimateError` naming the quantity, the
+        sample and the value."""
+        lim, weight = PHYSICAL_LIMITS, mass * GRAVITY
+        checks = (
+            ("pelvis tilt / joint angle", "rad", np.abs(self.q[:, 2:]), lim["angle_rad"]),
+            ("pelvis height below ground", "m", -self.q[:, 1:2], 0.0),
+            ("pelvis height", "m", self.q[:, 1:2], lim["pelvis_height_per_height"] * height),
+            ("forward pelvis speed", "m/s", np.abs(self.u[:, :1]), lim["speed_m_s"]),
+            ("ground reaction force", "N", np.abs(self.grf), lim["grf_bw"] * weight),
+            ("joint torque", "N·m", np.abs(self.tau), lim["torque_nm_per_kg"] * mass),
+        )
+        for what, unit, values, bound in checks:
+            if (values > bound).any():
+                k, j = np.unravel_index(int(np.argmax(values)), values.shape)
+                raise ImplausibleEstimateError(
+                    f"{self.name}: the estimated {what} reaches {values[k, j]:.4g} {unit} at sample {k}, beyond the "
+                    f"{bound:.4g} {unit} no human movement reaches; nothing written: the model is not trained for "
+                    "this recording (train longer or on similar data) or the inputs are wrong"
                 )
         return self
 
@@ -116,7 +152,7 @@ def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str
     raw, _ = model(torch.as_tensor(x, dtype=torch.float32, device=device)[None])
     body = BodyParameters.from_anthropometry(rec.height, rec.mass)
     out = {k: v[0].cpu().numpy() for k, v in _outputs(raw.cpu(), body).items()}
-    return GaitEstimate(name=rec.name, time=rec.time, **out).check_finite()
+    return GaitEstimate(name=rec.name, time=rec.time, **out).check_finite().check_physical(rec.height, rec.mass)
 
 
 # Streaming: a hand-written single-step LSTM (see StreamingEstimator for why it exists).

@@ -10,7 +10,7 @@ import pytest
 
 from sspinn.cli import main
 from sspinn.dataset import Dataset
-from sspinn.inference import NonFiniteEstimateError, estimate_recording
+from sspinn.inference import ImplausibleEstimateError, NonFiniteEstimateError, estimate_recording
 from sspinn.network import SSPINNposeNet
 from sspinn.training import load_model
 
@@ -78,3 +78,26 @@ def test_a_saved_estimate_is_finite(tiny_run, tmp_path):
     with pytest.raises(NonFiniteEstimateError, match="grf is not finite from sample 3"):
         est.to_csv(tmp_path / "e.csv")
     assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(("column", "value", "message"), [
+    (5, 50.0, r"c: the estimated pelvis tilt / joint angle reaches \d+(\.\d+)? rad at sample 30"),
+    (8, 500.0, r"c: the estimated forward pelvis speed reaches \d+(\.\d+)? m/s at sample 30"),
+])
+def test_a_physically_impossible_estimate_is_an_error(tiny_run, monkeypatch, tmp_path, capsys, column, value, message):
+    _, data, _, _, run = tiny_run
+    real = SSPINNposeNet.forward
+
+    def forward(self, x, *a, **k):
+        raw, state = real(self, x, *a, **k)
+        raw = raw.clone()
+        raw[:, 30:, column] = value  # raw outputs far outside what training produces
+        return raw, state
+
+    monkeypatch.setattr(SSPINNposeNet, "forward", forward)
+    model, segments, _ = load_model(run / "model.pt")
+    with pytest.raises(ImplausibleEstimateError, match=message):
+        estimate_recording(model, Dataset.open(data).load("test")[0], segments)
+    assert main(["infer", "--model", str(run / "model.pt"), "--data", str(data), "--out", str(tmp_path / "o")]) == 2
+    assert "no human movement reaches; nothing written" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
