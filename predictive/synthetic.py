@@ -584,9 +584,9 @@ def template_library(
             mid = round(0.5 * (speed + guess_speed), 6)
             mid_key = _periodic_key(mid, body, stride, guess_key)
             try:
-                mid_sol = cache.periodic(mid_key, lambda g=guess: _solve_periodic_ladder(mid, body, stride, g))
+                mid_sol = cache.periodic(mid_key, lambda g=guess, m=mid: _solve_periodic_ladder(m, body, stride, g))
                 key = _periodic_key(speed, body, stride, mid_key)
-                sol = cache.periodic(key, lambda s=speed: _solve_periodic_ladder(s, body, stride, mid_sol))
+                sol = cache.periodic(key, lambda s=speed, g=mid_sol: _solve_periodic_ladder(s, body, stride, g))
             except OCPError as exc2:
                 raise OCPError(
                     exc2.status,
