@@ -11,7 +11,8 @@ every solve in subprocesses (pytest, spawned generator workers) without new argu
     relative noise added to every initial guess: ``x0 ← x0·(1 + ε·z) + ε·z'`` with z, z' ~ N(0, 1)
     (the additive part moves exact zeros too), e.g. ``1e-9``. Default 0 (off).
 ``SSPINN_OCP_SEED``
-    seed of that noise (default 0). Each solve draws from ``(seed, call counter)``.
+    seed of that noise (default 0). Each solve draws from ``(seed, hash of its guess)``: the same
+    guess always gets the same noise, so perturbed runs stay deterministic.
 ``SSPINN_IPOPT_OPTIONS``
     a JSON object of extra IPOPT options merged into every solver, e.g.
     ``{"mumps_pivtol": 1e-4}`` (MUMPS pivoting threshold) or
@@ -23,7 +24,7 @@ With none of them set, :func:`perturb_guess` returns its argument unchanged and
 
 from __future__ import annotations
 
-import itertools
+import hashlib
 import json
 import os
 from typing import Any, Final
@@ -34,8 +35,6 @@ import numpy as np
 JITTER_VAR: Final = "SSPINN_OCP_JITTER"
 SEED_VAR: Final = "SSPINN_OCP_SEED"
 IPOPT_VAR: Final = "SSPINN_IPOPT_OPTIONS"
-
-_calls = itertools.count()
 
 
 def jitter() -> float:
@@ -58,8 +57,11 @@ def perturb_guess(x0: np.ndarray, lbx: np.ndarray | None = None, ubx: np.ndarray
     if eps == 0.0:
         return x0
     seed = int(os.environ.get(SEED_VAR, "0") or 0)
-    rng = np.random.default_rng([seed, next(_calls)])
     x = np.asarray(x0, dtype=float)
+    # seeded by the guess itself: the same solve from the same guess gets the same noise, so a
+    # perturbed run is as deterministic as an unperturbed one (caches and re-solves agree)
+    digest = hashlib.sha256(np.ascontiguousarray(x).tobytes()).digest()
+    rng = np.random.default_rng([seed, int.from_bytes(digest[:8], "little")])
     out = x * (1.0 + eps * rng.standard_normal(x.shape)) + eps * rng.standard_normal(x.shape)
     if lbx is not None and ubx is not None:
         out = np.clip(out, lbx, ubx)

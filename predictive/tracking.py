@@ -79,6 +79,7 @@ from predictive.collocation import (
     solve_predictive,
 )
 from predictive.solution import GaitSolution
+from sspinn import dynamics as dyn
 from sspinn import kinematics
 from sspinn.body import BodyParameters, IMUPlacement, JointLimits
 from sspinn.contact import ContactParameters
@@ -237,20 +238,36 @@ class TrackingGaitProblem(PredictiveGaitProblem):
 
     def guess_from_signals(self) -> np.ndarray | None:
         """Initial guess (scaled decision vector) from the tracked data when every coordinate but
-        pelvis_tx is tracked (kinematics tracking; pelvis_tx = v·t, zero torques), else None.
-        Standard practice for tracking problems: start from the data, not from a gait model."""
+        pelvis_tx is tracked (kinematics tracking; pelvis_tx = v·t), else None: standard practice
+        for tracking problems, start from the data rather than from a gait model. u and q̈ are the
+        backward differences of the data (as the collocation defines them) and the torques their
+        **inverse dynamics** (least squares of the Kane residual with the contact model's GRF).
+        With zero torques, or another gait's, IPOPT ended in local optima 5–9× worse than the
+        data's own optimum under 1e-9 guess perturbations (scripts/check_robustness.py)."""
         names = [sig.name for sig in self.signals]
         coords = [c for c in COORDINATES if c != "pelvis_tx"]
         if not all(c in names for c in coords):
             return None
         s = self.settings
-        n = s.n_nodes
-        t = np.arange(n) * s.stride_duration / n
+        n, T = s.n_nodes, s.stride_duration
+        h = T / n
+        t = np.arange(n) * h
         q = np.empty((n, N_Q))
         q[:, 0] = s.speed * t
         for i, c in enumerate(COORDINATES[1:], start=1):
             q[:, i] = self.targets[:, names.index(c)]
-        return self._pack_guess(t, q, s.stride_duration, n)
+        q_prev = np.roll(q, 1, axis=0)
+        q_prev[0, 0] -= s.speed * T
+        u = (q - q_prev) / h
+        a = (u - np.roll(u, 1, axis=0)) / h
+        grf, w = dyn.contact_forces(q, u, self.body, self.contact)
+        r0 = np.asarray(dyn.kane_residual(q, u, a, np.zeros((n, N_TAU)), grf, w, self.body))
+        B = np.stack(
+            [np.asarray(dyn.kane_residual(q, u, a, np.tile(np.eye(N_TAU)[j], (n, 1)), grf, w, self.body)) - r0 for j in range(N_TAU)],
+            axis=-1,
+        )  # (n, 9, 6): the residual is affine in τ
+        tau = np.stack([np.linalg.lstsq(B[k], -r0[k], rcond=None)[0] for k in range(n)])
+        return self._pack_guess(t, q, T, n, tau)
 
     def _tracking_term(self, x: NodeExpressions) -> Any:
         """(1/S) Σ_s w_s · mean_k ((y_sk − d_sk)/σ_sk)² (dimensionless)."""
@@ -498,8 +515,8 @@ def solve_tracking(
         effort_weight: weight of the torque effort (see the module docstring).
         guess: initial guess: a :class:`GaitSolution`, or None for the default — the tracked
             data themselves when every coordinate but pelvis_tx is tracked
-            (:meth:`TrackingGaitProblem.guess_from_signals`), else the data-free generic guess
-            at ``speed``. A list: a multi-start, one solve from each (None: the default), the
+            (:meth:`TrackingGaitProblem.guess_from_signals`: the data's kinematics and their
+            inverse-dynamics torques), else the data-free generic guess at ``speed``. A list: a multi-start, one solve from each (None: the default), the
             successful one with the lowest objective returned; all are listed in
             ``result.info["starts"]``.
         placement: IMU placement (needed for IMU channels).

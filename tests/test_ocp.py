@@ -42,7 +42,7 @@ def test_standing_solves_with_both_feet_loaded(standing: GaitSolution) -> None:
     assert stance["double_support"] == 1.0
     # both feet share the body weight (vertical GRF sums to 1 BW when nothing accelerates)
     np.testing.assert_allclose(standing.grf_bw()[:, [1, 3]].sum(axis=1), 1.0, atol=1e-3)
-    np.testing.assert_allclose(standing.q[:, 0], 0.0, atol=1e-9)
+    np.testing.assert_allclose(standing.q[:, 0], 0.0, atol=1e-6)  # still, to IPOPT's tolerance
 
 
 def test_slow_walk_satisfies_dynamics_and_periodicity(slow_walk: GaitSolution) -> None:

@@ -29,8 +29,11 @@ from sspinn.dataset import SAMPLE_RATE_HZ, Labels, Recording
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 DORSCHKY = SHARED_DATA / "dorschky_P03_walking"
 
-#: Reference gait: 1.2 m/s, a 1.2 s stride on 2 × 10 nodes (h = 0.06 s = 6 samples at 100 Hz).
-SPEED, DURATION, HALF_NODES = 1.2, 1.2, 10
+#: Reference gait: 1.2 m/s, a 1.2 s stride on 2 × 20 nodes (h = 0.03 s = 3 samples at 100 Hz).
+#: On 2 × 10 nodes (h = 0.06 s) the predictive optimum itself depended on the floating-point path:
+#: objectives 0.18–1.68 (sometimes with a flight phase) under 1e-9 guess perturbations; on 2 × 20
+#: nodes 0.203–0.204 (scripts/check_robustness.py).
+SPEED, DURATION, HALF_NODES = 1.2, 1.2, 20
 
 
 @pytest.fixture(scope="module")
@@ -61,10 +64,11 @@ def _recording_from_solution(sol: GaitSolution, placement: IMUPlacement) -> Reco
 def test_tracking_own_kinematics_recovers_the_solution(reference: GaitSolution) -> None:
     # Same effort and regularisation as the predictive problem: the reference is an optimum of the
     # tracking problem too, with zero tracking error. A multi-start — from the tracked data (the
-    # default guess when the kinematics are tracked) and from a different gait (the predictive
-    # one at 0.9 m/s) — returns the lowest objective, which must be that optimum whichever
-    # path IPOPT takes from the other start on this coarse grid.
+    # default guess when the kinematics are tracked: data kinematics, inverse-dynamics torques)
+    # and from a different gait (the predictive one at 0.9 m/s, in the same phase) — returns
+    # the lowest objective, which must be that optimum.
     other = solve_predictive(0.9, n_nodes=HALF_NODES, duration=DURATION)
+    other = roll_cycle(other, other.right_heel_strike())
     names = [c for c in COORDINATES if c != "pelvis_tx"]
     signals = [TrackedSignal(s.name, s.target, s.scale, weight=100.0) for s in signals_from_solution(reference, names)]
     result = solve_tracking(signals, DURATION, SPEED, reference.body, guess=[None, other])
@@ -99,8 +103,10 @@ def test_imu_tracking_recovers_angles_and_speed(reference: GaitSolution) -> None
     assert cmp.moment_rmsd_pct_bwbh < 0.5 and cmp.grf_rmse_pct_bw < 2.0
     assert min(cmp.moment_correlation.values()) > 0.95
     # labels at 100 Hz, model at the nodes: heel strikes agree within one node interval
+    # cyclic (0 % and 98 % are 2 % apart); the model's contact onset is a threshold crossing
+    # between two nodes, so two node intervals
     offset = abs(cmp.heel_strike_model_pct - cmp.heel_strike_labels_pct)
-    assert min(offset, 100 - offset) <= 100 / sol.n_nodes  # cyclic: 0 % and 98 % are 2 % apart
+    assert min(offset, 100 - offset) <= 2 * 100 / sol.n_nodes
 
 
 def test_tracking_inputs_are_validated(reference: GaitSolution) -> None:
