@@ -451,15 +451,20 @@ class PredictiveGaitProblem:
             tau[:, j] = np.interp(t / T, frac_src, sol.tau[:, j], period=1.0)
         return self._pack_guess(t, q, T, n_cycle, tau)
 
+    def cycle_differences(self, q: np.ndarray, T: float, n_cycle: int) -> tuple[np.ndarray, np.ndarray]:
+        """u and q̈ of a periodic cycle of ``n_cycle`` samples of q over duration T (s): the backward
+        differences the collocation uses, wrapping around one stride (pelvis_tx moved back by v·T)."""
+        h = T / n_cycle
+        q_prev = np.roll(q, 1, axis=0)
+        q_prev[0, 0] -= self.settings.speed * T
+        u = (q - q_prev) / h
+        return u, (u - np.roll(u, 1, axis=0)) / h
+
     def _pack_guess(
         self, t: np.ndarray, q: np.ndarray, T: float, n_cycle: int, tau: np.ndarray | None = None
     ) -> np.ndarray:
         s, lay = self.settings, self.layout
-        h = T / n_cycle
-        q_prev = np.roll(q, 1, axis=0)
-        q_prev[0, 0] -= s.speed * T
-        u = (q - q_prev) / h
-        a = (u - np.roll(u, 1, axis=0)) / h
+        u, a = self.cycle_differences(q, T, n_cycle)
         tau = np.zeros((n_cycle, N_TAU)) if tau is None else tau
         n = lay.n
         nodes = np.concatenate(

@@ -256,10 +256,7 @@ class TrackingGaitProblem(PredictiveGaitProblem):
         q[:, 0] = s.speed * t
         for i, c in enumerate(COORDINATES[1:], start=1):
             q[:, i] = self.targets[:, names.index(c)]
-        q_prev = np.roll(q, 1, axis=0)
-        q_prev[0, 0] -= s.speed * T
-        u = (q - q_prev) / h
-        a = (u - np.roll(u, 1, axis=0)) / h
+        u, a = self.cycle_differences(q, T, n)
         grf, w = dyn.contact_forces(q, u, self.body, self.contact)
         r0 = np.asarray(dyn.kane_residual(q, u, a, np.zeros((n, N_TAU)), grf, w, self.body))
         B = np.stack(
