@@ -6,9 +6,11 @@ Builds on :mod:`sspinn` (never the other way round). Main entry point:
 """
 
 from predictive.collocation import (
+    DEFAULT_STARTS,
     OCPError,
     OCPSettings,
     PredictiveGaitProblem,
+    Start,
     default_joint_limits,
     solve_predictive,
     typical_stride_duration,
@@ -16,10 +18,12 @@ from predictive.collocation import (
 from predictive.solution import GaitSolution
 
 __all__ = [
+    "DEFAULT_STARTS",
     "GaitSolution",
     "OCPError",
     "OCPSettings",
     "PredictiveGaitProblem",
+    "Start",
     "default_joint_limits",
     "solve_predictive",
     "typical_stride_duration",

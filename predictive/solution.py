@@ -69,6 +69,9 @@ class GaitSolution:
         settings: the :class:`~predictive.collocation.OCPSettings` as a dict.
         contact: the contact parameters as a dict.
         tau_max: (6,) normalising torques, N·m.
+        starts: for a multi-start (:meth:`~predictive.collocation.PredictiveGaitProblem.solve_multistart`)
+            one dict per start (amplitude, IPOPT options, status, objective, iterations,
+            chosen); empty for a single IPOPT run.
     """
 
     time: np.ndarray
@@ -89,6 +92,7 @@ class GaitSolution:
     settings: dict[str, Any] = field(default_factory=dict)
     contact: dict[str, Any] = field(default_factory=dict)
     tau_max: np.ndarray = field(default_factory=lambda: np.ones(len(JOINTS)))
+    starts: list[dict[str, Any]] = field(default_factory=list)
 
     # ------------------------------------------------------------------ derived quantities
     @property
@@ -223,6 +227,7 @@ class GaitSolution:
             "objective": self.objective,
             "settings": self.settings,
             "contact": self.contact,
+            "starts": self.starts,
             "columns": {
                 "q": list(COORDINATES),
                 "u": list(COORDINATES),
@@ -274,7 +279,7 @@ class GaitSolution:
             "settings",
             "contact",
         )
-        return cls(**arrays, **{k: meta[k] for k in fields})
+        return cls(**arrays, **{k: meta[k] for k in fields}, starts=meta.get("starts", []))
 
 
 def _base(path: str | Path) -> Path:

@@ -116,7 +116,7 @@ class SynthWarning(UserWarning):
 
 
 #: Bump when the generator's output for the same configuration changes (invalidates the caches).
-CODE_VERSION: Final = 2
+CODE_VERSION: Final = 3
 
 #: Speeds at or above this are solved as running (template continuation from 3.5 m/s), m/s.
 RUN_SPEED: Final = 2.0
@@ -598,13 +598,12 @@ def template_library(
 
 
 #: Fallbacks of a periodic gait, in order: (use the continuation guess, IPOPT options). A failed
-#: warm start is retried with IPOPT's defaults, then from the generic guess with the default
-#: and then with a monotone barrier (a different path through the same problem).
+#: warm start is retried with IPOPT's defaults, then from the data-free guess, which is a
+#: multi-start (:data:`predictive.collocation.DEFAULT_STARTS`: other amplitudes, a monotone barrier).
 PERIODIC_FALLBACKS: Final[tuple[tuple[bool, Mapping[str, Any] | None], ...]] = (
     (True, WARM_START_IPOPT),
     (True, None),
     (False, None),
-    (False, {"mu_strategy": "monotone", "mu_init": 0.1}),
 )
 
 

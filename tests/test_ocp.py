@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from predictive import GaitSolution, OCPError, OCPSettings, solve_predictive, typical_stride_duration
+from predictive import DEFAULT_STARTS, GaitSolution, OCPError, OCPSettings, Start, solve_predictive, typical_stride_duration
 from predictive.__main__ import main as cli_main
 from predictive.analysis import compare_with_reference, load_winter, normalised_cycle, plot_gait
 from predictive.solution import MIRROR_Q, MIRROR_TAU
@@ -69,13 +69,34 @@ def test_slow_walk_satisfies_dynamics_and_periodicity(slow_walk: GaitSolution) -
     assert np.all(sol.q[:, [4, 7]] <= 1e-6)
 
 
+def test_data_free_solve_is_a_multi_start_won_by_the_lowest_objective(slow_walk: GaitSolution) -> None:
+    starts = slow_walk.starts
+    assert len(starts) == len(DEFAULT_STARTS) and sum(s["chosen"] for s in starts) == 1
+    solved = [s for s in starts if s["status"] == "Solve_Succeeded"]
+    chosen = next(s for s in starts if s["chosen"])
+    assert chosen["objective"] == slow_walk.objective == min(s["objective"] for s in solved)
+    assert [s["amplitude"] for s in starts] == [s.amplitude for s in DEFAULT_STARTS]
+
+
+def test_a_failed_start_is_not_chosen() -> None:
+    # the second start may take 2 iterations only: it cannot succeed, the first one must win
+    starts = (Start(), Start(ipopt_options={"max_iter": 2}))
+    sol = solve_predictive(0.0, n_nodes=6, duration=0.4, starts=starts)
+    assert sol.success and [s["chosen"] for s in sol.starts] == [True, False]
+    assert sol.starts[1]["status"] == "Maximum_Iterations_Exceeded"
+    with pytest.raises(OCPError, match="from any of 1 starts"):
+        solve_predictive(0.0, n_nodes=6, duration=0.4, starts=(Start(ipopt_options={"max_iter": 2}),))
+    with pytest.raises(ValueError, match="at least one Start"):
+        solve_predictive(0.0, n_nodes=6, duration=0.4, starts=())
+
+
 def test_save_load_round_trip(slow_walk: GaitSolution, tmp_path: Path) -> None:
     path = slow_walk.save(tmp_path / "sub" / "walk_1.2")  # a dot in the name is not a suffix
     assert path.name == "walk_1.2.npz" and (tmp_path / "sub" / "walk_1.2.json").exists()
     back = GaitSolution.load(tmp_path / "sub" / "walk_1.2")
     for name in ("time", "q", "u", "qdd", "tau", "grf", "w", "tau_max"):
         np.testing.assert_array_equal(getattr(back, name), getattr(slow_walk, name))
-    for name in ("speed", "duration", "status", "iterations", "solve_time", "objective", "settings", "contact"):
+    for name in ("speed", "duration", "status", "iterations", "solve_time", "objective", "settings", "contact", "starts"):
         assert getattr(back, name) == getattr(slow_walk, name)
     assert back.body == slow_walk.body
     np.testing.assert_allclose(back.node_residual(), slow_walk.node_residual())
