@@ -81,3 +81,13 @@ def tiny_run(tmp_path_factory):
     run = root / "run"
     Trainer(TrainConfig.from_yaml(cfg), run).fit(train)
     return root, data, cfg, train, run
+
+
+@pytest.fixture()
+def torch_threads():
+    """Restores torch's thread count after a test that sets it (the benchmarks do)."""
+    import torch
+
+    threads = torch.get_num_threads()
+    yield
+    torch.set_num_threads(threads)

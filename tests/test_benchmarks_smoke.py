@@ -1,6 +1,8 @@
-"""Smoke test of benchmarks/bench_dynamics.py: the quick run completes and prints its table.
+"""Smoke runs of the benchmarks in ``benchmarks/``: each quick run completes and prints its tables.
 
-No timing assertions: speed targets belong in the benchmark's output, never in tests.
+No timing assertions: speed targets belong in the benchmarks' output (ratios against a baseline
+measured in the same run), never in tests. The benchmarks set torch's thread count; the
+``torch_threads`` fixture (conftest) restores it.
 """
 
 from __future__ import annotations
@@ -8,27 +10,21 @@ from __future__ import annotations
 import json
 import runpy
 from pathlib import Path
+from typing import Any
 
 import pytest
-import torch
 
-BENCHMARK = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_dynamics.py"
-
-
-@pytest.fixture()
-def torch_threads():
-    """The benchmark sets torch's thread count; restore it for the other tests."""
-    threads = torch.get_num_threads()
-    yield
-    torch.set_num_threads(threads)
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
 
-def test_quick_benchmark_prints_table(tmp_path: Path, capsys: pytest.CaptureFixture[str], torch_threads) -> None:
-    bench = runpy.run_path(str(BENCHMARK), run_name="bench_dynamics")
-    json_path = tmp_path / "bench.json"
+def run_quick(name: str, json_path: Path) -> tuple[dict[str, Any], Any]:
+    """(the benchmark module's globals, what its ``main`` returned) for ``--quick --json``."""
+    bench = runpy.run_path(str(BENCHMARKS / f"{name}.py"), run_name=name)
+    return bench, bench["main"](["--quick", "--json", str(json_path)])
 
-    results = bench["main"](["--quick", "--json", str(json_path)])
 
+def test_bench_dynamics(tmp_path: Path, capsys: pytest.CaptureFixture[str], torch_threads) -> None:
+    bench, results = run_quick("bench_dynamics", tmp_path / "bench.json")
     out = capsys.readouterr().out
     for text in ("Kane residual", "naive [states/s]", "ours/naive", "target: ours ≥ 3× naive", "evals/s"):
         assert text in out
@@ -37,7 +33,25 @@ def test_quick_benchmark_prints_table(tmp_path: Path, capsys: pytest.CaptureFixt
     assert all(row.rate > 0 for row in results.rows)
     # the fast paths compute the same thing as the naive baselines
     assert all(row.max_deviation is None or row.max_deviation < 1e-4 for row in results.rows)
-
-    saved = json.loads(json_path.read_text())
+    saved = json.loads((tmp_path / "bench.json").read_text())
     assert saved["settings"]["mode"] == "quick"
     assert {row["method"] for row in saved["rows"]} >= {"naive", "ours", "forward_dynamics"}
+
+
+def test_bench_env(tmp_path: Path, capsys: pytest.CaptureFixture[str], torch_threads) -> None:
+    _, results = run_quick("bench_env", tmp_path / "bench.json")
+    out = capsys.readouterr().out
+    for text in ("Single environment", "SagittalWalker-v0 (gymnasium.make)", "Walker2d-v5", "Batched torch environment",
+                 "≥ 100×", "sspinn.simulation.advance"):
+        assert text in out
+    assert results["single"]["rates"]["SagittalWalker-v0 (gymnasium.make)"] > 0
+    assert all(r["env_steps_per_s"] > 0 for r in results["batched"].values())
+    assert json.loads((tmp_path / "bench.json").read_text())["batch"] == results["batch"]
+
+
+def test_bench_sspinn(tmp_path: Path, capsys: pytest.CaptureFixture[str], torch_threads) -> None:
+    _, result = run_quick("bench_sspinn", tmp_path / "r.json")
+    out = capsys.readouterr().out
+    assert "streaming latency" in out and "training throughput" in out
+    assert result["streaming"]["ours_ms"][0] > 0 and result["training"]["sspinn_windows_per_s"] > 0
+    assert json.loads((tmp_path / "r.json").read_text())["quick"] is True

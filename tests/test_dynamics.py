@@ -105,6 +105,7 @@ def test_integrators_converge_at_their_order(body, method, order):
     assert np.log2(errs[0] / errs[1]) == pytest.approx(order, abs=0.4)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", simulation.METHODS)
 def test_numba_stepper_matches_the_generic_integrators(body, method):
     """The in-place numba stepper (simulate → advance) against the generic integrator definitions of

@@ -60,6 +60,7 @@ def _true_body(rec: Recording) -> BodyParameters:
 
 
 # ------------------------------------------------------------------------------ the dataset
+@pytest.mark.slow
 def test_labels_satisfy_the_equations_of_motion_after_a_round_trip(generated) -> None:
     config, root, dataset, _ = generated
     reopened = Dataset.open(root / "out")  # what a user reads: the CSV files
