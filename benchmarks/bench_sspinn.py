@@ -35,8 +35,8 @@ from sspinn.conventions import GRAVITY, SEGMENTS
 from sspinn.dataset import Recording
 from sspinn.inference import StreamingEstimator
 from sspinn.losses import PhysicsLosses
-from sspinn.network import NetworkConfig, SSPINNposeNet, decode, output_affine
-from sspinn.training import input_features, make_batch, prepare
+from sspinn.network import NetworkConfig, SSPINNposeNet, decode, input_features, output_affine
+from sspinn.training import make_batch, prepare
 
 
 def fake_recording(n: int, rng: np.random.Generator) -> Recording:

@@ -1,4 +1,5 @@
-"""Validate the 2D ZUPT Kalman filter (:mod:`sspinn.zupt`) against motion capture on real data.
+"""Validate the 2D ZUPT Kalman filter (:mod:`sspinn.zupt`) against motion capture on real data
+(with :mod:`sspinn.validation.zupt_gaitmap`).
 
 Data: gaitmap's example recording (``../shared/data/gaitmap_foot_imu``): two foot IMUs (204.8 Hz,
 gaitmap sensor frame, gyro in deg/s), foot markers (100 Hz, mm) and 57 strides (mid-stance to
@@ -24,16 +25,16 @@ from pathlib import Path
 
 import numpy as np
 
-from sspinn.zupt import (
+from sspinn.validation.zupt_gaitmap import (
     FEET,
     GaitmapExample,
-    SagittalZuptKalman,
     StrideSpeeds,
     foot_marker,
     gaitmap_stride_speeds,
     load_gaitmap_example,
     sagittal_from_gaitmap_frame,
 )
+from sspinn.zupt import SagittalZuptKalman
 
 MAX_TURN_DEG = 20.0
 DEFAULT_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "gaitmap_foot_imu"

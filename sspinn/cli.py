@@ -85,7 +85,7 @@ def _estimates(args: argparse.Namespace, recs: list[Recording]) -> list[GaitEsti
     """Estimates of every recording (all checked finite before anything is written); errors
     name the model and the data."""
     from sspinn.inference import ImplausibleEstimateError, NonFiniteEstimateError, estimate_recording
-    from sspinn.training import load_model
+    from sspinn.model_io import load_model
 
     model, segments, _ = load_model(args.model)
     try:
@@ -148,7 +148,7 @@ def _infer(args: argparse.Namespace) -> int:
 def _export(args: argparse.Namespace) -> int:
     import torch
 
-    from sspinn.training import load_model
+    from sspinn.model_io import load_model
 
     model, segments, _ = load_model(args.model)
 

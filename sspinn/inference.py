@@ -22,9 +22,8 @@ from sspinn.contact import ContactParameters
 from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS
 from sspinn.dataset import SAMPLE_RATE_HZ, DataFormatError, Recording
 from sspinn.errors import UserError
-from sspinn.network import N_OUTPUTS, SSPINNposeNet, decode, output_affine
+from sspinn.network import N_OUTPUTS, SSPINNposeNet, decode, input_features, output_affine
 from sspinn.run_folder import atomic_path
-from sspinn.training import input_features
 
 
 class NonFiniteEstimateError(UserError):
@@ -270,7 +269,7 @@ class StreamingEstimator:
     layer on this loaded 2-core machine; no library offers a lean single-step LSTM on CPU. The
     cell fuses each layer's input and recurrent products into one pass over [W_ih | W_hh] with
     a unit's four gate rows interleaved, and folds the constant body/placement inputs (the
-    paper's θ_b and θ_IMU, fixed for a subject; see ``training.input_features``) into the first
+    paper's θ_b and θ_IMU, fixed for a subject; see ``network.input_features``) into the first
     layer's bias once per subject, so only the IMU channels are multiplied per sample. Decoding
     runs in the same kernel and the contact model in the generated numba kernel: a step makes
     no torch tensors and allocates one output buffer (the returned arrays are views of it).

@@ -18,8 +18,9 @@ contact     14     per foot (r, l): ankle [x − pelvis_tx, y, vx, vy, ax, ay] e
 
 Raw outputs are dimensionless; :func:`decode` scales them by body size (height, body weight)
 and typical gait magnitudes so that a unit output is a plausible amount of each quantity.
-Inputs are normalised with per-channel statistics stored in the model (buffers), so a saved
-model carries everything it needs.
+Inputs (:func:`input_features`: the IMU signals, then height, mass and IMU placement) are
+normalised with per-channel statistics stored in the model (buffers), so a saved model
+(:mod:`sspinn.model_io`) carries everything it needs.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from sspinn.conventions import N_Q, N_TAU
+from sspinn.conventions import N_Q, N_TAU, SEGMENTS
 
 N_OUTPUTS = (N_Q - 1) + N_Q + N_Q + N_TAU + 14
 assert N_OUTPUTS == 46
@@ -69,6 +70,15 @@ class Estimate:
         a = self.ankle[..., :4].clone()
         a[..., 0] = a[..., 0] + self.q[..., :1]
         return a.flatten(-2)
+
+
+def input_features(imu: np.ndarray, height: float, mass: float, placement: np.ndarray, segments: tuple[str, ...]) -> np.ndarray:
+    """(T, n_imu·3 + 2 + n_imu·3): IMU signals, then height, mass and the placement of the used
+    IMUs, repeated over time (the paper's θ_b and θ_IMU inputs)."""
+    idx = np.concatenate([np.arange(3) + 3 * SEGMENTS.index(s) for s in segments])
+    consts = np.concatenate([[height, mass], placement[idx]])
+    T = imu.shape[0]
+    return np.concatenate([imu.reshape(T, -1), np.broadcast_to(consts, (T, consts.size))], axis=1)
 
 
 class SSPINNposeNet(nn.Module):

@@ -33,7 +33,8 @@ from sspinn.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.interrupt import DeferredInterrupt
 from sspinn.losses import Batch, LossWeights, PhysicsLosses
 from sspinn.model_file import CHECKPOINT, MODEL, ModelFileError, check_finite_weights, load_torch_file, save_torch_file
-from sspinn.network import NetworkConfig, SSPINNposeNet, decode, output_affine
+from sspinn.model_io import MODEL_ENTRIES, MODEL_HINT, load_weights, save_model
+from sspinn.network import NetworkConfig, SSPINNposeNet, decode, input_features, output_affine
 from sspinn.run_folder import RunLock, atomic_write_text
 from sspinn.yaml_config import apply_setting, construct, read_section
 
@@ -171,15 +172,6 @@ def foot_zupt_speeds(rec: Recording) -> np.ndarray | None:
             except NoStanceError as exc:  # e.g. running: the foot never rests long enough
                 warnings.warn(f"{rec.name}, {s}: {exc}; the foot-speed loss L_FS is off for this foot", stacklevel=2)
     return speeds
-
-
-def input_features(imu: np.ndarray, height: float, mass: float, placement: np.ndarray, segments: tuple[str, ...]) -> np.ndarray:
-    """(T, n_imu·3 + 2 + n_imu·3): IMU signals, then height, mass and the placement of the used
-    IMUs, repeated over time (the paper's θ_b and θ_IMU inputs)."""
-    idx = np.concatenate([np.arange(3) + 3 * SEGMENTS.index(s) for s in segments])
-    consts = np.concatenate([[height, mass], placement[idx]])
-    T = imu.shape[0]
-    return np.concatenate([imu.reshape(T, -1), np.broadcast_to(consts, (T, consts.size))], axis=1)
 
 
 class WindowSampler:
@@ -322,7 +314,7 @@ class Trainer:
         Raises :class:`ModelFileError` naming the file and what does not fit."""
         path = Path(path)
         if weights_only:
-            state = load_torch_file(path, (MODEL, CHECKPOINT), MODEL_ENTRIES, _MODEL_HINT, self.device)
+            state = load_torch_file(path, (MODEL, CHECKPOINT), MODEL_ENTRIES, MODEL_HINT, self.device)
         else:
             hint = "delete it (or choose a new --out) to start afresh, or resume from an intact copy"
             state = load_torch_file(path, (CHECKPOINT,), CHECKPOINT_ENTRIES, hint, self.device)
@@ -332,7 +324,7 @@ class Trainer:
                 "use the same imus setting or another run folder"
             )
         assert self.model is not None
-        _load_weights(self.model, state, path)
+        load_weights(self.model, state, path)
         check_finite_weights(path, self.model.state_dict(), "the model is damaged or its training diverged")
         if weights_only:
             return
@@ -460,7 +452,7 @@ class Trainer:
                 writer.close()
         if lead:
             self.save_checkpoint()
-            save_model(self.model, self.out / "model.pt", self.segments, self.config, self.imu_std)
+            save_model(self.model, self.out / "model.pt", self.segments, self.config.to_dict(), self.imu_std)
             summary = {
                 "steps": self.step,
                 "steps_planned": cfg.steps,
@@ -494,63 +486,5 @@ def _tensorboard(folder: Path):
     return SummaryWriter(str(folder))
 
 
-#: Entries of a model file (a checkpoint has them too, and can be used as a model).
-MODEL_ENTRIES: tuple[str, ...] = ("model", "hyperparameters", "segments", "config", "imu_std")
+#: Entries of a training checkpoint (:meth:`Trainer.save_checkpoint`): a model file's and the training state.
 CHECKPOINT_ENTRIES: tuple[str, ...] = (*MODEL_ENTRIES, "step", "optimizer", "placement", "recordings", "rng")
-_MODEL_HINT = "pass the model.pt (or checkpoint.pt) of a finished `sspinn train` run"
-
-
-def save_model(model: SSPINNposeNet, path: Path, segments: tuple[str, ...], config: TrainConfig, imu_std: torch.Tensor) -> Path:
-    """The trained model alone (weights + what is needed to rebuild and run it), written
-    atomically in the safe format of :mod:`sspinn.model_file`."""
-    check_finite_weights(path, model.state_dict(), "training diverged: nothing written")
-    return save_torch_file(
-        path, MODEL,
-        {"model": model.state_dict(), "hyperparameters": model.hyperparameters(), "segments": tuple(segments),
-         "config": config.to_dict(), "imu_std": imu_std},
-    )
-
-
-def _network_config(state: dict[str, Any], path: Path) -> tuple[int, NetworkConfig]:
-    hp = dict(state["hyperparameters"]) if isinstance(state["hyperparameters"], dict) else {}
-    try:
-        n_inputs = int(hp.pop("n_inputs"))
-        return n_inputs, NetworkConfig(**hp)
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ModelFileError(f"{path}: unusable network hyperparameters {state['hyperparameters']!r} ({exc}); {_MODEL_HINT}") from None
-
-
-def _load_weights(model: SSPINNposeNet, state: dict[str, Any], path: Path) -> None:
-    """``model.load_state_dict`` with an error that names the file and both network sizes."""
-    try:
-        model.load_state_dict(state["model"])
-    except (RuntimeError, TypeError, AttributeError) as exc:
-        theirs = state.get("hyperparameters")
-        raise ModelFileError(
-            f"{path}: its network ({theirs}) does not fit this run's ({model.hyperparameters()}): "
-            f"{_first_mismatch(exc)}; use the same network settings, or another run folder"
-        ) from None
-
-
-def _first_mismatch(exc: BaseException) -> str:
-    """The first specific line of a ``load_state_dict`` error (e.g. "size mismatch for ...")."""
-    lines = [line.strip().rstrip(".") for line in str(exc).splitlines() if line.strip()]
-    specific = [line for line in lines if not line.startswith("Error(s) in loading")]
-    return (specific or lines or [type(exc).__name__])[0]
-
-
-def load_model(path: str | Path, device: str | torch.device = "cpu") -> tuple[SSPINNposeNet, tuple[str, ...], dict[str, Any]]:
-    """Rebuild a saved model: (model in eval mode, IMU segments, training config dict).
-    Raises :class:`ModelFileError` naming the file and what is wrong with it."""
-    path = Path(path)
-    state = load_torch_file(path, (MODEL, CHECKPOINT), MODEL_ENTRIES, _MODEL_HINT, device)
-    n_inputs, net_config = _network_config(state, path)
-    model = SSPINNposeNet(n_inputs, net_config)
-    _load_weights(model, state, path)
-    check_finite_weights(path, model.state_dict(), "the model is damaged or its training diverged: retrain it")
-    segments = tuple(state["segments"])
-    unknown = [s for s in segments if s not in SEGMENTS]
-    if unknown or not isinstance(state["config"], dict):
-        raise ModelFileError(f"{path}: unknown IMU segments {unknown} or a damaged config entry; {_MODEL_HINT}")
-    model.to(device).eval()
-    return model, segments, state["config"]

@@ -11,7 +11,8 @@ import yaml
 from sspinn.cli import main
 from sspinn.dataset import Dataset
 from sspinn.inference import StreamingEstimator, estimate_recording
-from sspinn.training import NonFiniteLossError, TrainConfig, Trainer, load_model
+from sspinn.model_io import load_model
+from sspinn.training import NonFiniteLossError, TrainConfig, Trainer
 from tests.test_dataset import make_recording
 
 

@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sspinn.io_opensim import OpenSimFormatError, read_opensim_header, read_opensim_table
 from sspinn.validation.inverse_dynamics import (
     Comparison,
     contact_fraction_for_load,
@@ -20,6 +19,7 @@ from sspinn.validation.inverse_dynamics import (
     csu_reference_replica,
     opensim_inverse_dynamics,
 )
+from sspinn.validation.opensim_files import OpenSimFormatError, read_opensim_header, read_opensim_table
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 CSU = DATA / "csu_2d_inverse_dynamics"

@@ -14,8 +14,9 @@ import torch
 
 from sspinn.cli import main
 from sspinn.model_file import FORMAT_VERSION, ModelFileError, load_torch_file, save_torch_file
+from sspinn.model_io import load_model
 from sspinn.run_folder import RunFolderBusyError, RunLock, atomic_path
-from sspinn.training import TrainConfig, Trainer, load_model
+from sspinn.training import TrainConfig, Trainer
 
 
 class _RunsCode:

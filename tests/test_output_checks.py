@@ -11,8 +11,8 @@ import pytest
 from sspinn.cli import main
 from sspinn.dataset import Dataset
 from sspinn.inference import ImplausibleEstimateError, NonFiniteEstimateError, estimate_recording
+from sspinn.model_io import load_model
 from sspinn.network import SSPINNposeNet
-from sspinn.training import load_model
 
 
 @pytest.fixture()

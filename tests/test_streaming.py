@@ -10,8 +10,8 @@ from sspinn.body import IMUPlacement
 from sspinn.conventions import GRAVITY, SEGMENTS
 from sspinn.dataset import Recording
 from sspinn.inference import StreamingEstimator, estimate_recording
-from sspinn.network import NetworkConfig, SSPINNposeNet
-from sspinn.training import IMU_CONFIGURATIONS, input_features
+from sspinn.network import NetworkConfig, SSPINNposeNet, input_features
+from sspinn.training import IMU_CONFIGURATIONS
 
 T = 240
 # SI units; q/u/tau as the brief asks (≤ 1e-4), qdd (scaled by 50 rad/s²) and GRF (N) looser.

@@ -1,4 +1,5 @@
-"""The 2D ZUPT Kalman filter (:mod:`sspinn.zupt`): synthetic cases and real foot IMUs vs motion capture.
+"""The 2D ZUPT Kalman filter (:mod:`sspinn.zupt`): synthetic cases and real foot IMUs vs motion capture
+(:mod:`sspinn.validation.zupt_gaitmap`).
 
 Synthetic walking: a rigid foot sensor whose position and angle follow smooth closed-form stride
 profiles (known stride length and speed), with exact specific force and gyro plus noise and a gyro
@@ -15,18 +16,15 @@ import numpy as np
 import pytest
 
 from sspinn.conventions import GRAVITY
-from sspinn.zupt import (
+from sspinn.validation.zupt_gaitmap import (
     FEET,
     GaitmapExample,
-    SagittalZuptKalman,
     StrideSpeeds,
-    detect_stance,
-    foot_speed,
     gaitmap_stride_speeds,
     load_gaitmap_example,
     sagittal_from_gaitmap_frame,
-    stance_phases,
 )
+from sspinn.zupt import SagittalZuptKalman, detect_stance, foot_speed, stance_phases
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 GAITMAP = DATA / "gaitmap_foot_imu"

@@ -62,14 +62,14 @@ from scipy.signal import butter, filtfilt
 from sspinn.body import WINTER, BodyParameters, Foot, Segment
 from sspinn.conventions import N_Q, SIDES, index
 from sspinn.dynamics import inverse_dynamics
-from sspinn.io_opensim import (
+from sspinn.kinematics import point_index, point_kinematics
+from sspinn.validation.opensim_files import (
     read_external_loads,
     read_opensim_header,
     read_opensim_table,
     read_osim_model,
     sagittal_leg_from_osim,
 )
-from sspinn.kinematics import point_index, point_kinematics
 
 #: Nominal low-pass cutoff for markers, coordinates and forces, Hz.
 DEFAULT_CUTOFF_HZ: Final[float] = 6.0
@@ -489,7 +489,7 @@ def opensim_inverse_dynamics(
 ) -> Comparison:
     """Leg joint moments of OpenSim's subject01 walk versus OpenSim's inverse dynamics.
 
-    Body: the segments of the scaled model (:func:`sspinn.io_opensim.sagittal_leg_from_osim`:
+    Body: the segments of the scaled model (:func:`sspinn.validation.opensim_files.sagittal_leg_from_osim`:
     femur, tibia, foot = talus + calcn + toes; the knee translation is frozen at knee angle 0),
     so that both computations use the same body; total mass (72.6 kg, for N·m/kg) and gravity
     from the model. The HAT is a Winter-scaled placeholder (height = femur length / 0.245).
@@ -498,7 +498,7 @@ def opensim_inverse_dynamics(
     filtered (:func:`lowpass`) and mapped to sspinn's q: pelvis_tilt unchanged; the hip joint
     centre (pelvis_tx/ty of sspinn) = pelvis origin + R(pelvis_tilt)·(hip location in the pelvis
     frame); joint angles shifted by the constant frame offsets of
-    :class:`~sspinn.io_opensim.SagittalLeg` (< 1°, which change no generalized force). Each
+    :class:`~sspinn.validation.opensim_files.SagittalLeg` (< 1°, which change no generalized force). Each
     side is computed with its own hip centre (the Kane rows of a leg need only that leg and the
     pelvis coordinates).
 

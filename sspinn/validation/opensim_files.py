@@ -122,22 +122,16 @@ def read_opensim_table(path: str | Path) -> tuple[list[str], np.ndarray]:
             raise OpenSimFormatError(
                 f"{path}, line {lineno}: expected {len(names)} values (one per column), got {len(fields)}"
             )
-        try:
-            rows.append([float(f) for f in fields])
-        except ValueError:
-            bad = next(f for f in fields if not _is_float(f))
-            raise OpenSimFormatError(f"{path}, line {lineno}: non-numeric value {bad!r}") from None
+        row: list[float] = []
+        for f in fields:
+            try:
+                row.append(float(f))
+            except ValueError:
+                raise OpenSimFormatError(f"{path}, line {lineno}: non-numeric value {f!r}") from None
+        rows.append(row)
     if not rows:
         raise OpenSimFormatError(f"{path}: no data rows after the column names")
     return names, np.asarray(rows, dtype=np.float64)
-
-
-def _is_float(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 # --------------------------------------------------------------------------------------------
@@ -217,6 +211,21 @@ class OsimModel:
             raise OpenSimFormatError(f"{self.path}: no joint named {name!r} (joints: {sorted(self.joints)})") from None
 
 
+def _xml_root(path: Path, what: str) -> ET.Element:
+    """The root element of the XML file ``path`` (``what`` names the kind of file in errors).
+
+    Raises:
+        FileNotFoundError: the file does not exist.
+        OpenSimFormatError: the file is not valid XML.
+    """
+    try:
+        return ET.parse(path).getroot()
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{what} not found: {path}") from None
+    except ET.ParseError as exc:
+        raise OpenSimFormatError(f"{path}: not valid XML ({exc})") from None
+
+
 def _floats(elem: ET.Element | None, what: str, n: int | None = None) -> np.ndarray:
     if elem is None or elem.text is None:
         raise OpenSimFormatError(f"{what}: missing")
@@ -278,12 +287,7 @@ def read_osim_model(path: str | Path) -> OsimModel:
     a rotated one raises :class:`NotImplementedError` naming the joint.
     """
     path = Path(path)
-    try:
-        root = ET.parse(path).getroot()
-    except FileNotFoundError:
-        raise FileNotFoundError(f"OpenSim model not found: {path}") from None
-    except ET.ParseError as exc:
-        raise OpenSimFormatError(f"{path}: not valid XML ({exc})") from None
+    root = _xml_root(path, "OpenSim model")
     model = root.find("Model")
     if model is None:
         raise OpenSimFormatError(f"{path}: no <Model> element (not an OpenSim model file)")
@@ -480,12 +484,7 @@ def read_external_loads(path: str | Path) -> dict[str, ExternalLoad]:
         OpenSimFormatError: malformed file, or a force or point not expressed in ground.
     """
     path = Path(path)
-    try:
-        root = ET.parse(path).getroot()
-    except FileNotFoundError:
-        raise FileNotFoundError(f"OpenSim external loads not found: {path}") from None
-    except ET.ParseError as exc:
-        raise OpenSimFormatError(f"{path}: not valid XML ({exc})") from None
+    root = _xml_root(path, "OpenSim external loads")
     loads: dict[str, ExternalLoad] = {}
     for ef in root.iter("ExternalForce"):
         name = ef.get("name") or ""
