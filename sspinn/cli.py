@@ -146,26 +146,15 @@ def _infer(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    import torch
-
-    from sspinn.model_io import load_model
+    from sspinn.model_io import export_streaming, load_model
 
     model, segments, _ = load_model(args.model)
-
-    class OutputsOnly(torch.nn.Module):
-        """The exported graph maps inputs (B, T, F) to raw outputs (B, T, 46)."""
-
-        def __init__(self) -> None:
-            super().__init__()
-            self.model = model
-
-        def forward(self, x: torch.Tensor) -> torch.Tensor:
-            return self.model(x)[0]
-
-    traced = torch.jit.trace(OutputsOnly().eval(), torch.zeros(1, 16, model.n_inputs))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    traced.save(str(args.out))
-    print(f"TorchScript model ({model.n_inputs} inputs per sample, IMUs {list(segments)}) → {args.out}")
+    path = export_streaming(model, args.out)
+    cfg = model.config
+    print(
+        f"torch.export program of one streaming step (x ({model.n_inputs},) per sample, LSTM state "
+        f"{cfg.layers}×{cfg.hidden}; IMUs {list(segments)}) → {path}; run: torch.export.load(path).module()"
+    )
     return 0
 
 
@@ -216,7 +205,7 @@ def _main(argv: list[str]) -> int:
     inf.add_argument("--split", default="test")
     inf.add_argument("--out", type=Path, required=True)
 
-    ex = sub.add_parser("export", help="TorchScript export of a trained network")
+    ex = sub.add_parser("export", help="torch.export program of one streaming step of a trained network (.pt2)")
     ex.add_argument("--model", type=Path, required=True)
     ex.add_argument("--out", type=Path, required=True)
 

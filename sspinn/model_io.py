@@ -82,3 +82,64 @@ def load_model(path: str | Path, device: str | torch.device = "cpu") -> tuple[SS
         raise ModelFileError(f"{path}: unknown IMU segments {unknown} or a damaged config entry; {MODEL_HINT}")
     model.to(device).eval()
     return model, segments, state["config"]
+
+
+# ------------------------------------------------------------------------------------------ export
+class StreamingStep(torch.nn.Module):
+    """One time step of a unidirectional network with its LSTM state carried by the caller:
+    ``(x (B, F), h (L, B, H), c (L, B, H)) → (raw outputs (B, 46), h, c)`` (L LSTM layers of H
+    units). The form a real-time system runs, and the form :func:`export_streaming` exports."""
+
+    def __init__(self, model: SSPINNposeNet) -> None:
+        super().__init__()
+        if model.config.bidirectional:
+            raise ValueError("a bidirectional network needs the whole recording: only unidirectional ones stream")
+        self.model = model
+
+    def forward(self, x: torch.Tensor, h: torch.Tensor, c: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        y, (h, c) = self.model(x.unsqueeze(1), (h, c))
+        return y.squeeze(1), h, c
+
+    def initial_state(self, batch: int = 1) -> tuple[torch.Tensor, torch.Tensor]:
+        """The zero LSTM state (h, c) of a recording's first sample."""
+        cfg = self.model.config
+        zeros = torch.zeros(cfg.layers, batch, cfg.hidden)
+        return zeros, zeros.clone()
+
+
+def export_streaming(model: SSPINNposeNet, path: str | Path) -> Path:
+    """Export :class:`StreamingStep` of ``model`` with ``torch.export`` (the maintained export
+    API; ``torch.jit.trace`` is deprecated) into a ``.pt2`` program, the batch size dynamic.
+
+    Why one step and not a whole sequence: ``torch.export`` specialises an ``nn.LSTM``'s sequence
+    length to the example's (measured with torch 2.13), and the step is what a streaming system
+    runs; :func:`run_exported` loops it over a recording. Load with
+    ``torch.export.load(path).module()``; no sspinn code is needed to run it.
+    """
+    import warnings
+
+    path = Path(path)
+    step = StreamingStep(model).eval()
+    h, c = step.initial_state(2)
+    dynamic = torch.export.Dim.AUTO
+    with warnings.catch_warnings():  # nn.LSTM re-assigns its flat weights while traced: harmless
+        warnings.filterwarnings("ignore", message="The tensor attributes self.model.lstm._flat_weights")
+        program = torch.export.export(
+            step, (torch.zeros(2, model.n_inputs), h, c),
+            dynamic_shapes={"x": {0: dynamic}, "h": {1: dynamic}, "c": {1: dynamic}}, strict=False,
+        )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    torch.export.save(program, str(path))
+    return path
+
+
+def run_exported(step: torch.nn.Module, x: torch.Tensor, layers: int, hidden: int) -> torch.Tensor:
+    """Raw outputs (B, T, 46) of an exported (or eager) :class:`StreamingStep` over inputs
+    x (B, T, F), from the zero state: the same as the network's forward pass on x."""
+    h = torch.zeros(layers, x.shape[0], hidden)
+    c = torch.zeros_like(h)
+    outputs = []
+    for t in range(x.shape[1]):
+        y, h, c = step(x[:, t], h, c)
+        outputs.append(y)
+    return torch.stack(outputs, dim=1)

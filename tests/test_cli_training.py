@@ -11,7 +11,7 @@ import yaml
 from sspinn.cli import main
 from sspinn.dataset import Dataset
 from sspinn.inference import StreamingEstimator, estimate_recording
-from sspinn.model_io import load_model
+from sspinn.model_io import load_model, run_exported
 from sspinn.training import NonFiniteLossError, TrainConfig, Trainer
 from tests.test_dataset import make_recording
 
@@ -51,11 +51,11 @@ def test_train_resume_evaluate_infer_export(tiny):
     assert main(["infer", "--model", str(run / "model.pt"), "--data", str(data), "--out", str(root / "infer")]) == 0
     header = (root / "infer" / "c_estimate.csv").read_text().splitlines()[0].split(",")
     assert header[:3] == ["time", "pelvis_tx", "pelvis_ty"] and "grf_y_l" in header and "tau_ankle_l" in header
-    assert main(["export", "--model", str(run / "model.pt"), "--out", str(root / "model.ts")]) == 0
-    scripted = torch.jit.load(str(root / "model.ts"))
+    assert main(["export", "--model", str(run / "model.pt"), "--out", str(root / "model.pt2")]) == 0
+    exported = torch.export.load(str(root / "model.pt2")).module()
     model, segments, _ = load_model(run / "model.pt")
-    x = torch.randn(1, 20, model.n_inputs)
-    torch.testing.assert_close(scripted(x), model(x)[0])
+    x = torch.randn(3, 20, model.n_inputs)  # another batch size than the export's example
+    torch.testing.assert_close(run_exported(exported, x, model.config.layers, model.config.hidden), model(x)[0])
     assert main(["finetune", "--config", str(cfg), "--model", str(run / "model.pt"), "--data", str(data), "--out", str(root / "ft")]) == 0
 
 
@@ -132,3 +132,11 @@ def test_streaming_matches_whole_sequence(tiny):
     np.testing.assert_allclose(np.array([o["grf"] for o in outs]), whole.grf[:40], rtol=1e-4, atol=1e-2)
     with pytest.raises(ValueError, match="finite"):
         stream.step(np.full((7, 3), np.nan))
+
+
+def test_a_bidirectional_network_is_not_exported_as_a_streaming_step() -> None:
+    from sspinn.model_io import StreamingStep
+    from sspinn.network import NetworkConfig, SSPINNposeNet
+
+    with pytest.raises(ValueError, match="only unidirectional ones stream"):
+        StreamingStep(SSPINNposeNet(10, NetworkConfig(hidden=8, layers=1, dense=8, bidirectional=True)))
