@@ -23,7 +23,8 @@ A configuration file has five sections; every key is optional except ``algo``::
 
 :func:`load_config` validates everything it can without building an environment: unknown keys,
 types and ranges, the hyperparameter names against the signature of the SB3 class and the
-environment arguments against the signature of :class:`envs.sagittal_walker.SagittalWalkerEnv`.
+environment arguments against the fields of :class:`envs.config.WalkerConfig` and the keywords of
+:class:`envs.sagittal_walker.SagittalWalkerEnv`.
 Errors are :class:`ConfigError` (a ``ValueError``) naming the file and the key.
 """
 
@@ -284,9 +285,13 @@ def validate(config: AgentConfig, source: str = "config") -> None:
     _check(e.eval_target_speed is None or (_is_number(e.eval_target_speed) and 0 <= e.eval_target_speed <= 12),
            source, "env.eval_target_speed", "null or a speed in [0, 12] m/s", e.eval_target_speed)
     if e.id == "sspinn/SagittalWalker-v0":
+        from envs.config import WalkerConfig
         from envs.sagittal_walker import SagittalWalkerEnv
 
-        allowed = set(inspect.signature(SagittalWalkerEnv.__init__).parameters) - {"self", "render_mode"}
+        # the WalkerConfig fields plus the env's own keywords (image size; not the config object)
+        params = inspect.signature(SagittalWalkerEnv.__init__).parameters.values()
+        own = {p.name for p in params if p.kind is p.KEYWORD_ONLY} - {"config", "render_mode"}
+        allowed = set(WalkerConfig.field_names()) | own
         unknown = sorted(set(e.kwargs) - allowed)
         _check(not unknown, source, "env.kwargs", f"arguments of SagittalWalkerEnv ({', '.join(sorted(allowed))})",
                unknown)

@@ -116,10 +116,10 @@ def bench_physics(repeats: int) -> dict[str, float]:
     method = METHODS.index("semi_implicit_euler")
 
     def in_place() -> None:
-        advance(q0.copy(), u0.copy(), tau, no_passive, env._p, env._c, 2e-4, 50, method, True, grf)
+        advance(q0.copy(), u0.copy(), tau, no_passive, env.body_vector, env.contact_vector, 2e-4, 50, method, True, grf)
 
     def on_copies() -> None:
-        simulation.step(q0, u0, tau, env._p, env._c, 2e-4, 50, "semi_implicit_euler", True)
+        simulation.step(q0, u0, tau, env.body_vector, env.contact_vector, 2e-4, 50, "semi_implicit_euler", True)
 
     in_place()
     on_copies()

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
 from typing import Any
 
 import gymnasium
@@ -13,14 +12,12 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from envs import task
-from envs.sagittal_walker import CONTROL_DT, METHOD, SLIP_VELOCITY, SUBSTEPS, build_setup
-from sspinn.body import BodyParameters
-from sspinn.contact import ContactParameters
+from envs.config import CONTROL_DT, WalkerConfig, WalkerParameters
 from sspinn.conventions import N_Q, N_TAU
 from sspinn.simulation import step_torch
 
 
-class BatchedSagittalWalker(gymnasium.vector.VectorEnv):
+class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
     """``num_envs`` copies of :class:`~envs.sagittal_walker.SagittalWalkerEnv` in one batch of torch
     tensors.
 
@@ -61,11 +58,16 @@ class BatchedSagittalWalker(gymnasium.vector.VectorEnv):
         dtype: torch.float32 (default, fast) or torch.float64.
         auto_reset: see above.
         seed: seed of the torch generator used for initial states and target speeds.
-        **kwargs: the task/physics arguments of :class:`~envs.sagittal_walker.SagittalWalkerEnv`
-            (height, mass, body, target_speed, max_torque, tracking_weight, tracking_width,
-            alive_bonus, effort_weight, min_height_fraction, max_tilt, joint_range,
-            joint_limit_stiffness, joint_damping, reset_noise_scale, max_episode_steps, substeps,
-            method, slip_velocity, contact), same defaults and units.
+        config: the task and physics configuration, a :class:`~envs.config.WalkerConfig` (the one
+            of the single environment); None → ``WalkerConfig()``.
+        **overrides: fields of :class:`~envs.config.WalkerConfig` (height, mass, body, target_speed,
+            max_torque, reward weights, ..., substeps, method, slip_velocity, contact), overriding
+            those of ``config``; same defaults and units as the single environment.
+
+    The public model parameters (``config``, ``body``, ``contact``, ``tau_max`` in N·m,
+    ``passive_parameters``, ``dt``, ``substeps``, ``physics_dt``, ``method``, ...) are those of the
+    single environment (:class:`~envs.config.WalkerParameters`, NumPy float64); the state is
+    ``q``, ``u`` (N, 9), ``grf`` (N, 4; newtons) and ``target_speed`` (N; m/s), tensors in ``dtype``.
 
     ``info`` of :meth:`step` (tensors (N,) unless stated): ``speed``, ``target_speed`` (m/s),
     ``x_position``, ``distance`` (m), ``cost_of_transport`` (+inf below 1 cm of forward progress),
@@ -83,40 +85,15 @@ class BatchedSagittalWalker(gymnasium.vector.VectorEnv):
         dtype: torch.dtype = torch.float32,
         auto_reset: bool = True,
         seed: int | None = None,
-        height: float = 1.75,
-        mass: float = 70.0,
-        body: BodyParameters | Mapping[str, Any] | None = None,
-        target_speed: float | Sequence[float] = 1.25,
-        max_torque: Mapping[str, float] | Sequence[float] | None = None,
-        tracking_weight: float = 1.0,
-        tracking_width: float = 0.25,
-        alive_bonus: float = 0.2,
-        effort_weight: float = 0.01,
-        min_height_fraction: float = 0.6,
-        max_tilt: float = 1.0,
-        joint_range: Mapping[str, Sequence[float]] | None = None,
-        joint_limit_stiffness: float = task.DEFAULT_LIMIT_STIFFNESS,
-        joint_damping: float = task.DEFAULT_JOINT_DAMPING,
-        reset_noise_scale: float = 0.005,
-        max_episode_steps: int = 1000,
-        substeps: int = SUBSTEPS,
-        method: str = METHOD,
-        slip_velocity: float = SLIP_VELOCITY,
-        contact: ContactParameters | None = None,
+        config: WalkerConfig | None = None,
+        **overrides: Any,
     ) -> None:
         self.num_envs = task.check_int("num_envs", num_envs, 1)
         if dtype not in (torch.float32, torch.float64):
             raise ValueError(f"dtype must be torch.float32 or torch.float64, got {dtype!r}")
         if not isinstance(auto_reset, bool):
             raise ValueError(f"auto_reset must be a bool, got {auto_reset!r}")
-        self.setup = build_setup(
-            height=height, mass=mass, body=body, target_speed=target_speed, max_torque=max_torque,
-            tracking_weight=tracking_weight, tracking_width=tracking_width, alive_bonus=alive_bonus,
-            effort_weight=effort_weight, min_height_fraction=min_height_fraction, max_tilt=max_tilt,
-            joint_range=joint_range, joint_limit_stiffness=joint_limit_stiffness, joint_damping=joint_damping,
-            reset_noise_scale=reset_noise_scale, max_episode_steps=max_episode_steps,
-            substeps=substeps, method=method, slip_velocity=slip_velocity, contact=contact,
-        )
+        self._config = WalkerConfig.resolve(config, **overrides)
         self.device = torch.device(device)
         self.dtype = dtype
         self.auto_reset = auto_reset
@@ -124,21 +101,15 @@ class BatchedSagittalWalker(gymnasium.vector.VectorEnv):
             **self.metadata,
             "autoreset_mode": AutoresetMode.SAME_STEP if auto_reset else AutoresetMode.DISABLED,
         }
-        self.body: BodyParameters = self.setup["body"]
-        self.contact: ContactParameters = self.setup["contact"]
-        self.config: task.TaskConfig = self.setup["config"]
-        self._substeps: int = self.setup["substeps"]
-        self._dt = CONTROL_DT / self._substeps
         self._body_weight = self.body.body_weight
-        self._standing = self.setup["standing_height"]
 
         def tensor(x: Any) -> torch.Tensor:
             return torch.as_tensor(np.asarray(x, dtype=np.float64), dtype=dtype, device=self.device)
 
-        self._p = tensor(self.body.vector())
-        self._c = tensor(self.contact.vector())
-        self._tau_max = tensor(self.setup["tau_max"])
-        passive = self.setup["passive"]
+        self._p = tensor(self.body_vector)
+        self._c = tensor(self.contact_vector)
+        self._tau_max = tensor(self.tau_max)
+        passive = self.passive_parameters
         self._lower, self._upper = tensor(passive[:N_TAU]), tensor(passive[N_TAU : 2 * N_TAU])
         self._k, self._b = float(passive[12]), float(passive[13])
 
@@ -165,13 +136,13 @@ class BatchedSagittalWalker(gymnasium.vector.VectorEnv):
 
     def _initial_states(self, n: int, target: float | torch.Tensor | None) -> tuple[torch.Tensor, ...]:
         """(q, u, target) of n fresh episodes (standing + noise, as the single environment)."""
-        noise = self.setup["reset_noise_scale"]
+        noise = self._config.reset_noise_scale
         q = torch.zeros(n, N_Q, dtype=self.dtype, device=self.device)
-        q[:, 1] = self._standing
+        q[:, 1] = self.standing_height
         q[:, 1:] += self._uniform((n, N_Q - 1), -noise, noise)
         u = self._uniform((n, N_Q), -noise, noise)
         if target is None:
-            low, high = self.setup["target_range"]
+            low, high = self._config.target_range
             speeds = self._uniform((n,), low, high) if low != high else torch.full((n,), low, dtype=self.dtype, device=self.device)
         else:
             speeds = torch.as_tensor(target, dtype=self.dtype, device=self.device).expand(n).clone()
@@ -238,10 +209,10 @@ class BatchedSagittalWalker(gymnasium.vector.VectorEnv):
         tau = a * self._tau_max
         q0, u0 = self.q, self.u
         q, u, grf = q0, u0, self.grf
-        for _ in range(self._substeps):
+        for _ in range(self.substeps):
             passive = task.passive_torque(q[:, 3:], u[:, 3:], self._lower, self._upper, self._k, self._b)
             q, u, grf = step_torch(
-                q, u, tau + passive, self._p, self._c, dt=self._dt, substeps=1, method=self.setup["method"]
+                q, u, tau + passive, self._p, self._c, dt=self.physics_dt, substeps=1, method=self.method
             )
         finite = torch.isfinite(q).all(-1) & torch.isfinite(u).all(-1) & torch.isfinite(grf).all(-1)
         if not bool(finite.all()):  # keep the last finite state of failed rows
@@ -252,9 +223,9 @@ class BatchedSagittalWalker(gymnasium.vector.VectorEnv):
         speed = (q[:, 0] - q0[:, 0]) / CONTROL_DT
         self._work = self._work + (tau * (q[:, 3:] - q0[:, 3:])).abs().sum(-1).detach()
         self._steps = self._steps + 1
-        terminated = task.unhealthy(q, self._standing, self.config) | ~finite
-        total, tracking, alive, effort = task.reward(speed, self.target_speed, a, terminated, self.config)
-        truncated = (self._steps >= self.setup["max_episode_steps"]) & ~terminated
+        terminated = task.unhealthy(q, self.standing_height, self._config) | ~finite
+        total, tracking, alive, effort = task.reward(speed, self.target_speed, a, terminated, self._config)
+        truncated = (self._steps >= self._config.max_episode_steps) & ~terminated
         obs = self.observe()
         distance = (q[:, 0] - self._x0).detach()
         cot = torch.where(distance > 0.01, self._work / (self._body_weight * distance.clamp_min(0.01)), torch.inf)

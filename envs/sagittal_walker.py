@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
 from typing import Any
 
 import gymnasium
@@ -10,19 +9,12 @@ import numpy as np
 from gymnasium import spaces
 
 from envs import task
-from sspinn.body import BodyParameters
-from sspinn.contact import ContactParameters
+from envs.config import CONTROL_DT, WalkerConfig, WalkerParameters
 from sspinn.conventions import N_Q, N_TAU
 from sspinn.simulation import METHODS, advance, contact_into
 
-#: Control interval (s) and physics defaults; the choice is justified in the class docstring.
-CONTROL_DT = 0.01
-SUBSTEPS = 50
-METHOD = "semi_implicit_euler"
-SLIP_VELOCITY = 0.2
 
-
-class SagittalWalkerEnv(gymnasium.Env):
+class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     r"""## Description
 
     A torque-driven sagittal-plane human model (sspinn: 7 rigid segments — head-arms-trunk,
@@ -87,7 +79,7 @@ class SagittalWalkerEnv(gymnasium.Env):
 
     ## Rewards
 
-    Per step (see :class:`envs.task.TaskConfig`)::
+    Per step (see :class:`envs.config.WalkerConfig`)::
 
         reward = tracking_weight · exp(−((v − v*) / tracking_width)²)     (speed tracking)
                  + alive_bonus · [step does not terminate]                (alive)
@@ -184,11 +176,17 @@ class SagittalWalkerEnv(gymnasium.Env):
 
     ## Arguments
 
-    ``gymnasium.make("sspinn/SagittalWalker-v0", **kwargs)`` or ``SagittalWalkerEnv(**kwargs)``:
+    ``gymnasium.make("sspinn/SagittalWalker-v0", **kwargs)`` or ``SagittalWalkerEnv(**kwargs)``.
+    The task and physics arguments are the fields of one frozen dataclass,
+    :class:`envs.config.WalkerConfig` (validated on construction; shared with
+    :class:`envs.batched.BatchedSagittalWalker`): pass one as ``config=WalkerConfig(...)`` and/or its
+    fields as keywords, which override the ``config``'s (``SagittalWalkerEnv(config=cfg, target_speed=1.3)``).
+    ``render_mode``, ``width`` and ``height_px`` belong to this environment only.
 
     ====================== ============================ ===============================================
     argument               default                      meaning
     ====================== ============================ ===============================================
+    config                 None                         a WalkerConfig; None → WalkerConfig()
     height                 1.75                         body height, m (Winter scaling; 0.5–2.5)
     mass                   70.0                         body mass, kg (10–300)
     body                   None                         a BodyParameters or a dict for
@@ -218,7 +216,28 @@ class SagittalWalkerEnv(gymnasium.Env):
     ====================== ============================ ===============================================
 
     Invalid arguments raise ``ValueError`` (``sspinn.body.ParameterError`` is a subclass) naming the
-    argument and the expected units.
+    argument and the expected units; an unknown keyword is a ``TypeError`` listing the fields.
+
+    ## Public model (for controllers)
+
+    Read-only members (:class:`envs.config.WalkerParameters`; arrays are float64 copies) that give a
+    model-based controller the environment's exact step without reading private state:
+
+    * ``config``: the :class:`~envs.config.WalkerConfig`.
+    * ``body`` (:class:`sspinn.body.BodyParameters`), ``contact``
+      (:class:`sspinn.contact.ContactParameters`, forward-simulation friction) and their packed
+      vectors ``body_vector`` (41,) and ``contact_vector`` (7,), the ``p`` and ``c`` arguments of
+      :mod:`sspinn.simulation` and :mod:`sspinn.dynamics`.
+    * ``tau_max``: (6,) maximal actuator torque per joint, N·m (torque = clipped action × tau_max).
+    * ``passive_parameters``: (14,) packed passive-moment parameters [lower (6, rad), upper (6, rad),
+      stiffness (N·m/rad²), damping (N·m·s/rad)]; ``passive_torque(angles, rates)``: those moments
+      in N·m.
+    * ``dt`` (control interval, 0.01 s), ``substeps``, ``physics_dt`` (s, = dt / substeps),
+      ``method`` (integrator name), ``standing_height`` (m, hip height of the starting pose).
+    * ``step_state(q, u, action) -> (q, u, grf)``: one control step from any state, exactly as
+      ``step`` computes it (same action checks and clipping, torques, passive moments, integrator),
+      without changing the environment. ``state`` / ``set_state(q, u)`` read and write the
+      environment's own state; ``target_speed`` is the current episode's target, m/s.
 
     ## Version history
 
@@ -230,57 +249,26 @@ class SagittalWalkerEnv(gymnasium.Env):
     def __init__(
         self,
         *,
-        height: float = 1.75,
-        mass: float = 70.0,
-        body: BodyParameters | Mapping[str, Any] | None = None,
-        target_speed: float | Sequence[float] = 1.25,
-        max_torque: Mapping[str, float] | Sequence[float] | None = None,
-        tracking_weight: float = 1.0,
-        tracking_width: float = 0.25,
-        alive_bonus: float = 0.2,
-        effort_weight: float = 0.01,
-        min_height_fraction: float = 0.6,
-        max_tilt: float = 1.0,
-        joint_range: Mapping[str, Sequence[float]] | None = None,
-        joint_limit_stiffness: float = task.DEFAULT_LIMIT_STIFFNESS,
-        joint_damping: float = task.DEFAULT_JOINT_DAMPING,
-        reset_noise_scale: float = 0.005,
-        max_episode_steps: int = 1000,
-        substeps: int = SUBSTEPS,
-        method: str = METHOD,
-        slip_velocity: float = SLIP_VELOCITY,
-        contact: ContactParameters | None = None,
+        config: WalkerConfig | None = None,
         render_mode: str | None = None,
         width: int = 600,
         height_px: int = 400,
+        **overrides: Any,
     ) -> None:
         super().__init__()
-        setup = build_setup(
-            height=height, mass=mass, body=body, target_speed=target_speed, max_torque=max_torque,
-            tracking_weight=tracking_weight, tracking_width=tracking_width, alive_bonus=alive_bonus,
-            effort_weight=effort_weight, min_height_fraction=min_height_fraction, max_tilt=max_tilt,
-            joint_range=joint_range, joint_limit_stiffness=joint_limit_stiffness, joint_damping=joint_damping,
-            reset_noise_scale=reset_noise_scale, max_episode_steps=max_episode_steps,
-            substeps=substeps, method=method, slip_velocity=slip_velocity, contact=contact,
-        )
+        self._config = WalkerConfig.resolve(config, **overrides)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}")
         self.render_mode = render_mode
         self.width = task.check_int("width", width, 16)
         self.height_px = task.check_int("height_px", height_px, 16)
-        self.setup = setup
-        self.body: BodyParameters = setup["body"]
-        self.contact: ContactParameters = setup["contact"]
-        self.config: task.TaskConfig = setup["config"]
-        self._p = self.body.vector()
-        self._c = self.contact.vector()
-        self._tau_max = setup["tau_max"]
-        self._passive = setup["passive"]
-        self._method = METHODS.index(setup["method"])
-        self._substeps = setup["substeps"]
-        self._dt = CONTROL_DT / self._substeps
+        # packed parameters of the compiled stepper (float64 copies; see _advance)
+        self._p = self.body_vector
+        self._c = self.contact_vector
+        self._tau_max = self.tau_max
+        self._passive = self.passive_parameters
+        self._method_index = METHODS.index(self.method)
         self._body_weight = self.body.body_weight
-        self._standing = setup["standing_height"]
 
         self.action_space = spaces.Box(-1.0, 1.0, (N_TAU,), dtype=np.float32)
         self.observation_space = spaces.Box(-np.inf, np.inf, (task.OBS_SIZE,), dtype=np.float32)
@@ -300,21 +288,13 @@ class SagittalWalkerEnv(gymnasium.Env):
 
     # ------------------------------------------------------------------------------------------
     @property
-    def dt(self) -> float:
-        """Control interval, s."""
-        return CONTROL_DT
-
-    @property
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """Copies of the coordinates q (9,) and speeds u (9,) (SI, :mod:`sspinn.conventions`)."""
         return self._q.copy(), self._u.copy()
 
     def set_state(self, q: np.ndarray, u: np.ndarray) -> None:
         """Overwrite the state (e.g. to replay or compare); ground forces are recomputed."""
-        q = np.asarray(q, dtype=np.float64)
-        u = np.asarray(u, dtype=np.float64)
-        if q.shape != (N_Q,) or u.shape != (N_Q,) or not (np.isfinite(q).all() and np.isfinite(u).all()):
-            raise ValueError(f"q and u must be finite arrays of shape ({N_Q},), got {q.shape} and {u.shape}")
+        q, u = _state_copies(q, u)
         self._q[:] = q
         self._u[:] = u
         contact_into(self._q, self._u, self._p, self._c, True, self._grf)
@@ -324,20 +304,54 @@ class SagittalWalkerEnv(gymnasium.Env):
         """Target speed of the current episode, m/s."""
         return float(self._target)
 
+    def step_state(self, q: np.ndarray, u: np.ndarray, action: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Advance the state (q, u) by one control interval under ``action`` exactly as :meth:`step`
+        does (same checks and clipping of the action, torques, passive moments, integrator and
+        substeps), without touching the environment's own state, episode or random generator.
+
+        Args:
+            q, u: coordinates (9,) and speeds (9,), SI units (:mod:`sspinn.conventions`), finite.
+            action: (6,) normalised torques; clipped to [−1, 1], non-finite values are a ``ValueError``.
+
+        Returns:
+            New arrays (q, u, grf): the state after :attr:`dt` and the ground reaction forces (4,) in
+            N at that state. Non-finite where the physics failed (:meth:`step` then keeps the old
+            state and terminates the episode).
+        """
+        q, u = _state_copies(q, u)
+        grf = np.empty(4)
+        self._advance(q, u, self._action(action) * self._tau_max, grf)
+        return q, u, grf
+
+    def _action(self, action: np.ndarray) -> np.ndarray:
+        """The action as float64 (6,) clipped to [−1, 1]; a wrong shape or a non-finite value raises."""
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != (N_TAU,):
+            raise ValueError(f"action must have shape ({N_TAU},), got {a.shape}")
+        if not np.isfinite(a).all():
+            raise ValueError(f"action must be finite, got {a.tolist()}: check the policy's output")
+        return np.minimum(np.maximum(a, -1.0), 1.0)
+
+    def _advance(self, q: np.ndarray, u: np.ndarray, tau: np.ndarray, grf: np.ndarray) -> bool:
+        """The compiled physics of one control interval, in place on q, u and grf; True if finite."""
+        return advance(
+            q, u, tau, self._passive, self._p, self._c, self.physics_dt, self.substeps, self._method_index, True, grf
+        )
+
     def _obs(self) -> np.ndarray:
         return task.observation(self._q, self._u, self._grf, self._target, self._body_weight).astype(np.float32)
 
     # ------------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
-        low, high = self.setup["target_range"]
+        low, high = self._config.target_range
         if options is not None and "target_speed" in options:
             self._target = np.asarray(task.check_target_speed(options["target_speed"]))
         else:
             self._target = np.asarray(low if low == high else self.np_random.uniform(low, high))
-        noise = self.setup["reset_noise_scale"]
+        noise = self._config.reset_noise_scale
         q, u = np.zeros(N_Q), np.zeros(N_Q)
-        q[1] = self._standing
+        q[1] = self.standing_height
         if options is not None and "initial_state" in options:
             q, u = _initial_state(options["initial_state"])
         q[0] = 0.0
@@ -355,11 +369,7 @@ class SagittalWalkerEnv(gymnasium.Env):
         return self._obs(), {"target_speed": float(self._target), "x_position": self._x0}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        a = np.asarray(action, dtype=np.float64)
-        if a.shape != (N_TAU,):
-            raise ValueError(f"action must have shape ({N_TAU},), got {a.shape}")
-        if not np.isfinite(a).all():
-            raise ValueError(f"action must be finite, got {a.tolist()}: check the policy's output")
+        a = self._action(action)
         ended_before = self._ended
         if (ended_before[0] or ended_before[1]) and not self._warned_after_end:
             gymnasium.logger.warn(
@@ -367,22 +377,18 @@ class SagittalWalkerEnv(gymnasium.Env):
                 "terminated/truncated stay true and the reward is 0 until then"
             )
             self._warned_after_end = True
-        a = np.minimum(np.maximum(a, -1.0), 1.0)
         np.multiply(a, self._tau_max, out=self._tau)
         q_before = self._q.copy()
         u_before = self._u.copy()
-        finite = advance(
-            self._q, self._u, self._tau, self._passive, self._p, self._c, self._dt, self._substeps, self._method, True,
-            self._grf,
-        )
+        finite = self._advance(self._q, self._u, self._tau, self._grf)
         if not finite:  # keep the last finite state; the episode ends
             self.set_state(q_before, u_before)
         self._work += float(np.abs(self._tau * (self._q[3:] - q_before[3:])).sum())
         self._steps += 1
         speed = (self._q[0] - q_before[0]) / CONTROL_DT
-        terminated = bool(task.unhealthy(self._q, self._standing, self.config)) or not finite
-        total, tracking, alive, effort = task.reward(speed, self._target, a, terminated, self.config)
-        truncated = self._steps >= self.setup["max_episode_steps"] and not terminated
+        terminated = bool(task.unhealthy(self._q, self.standing_height, self._config)) or not finite
+        total, tracking, alive, effort = task.reward(speed, self._target, a, terminated, self._config)
+        truncated = self._steps >= self._config.max_episode_steps and not terminated
         if ended_before[0] or ended_before[1]:  # sticky, as in Gymnasium's environments
             terminated, truncated = ended_before[0] or terminated, ended_before[1] and not terminated
             total = tracking = alive = effort = 0.0
@@ -433,6 +439,15 @@ class SagittalWalkerEnv(gymnasium.Env):
             self._renderer = None
 
 
+def _state_copies(q: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
+    """float64 copies of a state (q, u), each finite with shape (9,), else a ``ValueError``."""
+    q = np.array(q, dtype=np.float64)
+    u = np.array(u, dtype=np.float64)
+    if q.shape != (N_Q,) or u.shape != (N_Q,) or not (np.isfinite(q).all() and np.isfinite(u).all()):
+        raise ValueError(f"q and u must be finite arrays of shape ({N_Q},), got {q.shape} and {u.shape}")
+    return q, u
+
+
 def _initial_state(value: Any) -> tuple[np.ndarray, np.ndarray]:
     """(q, u) copies from ``options["initial_state"]``, with a clear error for bad values."""
     try:
@@ -442,58 +457,3 @@ def _initial_state(value: Any) -> tuple[np.ndarray, np.ndarray]:
     if q.shape != (N_Q,) or u.shape != (N_Q,) or not (np.isfinite(q).all() and np.isfinite(u).all()):
         raise ValueError(f"options['initial_state'] must be finite (q, u) of shape ({N_Q},) each, got {q.shape} and {u.shape}")
     return q, u
-
-
-def build_setup(
-    *,
-    height: float,
-    mass: float,
-    body: BodyParameters | Mapping[str, Any] | None,
-    target_speed: float | Sequence[float],
-    max_torque: Mapping[str, float] | Sequence[float] | None,
-    tracking_weight: float,
-    tracking_width: float,
-    alive_bonus: float,
-    effort_weight: float,
-    min_height_fraction: float,
-    max_tilt: float,
-    joint_range: Mapping[str, Sequence[float]] | None,
-    joint_limit_stiffness: float,
-    joint_damping: float,
-    reset_noise_scale: float,
-    max_episode_steps: int,
-    substeps: int,
-    method: str,
-    slip_velocity: float,
-    contact: ContactParameters | None,
-) -> dict[str, Any]:
-    """Validate the constructor arguments shared by the single and the batched environment and
-    derive everything they need (body, contact, task config, torque limits in N·m, ...)."""
-    if body is not None and (height != 1.75 or mass != 70.0):
-        raise ValueError("give either body or height/mass, not both (body already fixes height and mass)")
-    body_params = task.make_body(body, height, mass)
-    contact_params = task.make_contact(slip_velocity, contact)
-    config = task.TaskConfig(
-        tracking_weight=tracking_weight,
-        tracking_width=tracking_width,
-        alive_bonus=alive_bonus,
-        effort_weight=effort_weight,
-        min_height_fraction=min_height_fraction,
-        max_tilt=max_tilt,
-    )
-    if not task._is_real(reset_noise_scale) or not 0 <= reset_noise_scale <= 0.1:
-        raise ValueError(f"reset_noise_scale must be a number in [0, 0.1] (m, rad), got {reset_noise_scale!r}")
-    _, substeps, method = task.check_physics(CONTROL_DT, substeps, method, METHODS)
-    return {
-        "body": body_params,
-        "contact": contact_params,
-        "config": config,
-        "tau_max": task.max_torques(max_torque, body_params.segment_mass_total),
-        "passive": task.passive_parameters(joint_range, joint_limit_stiffness, joint_damping),
-        "target_range": task.target_speed_range(target_speed),
-        "reset_noise_scale": float(reset_noise_scale),
-        "max_episode_steps": task.check_int("max_episode_steps", max_episode_steps, 1),
-        "substeps": substeps,
-        "method": method,
-        "standing_height": task.standing_height(body_params, contact_params),
-    }

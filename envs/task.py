@@ -6,6 +6,9 @@ single environment) or torch tensors (a batch, shape ``(N, 9)``; the batched env
 only operations that exist under the same name in both namespaces (``concatenate``, ``exp``,
 ``abs``, ``isfinite``, ``.sum(-1)``, ``.any(-1)``, ...). :class:`~envs.sagittal_walker.SagittalWalkerEnv`
 and :class:`~envs.batched.BatchedSagittalWalker` call these functions; neither has its own copy.
+The reward weights and termination thresholds they read are fields of
+:class:`envs.config.WalkerConfig`, the one configuration of both environments, which validates its
+arguments with the checking functions below.
 
 The passive joint moments (soft joint limits and damping, :func:`passive_torque`,
 :func:`passive_parameters` and their defaults) are physiology of the body model: they live in
@@ -21,9 +24,8 @@ import math
 import numbers
 import sys
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
 from types import ModuleType
-from typing import Any, Final
+from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 
@@ -31,15 +33,18 @@ from sspinn.body import BodyParameters, ParameterError
 from sspinn.contact import ContactParameters
 from sspinn.conventions import COORDINATES, GRF, JOINTS, N_GRF, N_Q, N_TAU
 
-# re-exported (see the module docstring); _is_real is the shared real-number check
+# re-exported (see the module docstring); is_real is the shared real-number check
 from sspinn.passive import (
     DEFAULT_JOINT_DAMPING,
     DEFAULT_JOINT_RANGE,
     DEFAULT_LIMIT_STIFFNESS,
-    _is_real,
+    is_real,
     passive_parameters,
     passive_torque,
 )
+
+if TYPE_CHECKING:  # envs.config imports this module
+    from envs.config import WalkerConfig
 
 # --------------------------------------------------------------------------------------------
 # Observation layout
@@ -76,49 +81,6 @@ def _xp(x: Any) -> ModuleType:
     return np
 
 
-@dataclass(frozen=True)
-class TaskConfig:
-    """Reward weights and termination thresholds (shared by the single and the batched env).
-
-    Reward per control step (``dt_control`` = 0.01 s)::
-
-        r = tracking_weight · exp(−((v − v*) / tracking_width)²)
-            + alive_bonus · [not terminated]
-            − effort_weight · Σ_j a_j²
-
-    with v the pelvis (hip joint centre) forward speed averaged over the step (m/s), v* the
-    target speed (m/s) and a ∈ [−1, 1]⁶ the action.
-
-    Attributes:
-        tracking_weight: weight of the speed-tracking term (reward units).
-        tracking_width: σ of the speed-tracking Gaussian, m/s (> 0).
-        alive_bonus: reward for every step that does not terminate the episode.
-        effort_weight: weight of Σ a² (dimensionless actions, so Σ a² ∈ [0, 6]).
-        min_height_fraction: the episode terminates when the hip height (pelvis_ty) falls below
-            this fraction of the standing hip height (leg length, m). In (0, 1).
-        max_tilt: |pelvis_tilt| limit, rad (trunk lean); beyond it the episode terminates.
-    """
-
-    tracking_weight: float = 1.0
-    tracking_width: float = 0.25
-    alive_bonus: float = 0.2
-    effort_weight: float = 0.01
-    min_height_fraction: float = 0.6
-    max_tilt: float = 1.0
-
-    def __post_init__(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if not _is_real(value) or not math.isfinite(value):
-                raise ValueError(f"{f.name} must be a finite number, got {value!r}")
-        if self.tracking_width <= 0:
-            raise ValueError(f"tracking_width must be > 0 m/s, got {self.tracking_width}")
-        if not 0.0 < self.min_height_fraction < 1.0:
-            raise ValueError(f"min_height_fraction must lie in (0, 1), got {self.min_height_fraction}")
-        if self.max_tilt <= 0:
-            raise ValueError(f"max_tilt must be > 0 rad, got {self.max_tilt}")
-
-
 # --------------------------------------------------------------------------------------------
 # Observation, reward, termination (array-generic)
 # --------------------------------------------------------------------------------------------
@@ -130,7 +92,7 @@ def observation(q: Any, u: Any, grf: Any, target_speed: Any, body_weight: float)
     return xp.concatenate([q[..., 1:], u, grf / body_weight, target_speed[..., None]], axis=-1)
 
 
-def unhealthy(q: Any, standing_height: float, cfg: TaskConfig) -> Any:
+def unhealthy(q: Any, standing_height: float, cfg: WalkerConfig) -> Any:
     """True where the episode must terminate: hip below ``cfg.min_height_fraction`` of the standing
     hip height (m) or |pelvis_tilt| > ``cfg.max_tilt`` (rad). Written as negated ``>=``/``<=`` tests
     so that NaN coordinates count as unhealthy too (the environments also check that the whole state
@@ -139,8 +101,8 @@ def unhealthy(q: Any, standing_height: float, cfg: TaskConfig) -> Any:
     return ~(q[..., 1] >= cfg.min_height_fraction * standing_height) | ~(xp.abs(q[..., 2]) <= cfg.max_tilt)
 
 
-def reward(speed: Any, target_speed: Any, action: Any, terminated: Any, cfg: TaskConfig) -> tuple[Any, Any, Any, Any]:
-    """(reward, tracking, alive, effort) per step; see :class:`TaskConfig` for the formula.
+def reward(speed: Any, target_speed: Any, action: Any, terminated: Any, cfg: WalkerConfig) -> tuple[Any, Any, Any, Any]:
+    """(reward, tracking, alive, effort) per step; see :class:`envs.config.WalkerConfig` for the formula.
 
     ``speed`` and ``target_speed`` in m/s (...,), ``action`` (..., 6) in [−1, 1], ``terminated``
     boolean (...,). ``tracking`` ∈ (0, 1] and ``effort`` = Σ a² are the unweighted terms; ``alive`` is
@@ -162,7 +124,7 @@ def make_body(body: BodyParameters | Mapping[str, Any] | None, height: float, ma
     mass and optional segment overrides) or, when ``body`` is None, from ``height`` (m) and ``mass`` (kg)."""
     if body is None:
         for name, value in (("height", height), ("mass", mass)):
-            if not _is_real(value):
+            if not is_real(value):
                 raise ValueError(f"{name} must be a number, got {type(value).__name__} {value!r}")
         return BodyParameters.from_anthropometry(float(height), float(mass))
     if isinstance(body, BodyParameters):
@@ -175,7 +137,7 @@ def make_body(body: BodyParameters | Mapping[str, Any] | None, height: float, ma
 def make_contact(slip_velocity: float, contact: ContactParameters | None) -> ContactParameters:
     """The forward-simulation contact parameters: ``contact`` (defaults of
     :class:`ContactParameters` when None) with its slip velocity replaced by ``slip_velocity`` (m/s)."""
-    if not _is_real(slip_velocity) or not slip_velocity > 0 or not math.isfinite(slip_velocity):
+    if not is_real(slip_velocity) or not slip_velocity > 0 or not math.isfinite(slip_velocity):
         raise ValueError(f"slip_velocity must be a positive number (m/s), got {slip_velocity!r}")
     if contact is None:
         contact = ContactParameters()
@@ -202,17 +164,17 @@ def max_torques(spec: Mapping[str, float] | Sequence[float] | None, body_mass: f
     else:
         raise ValueError(f"max_torque must be a mapping, a sequence of {N_TAU} numbers or None, got {type(spec).__name__}")
     for v in values:
-        if not _is_real(v) or not 0 < v < 20:
+        if not is_real(v) or not 0 < v < 20:
             raise ValueError(f"max_torque values must be numbers in (0, 20) N·m/kg, got {v!r}")
     return np.asarray(values, dtype=np.float64) * body_mass
 
 
 def target_speed_range(target_speed: float | Sequence[float]) -> tuple[float, float]:
     """(low, high) in m/s from a fixed speed or a (low, high) range, with clear errors."""
-    if _is_real(target_speed):
+    if is_real(target_speed):
         low = high = float(target_speed)  # type: ignore[arg-type]
     elif isinstance(target_speed, Sequence) and not isinstance(target_speed, str) and len(target_speed) == 2:
-        if not all(_is_real(v) for v in target_speed):
+        if not all(is_real(v) for v in target_speed):
             raise ValueError(f"target_speed range must hold two numbers (m/s), got {target_speed!r}")
         low, high = float(target_speed[0]), float(target_speed[1])
     else:
@@ -256,7 +218,7 @@ def check_int(name: str, value: Any, low: int) -> int:
 
 def check_physics(dt: float, substeps: int, method: str, methods: Sequence[str]) -> tuple[float, int, str]:
     """Validate the control interval ``dt`` (s), the substeps per interval and the integrator name."""
-    if not _is_real(dt) or not 0 < dt <= 0.1:
+    if not is_real(dt) or not 0 < dt <= 0.1:
         raise ValueError(f"control dt must be a number in (0, 0.1] s, got {dt!r}")
     substeps = check_int("substeps", substeps, 1)
     if method not in methods:
@@ -274,7 +236,6 @@ __all__ = [
     "OBS_INDEX",
     "OBS_SIZE",
     "ParameterError",
-    "TaskConfig",
     "check_int",
     "check_physics",
     "check_target_speed",

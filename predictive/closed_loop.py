@@ -38,8 +38,6 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from sspinn.conventions import N_Q, N_TAU
-from sspinn.passive import passive_torque
-from sspinn.simulation import advance
 
 #: Size of the controlled state z (observation entries 0–16).
 N_Z = 2 * N_Q - 1
@@ -88,9 +86,11 @@ def resample_cycle(
         time: (n,) sample times in [0, duration), s. q: (n, 9) coordinates. tau: (n, 6) total
             joint torques (N·m) that, with the cycle's ground forces, satisfy its dynamics.
         speed: average forward speed (m/s); duration: cycle duration T (s).
-        env: a :class:`envs.sagittal_walker.SagittalWalkerEnv` (its dt, τ_max, passive moments).
+        env: a :class:`envs.sagittal_walker.SagittalWalkerEnv` or a wrapper of one (its public
+            ``dt``, ``tau_max`` and ``passive_torque``).
     """
-    dt = float(env.dt)
+    e = _unwrapped(env)
+    dt = float(e.dt)
     n = max(int(round(duration / dt)), 4)
     phase = np.append(np.asarray(time, float), duration) / duration  # 0 … 1
     periodic_q = np.asarray(q, float).copy()
@@ -107,10 +107,8 @@ def resample_cycle(
     mid = (np.arange(n) + 0.5) / n
     tau_mid = np.stack([np.interp(mid, phase, tau_cycle[:, j]) for j in range(N_TAU)], axis=1)
     q_mid, u_mid = spline(mid), spline(mid, 1) / (n * dt)
-    e = _unwrapped(env)
-    ps = e.setup["passive"]
-    tau_passive = passive_torque(q_mid[:, 3:], u_mid[:, 3:], ps[:6], ps[6:12], ps[12], ps[13])
-    return GaitReference(q_ref, u_ref, (tau_mid - tau_passive) / e._tau_max, float(speed), dt, source)
+    tau_passive = e.passive_torque(q_mid[:, 3:], u_mid[:, 3:])
+    return GaitReference(q_ref, u_ref, (tau_mid - tau_passive) / e.tau_max, float(speed), dt, source)
 
 
 def _unwrapped(env: Any) -> Any:
@@ -118,14 +116,10 @@ def _unwrapped(env: Any) -> Any:
 
 
 def step_map(env: Any, z: np.ndarray, action: np.ndarray) -> np.ndarray:
-    """The environment's state transition over one control interval, on the reduced state z (17,)
-    — the same compiled :func:`sspinn.simulation.advance` call as ``env.step`` (actions clipped)."""
-    e = _unwrapped(env)
+    """The environment's state transition over one control interval, on the reduced state z (17,):
+    ``env.step_state`` (the same physics as ``env.step``, actions clipped) from pelvis_tx = 0."""
     q = np.concatenate([[0.0], z[: N_Q - 1]])
-    u = np.array(z[N_Q - 1 :], dtype=np.float64)
-    tau = np.clip(action, -1.0, 1.0) * e._tau_max
-    grf = np.empty(4)
-    advance(q, u, tau, e._passive, e._p, e._c, e._dt, e._substeps, e._method, True, grf)
+    q, u, _ = _unwrapped(env).step_state(q, z[N_Q - 1 :], action)
     return np.concatenate([q[1:], u])
 
 

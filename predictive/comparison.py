@@ -213,7 +213,6 @@ BUILDERS = {"generator": generator_controller, "ocp": ocp_controller, "sb3": sb3
 def executed_kane_residual(traces: dict[str, np.ndarray], env: Any) -> float:
     """Mean |Kane residual| (BW) of the pelvis translation rows over the episode (module docstring)."""
     from sspinn import dynamics
-    from sspinn.passive import passive_torque
 
     e = env.unwrapped
     q, u, tau = traces["q"], traces["u"], traces["torques"]
@@ -223,10 +222,9 @@ def executed_kane_residual(traces: dict[str, np.ndarray], env: Any) -> float:
     qdd = (u[2:] - u[:-2]) / (2 * dt)
     qm, um = q[1:-1], u[1:-1]
     tau_m = 0.5 * (tau[1:-1] + tau[2:])
-    ps = e.setup["passive"]
-    tau_total = tau_m + passive_torque(qm[:, 3:], um[:, 3:], ps[:6], ps[6:12], ps[12], ps[13])
-    p = e.body.vector()
-    grf, w = dynamics.contact_forces(qm, um, p, e.contact.vector())
+    tau_total = tau_m + e.passive_torque(qm[:, 3:], um[:, 3:])
+    p = e.body_vector
+    grf, w = dynamics.contact_forces(qm, um, p, e.contact_vector)
     r = dynamics.kane_residual(qm, um, qdd, tau_total, grf, w, p)
     return float(np.mean(np.abs(r[:, :2]))) / e.body.body_weight
 

@@ -74,7 +74,8 @@ def passive_torque(angle: Any, rate: Any, lower: Any, upper: Any, stiffness: Any
     return stiffness * (under * under - over * over) - damping * rate
 
 
-def _is_real(value: Any) -> bool:
+def is_real(value: Any) -> bool:
+    """True for a real number (int, float, NumPy scalar), False for bools and everything else."""
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
@@ -99,13 +100,13 @@ def passive_parameters(
         if unknown:
             raise ValueError(f"joint_range: unknown joint type(s) {sorted(unknown)}; use {sorted(ranges)}")
         for key, value in joint_range.items():
-            if not (isinstance(value, Sequence) and len(value) == 2 and all(_is_real(v) for v in value)):
+            if not (isinstance(value, Sequence) and len(value) == 2 and all(is_real(v) for v in value)):
                 raise ValueError(f"joint_range[{key!r}] must be a (low, high) pair of numbers in rad, got {value!r}")
             if not value[0] < 0.0 < value[1]:
                 raise ValueError(f"joint_range[{key!r}] must contain the standing pose 0 rad, got {tuple(value)}")
             ranges[key] = (float(value[0]), float(value[1]))
     for name, value in (("joint_limit_stiffness", stiffness), ("joint_damping", damping)):
-        if not _is_real(value) or not 0 <= value < 1e6:
+        if not is_real(value) or not 0 <= value < 1e6:
             raise ValueError(f"{name} must be a number >= 0 (N·m/rad² or N·m·s/rad), got {value!r}")
     lower = [ranges[j.split("_")[0]][0] for j in JOINTS]
     upper = [ranges[j.split("_")[0]][1] for j in JOINTS]
@@ -117,6 +118,7 @@ __all__ = [
     "DEFAULT_JOINT_RANGE",
     "DEFAULT_LIMIT_STIFFNESS",
     "N_PASSIVE",
+    "is_real",
     "passive_parameters",
     "passive_torque",
 ]

@@ -55,7 +55,7 @@ def test_resampled_reference_is_periodic_with_its_speed_and_derivatives() -> Non
     np.testing.assert_allclose(ref.u[:, 3], 0.3 * 2 * np.pi * np.cos(2 * np.pi * np.arange(100) / 100), atol=2e-2)
     # feedforward: hip torque at the interval midpoints minus the passive damping, over τ_max
     mid = (np.arange(100) + 0.5) / 100
-    expected = (10 * np.cos(2 * np.pi * mid) + 1.0 * 0.3 * 2 * np.pi * np.cos(2 * np.pi * mid)) / env._tau_max[0]
+    expected = (10 * np.cos(2 * np.pi * mid) + 1.0 * 0.3 * 2 * np.pi * np.cos(2 * np.pi * mid)) / env.tau_max[0]
     np.testing.assert_allclose(ref.action[:, 0], expected, atol=2e-3)
 
 

@@ -173,13 +173,13 @@ def test_env_step_is_sspinn_step_with_the_passive_moments() -> None:
     action = np.array([0.2, -0.15, 0.1, -0.05, 0.12, -0.07], dtype=np.float32)
     *_, info = e.step(action)
     q_ref, u_ref, grf_ref = simulation.step(
-        q0, u0, info["torques"], e._p, e._c, 0.01 / 50, 50, "semi_implicit_euler", True, passive=task.passive_parameters()
+        q0, u0, info["torques"], e.body_vector, e.contact_vector, 0.01 / 50, 50, "semi_implicit_euler", True, passive=task.passive_parameters()
     )
     q, u = e.state
     np.testing.assert_array_equal(q, q_ref)
     np.testing.assert_array_equal(u, u_ref)
     np.testing.assert_array_equal(info["grf"], grf_ref)
-    q_bare = simulation.step(q0, u0, info["torques"], e._p, e._c, 0.01 / 50, 50, "semi_implicit_euler", True)[0]
+    q_bare = simulation.step(q0, u0, info["torques"], e.body_vector, e.contact_vector, 0.01 / 50, 50, "semi_implicit_euler", True)[0]
     assert np.abs(q_bare - q).max() > 1e-6, "the passive moments must change the motion"
 
 
@@ -274,9 +274,69 @@ def test_reset_from_an_initial_state(env: SagittalWalkerEnv) -> None:
     env.reset(seed=0, options={"initial_state": (q, u)})
     q1, u1 = env.state
     assert q1[0] == 0.0  # pelvis_tx starts at 0
-    noise = env.setup["reset_noise_scale"]
+    noise = env.config.reset_noise_scale
     assert np.abs(q1[1:] - q[1:]).max() <= noise and np.abs(u1 - u).max() <= noise
     with pytest.raises(ValueError, match="initial_state"):
         env.reset(options={"initial_state": (np.zeros(8), np.zeros(9))})
     with pytest.raises(ValueError, match="initial_state"):
         env.reset(options={"initial_state": "standing"})
+
+
+def test_step_state_is_step_without_touching_the_environment() -> None:
+    """The public one-step model (what model-based controllers linearise) equals ``step`` bit for bit
+    and leaves the environment's state and random generator alone."""
+    e = SagittalWalkerEnv()
+    e.reset(seed=5)
+    q0, u0 = e.state
+    action = np.array([1.4, -0.3, 0.2, -2.0, 0.5, 0.0])  # out of range entries are clipped by both
+    q1, u1, grf1 = e.step_state(q0, u0, action)
+    assert np.array_equal(e.state[0], q0) and np.array_equal(e.state[1], u0)
+    *_, info = e.step(action)
+    np.testing.assert_array_equal(q1, e.state[0])
+    np.testing.assert_array_equal(u1, e.state[1])
+    np.testing.assert_array_equal(grf1, info["grf"])
+    np.testing.assert_array_equal(info["torques"], np.clip(action, -1, 1) * e.tau_max)
+    with pytest.raises(ValueError, match="action must be finite"):
+        e.step_state(q0, u0, np.full(6, np.nan))
+    with pytest.raises(ValueError, match=r"q and u must be finite arrays of shape \(9,\)"):
+        e.step_state(q0[:8], u0, action)
+
+
+def test_public_model_parameters_of_both_environments() -> None:
+    e = SagittalWalkerEnv(substeps=25, max_torque={"knee": 2.0})
+    m = e.body.segment_mass_total
+    np.testing.assert_allclose(e.tau_max, m * np.array([3.0, 2.0, 3.0, 3.0, 2.0, 3.0]))
+    np.testing.assert_array_equal(e.passive_parameters, task.passive_parameters())
+    np.testing.assert_array_equal(e.body_vector, e.body.vector())
+    np.testing.assert_array_equal(e.contact_vector, e.contact.vector())
+    assert (e.dt, e.substeps, e.physics_dt, e.method) == (0.01, 25, 0.01 / 25, "semi_implicit_euler")
+    assert e.contact.slip_velocity == 0.2 and e.standing_height == pytest.approx(0.92, abs=0.05)
+    angles, rates = np.array([[2.1, 0.0, 0.0, 0.0, -2.5, 0.0]]), np.ones((1, 6))
+    np.testing.assert_allclose(e.passive_torque(angles, rates)[0], [-1e4 * 0.01 - 1, -1, -1, -1, 1e4 * 0.01 - 1, -1])
+    e.tau_max[:] = 0.0  # copies: the environment is unchanged
+    assert e.tau_max.min() > 0
+    batched = BatchedSagittalWalker(2, config=e.config)
+    assert batched.config is e.config and batched.substeps == 25
+    np.testing.assert_array_equal(batched.tau_max, e.tau_max)
+
+
+def test_one_walker_config_for_both_environments_with_keyword_overrides() -> None:
+    from envs.config import WalkerConfig
+
+    cfg = WalkerConfig(target_speed=[1.0, 2.0], max_episode_steps=7)
+    assert cfg.target_speed == (1.0, 2.0) and cfg.target_range == (1.0, 2.0)
+    single = SagittalWalkerEnv(config=cfg, target_speed=1.3)
+    assert single.config.target_speed == 1.3 and single.config.max_episode_steps == 7
+    assert cfg.target_speed == (1.0, 2.0)  # the given config is not changed
+    made = gymnasium.make(envs.ENV_ID, config=cfg, alive_bonus=0.5)
+    assert made.unwrapped.config.alive_bonus == 0.5 and made.unwrapped.config.max_episode_steps == 7
+    made.close()
+    assert BatchedSagittalWalker(2, config=cfg, target_speed=1.5).config.target_range == (1.5, 1.5)
+    with pytest.raises(ValueError, match="tracking_width must be > 0"):
+        WalkerConfig(tracking_width=-1.0)
+    with pytest.raises(ValueError, match="max_tilt must be a finite number"):
+        WalkerConfig(max_tilt=float("nan"))
+    with pytest.raises(TypeError, match=r"unknown environment argument\(s\) \['speed'\]"):
+        SagittalWalkerEnv(speed=1.3)
+    with pytest.raises(TypeError, match="config must be a WalkerConfig"):
+        BatchedSagittalWalker(2, config={"target_speed": 1.3})
