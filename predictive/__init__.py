@@ -5,7 +5,7 @@ Builds on :mod:`sspinn` (never the other way round). Main entry point:
 ``python -m predictive solve --speed 1.3 --out results/ocp/walk_1.3``.
 """
 
-from predictive.collocation import (
+from predictive.ocp.collocation import (
     DEFAULT_STARTS,
     OCPError,
     OCPSettings,
@@ -15,7 +15,7 @@ from predictive.collocation import (
     solve_predictive,
     typical_stride_duration,
 )
-from predictive.solution import GaitSolution
+from predictive.ocp.solution import GaitSolution
 
 __all__ = [
     "DEFAULT_STARTS",

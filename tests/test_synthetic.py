@@ -1,4 +1,4 @@
-"""Synthetic gait data (predictive.synthetic, predictive.stride_chain): a tiny dataset of two
+"""Synthetic gait data (predictive.synth.pipeline, predictive.ocp.stride_nlp): a tiny dataset of two
 subjects with two running strides each (~30 s cold on 2 CPU cores), plus fast unit tests."""
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import pytest
 import yaml
 
 from predictive.__main__ import main as cli_main
-from predictive.stride_chain import StridePlan, bucket_for
-from predictive.synthetic import (
+from predictive.ocp.stride_nlp import StridePlan, bucket_for
+from predictive.synth.pipeline import (
     BodyVariation,
     SynthConfig,
     Variability,
@@ -226,8 +226,8 @@ def test_stride_plans_cover_the_duration_with_bounded_speed_changes() -> None:
 @pytest.fixture(scope="module")
 def running_chain_setup():
     """A nominal body's periodic 3.5 m/s gait (reference) and a shared solver cache."""
-    from predictive.stride_chain import PeriodicReference, StrideSettings, StrideSolverCache
-    from predictive.synthetic import _solve_periodic_ladder
+    from predictive.ocp.stride_nlp import PeriodicReference, StrideSettings, StrideSolverCache
+    from predictive.synth.pipeline import _solve_periodic_ladder
 
     body = BodyParameters.from_anthropometry(1.75, 70.0)
     settings = StrideSettings()
@@ -238,7 +238,7 @@ def running_chain_setup():
 def _failing_solves(monkeypatch: pytest.MonkeyPatch, fail_calls: set[int]) -> list[int]:
     """Make the stride solves numbered ``fail_calls`` (0-based, in call order) fail as IPOPT's
     'Infeasible_Problem_Detected' would, without running IPOPT; returns the call log."""
-    from predictive import stride_chain
+    from predictive.ocp import stride_nlp as stride_chain
 
     real = stride_chain.StrideProblem.solve
     calls: list[int] = []
@@ -266,7 +266,7 @@ def _plans(reference) -> list[StridePlan]:
 
 
 def test_a_failed_stride_goes_down_the_ladder(running_chain_setup, monkeypatch: pytest.MonkeyPatch) -> None:
-    from predictive.stride_chain import FALLBACKS, simulate_chain
+    from predictive.ocp.stride_nlp import FALLBACKS, simulate_chain
 
     body, reference, solvers = running_chain_setup
     # stride 1 fails on warm, default, perturbed and nominal: solved on 'smaller_change'
@@ -289,7 +289,7 @@ def test_a_failed_stride_goes_down_the_ladder(running_chain_setup, monkeypatch: 
 def test_a_stride_that_fails_every_rung_ends_the_recording_cleanly(
     running_chain_setup, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
-    from predictive.stride_chain import FALLBACKS, ChainError, ChainResult, simulate_chain
+    from predictive.ocp.stride_nlp import FALLBACKS, ChainError, ChainResult, simulate_chain
 
     body, reference, solvers = running_chain_setup
     _failing_solves(monkeypatch, set(range(1, 1 + len(FALLBACKS))))
@@ -312,9 +312,9 @@ class _MemoryCache:
 
 
 def test_periodic_gaits_fall_back_without_aborting(monkeypatch: pytest.MonkeyPatch) -> None:
-    from predictive import synthetic
-    from predictive.collocation import OCPError
-    from predictive.stride_chain import StrideSettings
+    from predictive.synth import pipeline as synthetic
+    from predictive.ocp.collocation import OCPError
+    from predictive.ocp.stride_nlp import StrideSettings
 
     calls: list[tuple[float, object, object]] = []
 

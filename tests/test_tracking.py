@@ -1,4 +1,4 @@
-"""Tracking gait simulations (predictive/tracking.py): recovery of known solutions and the IMU
+"""Tracking gait simulations (predictive/ocp/tracking.py): recovery of known solutions and the IMU
 tracking baseline on the real averaged stride of ../shared/data (skipped when absent)."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import pytest
 
 from predictive import GaitSolution, solve_predictive
 from predictive.__main__ import main as cli_main
-from predictive.label_comparison import compare_with_labels, solution_at_times
-from predictive.tracking import (
+from predictive.experiments.solution_vs_labels import compare_with_labels, solution_at_times
+from predictive.ocp.tracking import (
     IMU_SIGNALS,
     TrackedSignal,
     TrackingGaitProblem,

@@ -75,7 +75,7 @@ ankle dorsiflexion +, a positive pelvis_tilt leans the trunk back):
   u/2 for the trunk, u/max(v, 1) for pelvis_tx); the kinematic constraints are written as
   velocity and acceleration differences divided by the same scales, the dynamics by BW or BW·H.
 
-Extension (:mod:`predictive.tracking`): subclasses add objective terms by overriding
+Extension (:mod:`predictive.ocp.tracking`): subclasses add objective terms by overriding
 :meth:`PredictiveGaitProblem._objective`, which receives the node expressions
 (:class:`NodeExpressions`) of the already built constraints.
 
@@ -94,9 +94,9 @@ from typing import Any, Final, Literal
 import casadi as ca
 import numpy as np
 
-from predictive import perturbation
-from predictive.limits import check_speed
-from predictive.solution import GaitSolution, mirror_states
+from predictive.ocp import perturbation
+from predictive.ocp.limits import check_speed
+from predictive.ocp.solution import GaitSolution, mirror_states
 from sspinn import dynamics as dyn
 from sspinn.body import BodyParameters, JointLimits
 from sspinn.contact import ContactParameters
@@ -763,7 +763,7 @@ def solve_predictive(
     Raises:
         OCPError: IPOPT did not return ``Solve_Succeeded`` (from any start; and ``raise_on_failure``).
     """
-    speed = check_speed(speed)  # predictive.limits: reject what the model cannot do, before building
+    speed = check_speed(speed)  # predictive.ocp.limits: reject what the model cannot do, before building
     if rate_hz is not None:
         if free_duration:
             raise ValueError("rate_hz needs a fixed stride duration (free_duration=False)")

@@ -1,6 +1,6 @@
 """Dynamically exact, non-periodic gait: a chain of single-stride optimal control problems.
 
-The periodic solutions of :mod:`predictive.collocation` repeat one gait cycle forever. Synthetic
+The periodic solutions of :mod:`predictive.ocp.collocation` repeat one gait cycle forever. Synthetic
 recordings need stride-to-stride variability and speed changes while every sample still obeys
 the equations of motion. :func:`simulate_chain` builds them stride by stride (receding horizon):
 
@@ -12,8 +12,8 @@ the equations of motion. :func:`simulate_chain` builds them stride by stride (re
   trajectory whose Kane residual ``M(q)·q̈ − f(q, u, τ, F(q, u), w(q))`` is zero to IPOPT's
   constraint tolerance at every sample, with q̈ the backward difference of u and F, w the
   contact model's forces and contact points (forward-simulation friction law, as in
-  :mod:`predictive.collocation`).
-* **Variables per node** as in :mod:`predictive.collocation`: q, u, q̈, τ (scaled); pelvis_tx is
+  :mod:`predictive.ocp.collocation`).
+* **Variables per node** as in :mod:`predictive.ocp.collocation`: q, u, q̈, τ (scaled); pelvis_tx is
   taken relative to the previous state's, so the NLP is translation invariant and well scaled
   however far the subject has walked.
 * **Constraints.** Backward-Euler kinematics and the Kane residual (scaled by BW and BW·H) at every
@@ -62,9 +62,9 @@ from typing import Any, Final
 import casadi as ca
 import numpy as np
 
-from predictive import perturbation
-from predictive.collocation import OCPSettings, _joint_type_values, default_joint_limits
-from predictive.solution import GaitSolution
+from predictive.ocp import perturbation
+from predictive.ocp.collocation import OCPSettings, _joint_type_values, default_joint_limits
+from predictive.ocp.solution import GaitSolution
 from sspinn import dynamics as dyn
 from sspinn.body import N_PARAMETERS, BodyParameters, JointLimits
 from sspinn.contact import ContactParameters
@@ -109,7 +109,7 @@ class StrideSettings:
 
     Attributes:
         h: time step, s (backward Euler; the sample interval of the recordings).
-        w_acc: weight of the q̈ regularisation (as in :class:`~predictive.collocation.OCPSettings`).
+        w_acc: weight of the q̈ regularisation (as in :class:`~predictive.ocp.collocation.OCPSettings`).
         w_terminal: weight of the terminal tracking term (dimensionless, see the module docstring).
         sigma_q: terminal tolerance of q (except pelvis_tx), m or rad.
         sigma_u_joint: terminal tolerance of the angular speeds, rad/s.

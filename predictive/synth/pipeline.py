@@ -30,7 +30,7 @@ Method
    0.02 s), warm-started from the same speed's solution of a nominal 1.75 m, 70 kg body
    (a template library solved once by continuation from 1.3 and 3.5 m/s), which keeps every
    subject in the same gait family (a generic guess at 0.9 m/s converges to a hopping gait).
-3. **Stride chain** (:mod:`predictive.stride_chain`): the recording is a chain of single-stride
+3. **Stride chain** (:mod:`predictive.ocp.stride_nlp`): the recording is a chain of single-stride
    OCPs on the 100 Hz grid, each starting from the fixed last sample of the previous stride, with
    the periodic gaits as initial guesses and terminal targets. Variability: each stride's speed
    is the program's target ×(1 + 2 % N(0, 1)), its duration the reference duration at that speed
@@ -39,7 +39,7 @@ Method
    Speed changes: the program's speeds are held for equal shares of the recording, and the
    target moves to the next one by at most 0.25 m/s per stride. **No recording is thrown away
    for one stride**: a stride that IPOPT cannot solve goes down a ladder of fallbacks
-   (:data:`~predictive.stride_chain.FALLBACKS`: warm start, default options, a perturbed guess,
+   (:data:`~predictive.ocp.stride_nlp.FALLBACKS`: warm start, default options, a perturbed guess,
    the nominal duration, half the speed change, the previous speed); if every rung fails the
    recording ends cleanly after its last solved stride. Which rung solved each stride is in the
    recording's provenance (``strides.fallback``, ``fallbacks``, ``ended_early``), the counts in
@@ -59,7 +59,7 @@ hash of everything that determines them, so a second run only reads files.
 
 Usage::
 
-    from predictive.synthetic import SynthConfig, generate_dataset
+    from predictive.synth.pipeline import SynthConfig, generate_dataset
     config = SynthConfig.from_yaml("configs/synth/default.yaml")
     dataset = generate_dataset(config, "data/synth_default")   # sspinn.dataset.Dataset
     print(dataset.info["kane_residual"])                        # BW and BW·H, max and RMS
@@ -87,9 +87,9 @@ from typing import Any, Final
 import numpy as np
 import yaml
 
-from predictive.collocation import OCPError, solve_predictive, typical_stride_duration
-from predictive.solution import GaitSolution
-from predictive.stride_chain import (
+from predictive.ocp.collocation import OCPError, solve_predictive, typical_stride_duration
+from predictive.ocp.solution import GaitSolution
+from predictive.ocp.stride_nlp import (
     DEFAULT_BOUNDARY,
     FALLBACKS,
     WARM_START_IPOPT,
@@ -599,7 +599,7 @@ def template_library(
 
 #: Fallbacks of a periodic gait, in order: (use the continuation guess, IPOPT options). A failed
 #: warm start is retried with IPOPT's defaults, then from the data-free guess, which is a
-#: multi-start (:data:`predictive.collocation.DEFAULT_STARTS`: other amplitudes, a monotone barrier).
+#: multi-start (:data:`predictive.ocp.collocation.DEFAULT_STARTS`: other amplitudes, a monotone barrier).
 PERIODIC_FALLBACKS: Final[tuple[tuple[bool, Mapping[str, Any] | None], ...]] = (
     (True, WARM_START_IPOPT),
     (True, None),
@@ -635,7 +635,7 @@ def periodic_library(
     name: str = "",
 ) -> dict[float, tuple[GaitSolution, str]]:
     """Periodic gaits of ``body`` at ``speeds`` (m/s), each warm-started from the template at the
-    same speed with IPOPT's warm-start options (:data:`~predictive.stride_chain.WARM_START_IPOPT`:
+    same speed with IPOPT's warm-start options (:data:`~predictive.ocp.stride_nlp.WARM_START_IPOPT`:
     faster, and it stays in the template's gait), falling back down :data:`PERIODIC_FALLBACKS`.
     If every rung fails, the nominal body's template serves as that speed's reference (it is only
     the chain's initial guess and terminal target: the labels still come from stride OCPs of the
@@ -829,10 +829,10 @@ def generate_subject(
                 placement=nominal_placement,
                 labels=Labels.from_columns(label_columns(chain), chain.n_samples),
                 provenance={
-                    "generator": "predictive.synthetic",
+                    "generator": "predictive.synth.pipeline",
                     "code_version": CODE_VERSION,
                     "config_key": config.key(),
-                    "method": "chain of single-stride backward-Euler OCPs at h = 0.01 s (predictive.stride_chain)",
+                    "method": "chain of single-stride backward-Euler OCPs at h = 0.01 s (predictive.ocp.stride_nlp)",
                     "program": {"name": config.program_names[j], "speeds_mps": speeds},
                     "plan_attempt": attempt,
                     "strides": {
@@ -881,7 +881,7 @@ def _recording_chain(
     """The (cached) chain of one recording.
 
     A stride that fails goes down the fallback ladder of
-    :func:`~predictive.stride_chain.simulate_chain`; if every rung fails, the recording ends
+    :func:`~predictive.ocp.stride_nlp.simulate_chain`; if every rung fails, the recording ends
     cleanly after its last solved stride. Only when its *first* stride cannot be solved is the
     recording's stride plan drawn again from the next random stream (at most
     :data:`CHAIN_ATTEMPTS` times); after that the recording is dropped. Each of these events is
@@ -933,7 +933,7 @@ def _recording_chain(
 
 
 def fallback_counts(strides: Sequence[StrideRecord]) -> dict[str, int]:
-    """Strides per rung of :data:`~predictive.stride_chain.FALLBACKS` (every rung listed)."""
+    """Strides per rung of :data:`~predictive.ocp.stride_nlp.FALLBACKS` (every rung listed)."""
     return {rung: sum(r.fallback == rung for r in strides) for rung in FALLBACKS}
 
 
@@ -1018,7 +1018,7 @@ def generate_dataset(
     if config.workers > 1:
         for o in outputs:
             cache_stats.add(o.cache)
-    info: dict[str, Any] = {"generator": "predictive.synthetic", "config_key": config.key()}
+    info: dict[str, Any] = {"generator": "predictive.synth.pipeline", "config_key": config.key()}
     dataset = Dataset.write(out, by_split, info)
     # the residual of the labels as written (CSV precision), with each subject's true body
     body_of = {s.id: s.body for s in subjects}
@@ -1125,7 +1125,7 @@ def _prepare_out_dir(out: Path) -> None:
             meta = json.loads(index.read_text())
         except json.JSONDecodeError:
             meta = {}
-        if meta.get("info", {}).get("generator") == "predictive.synthetic":
+        if meta.get("info", {}).get("generator") == "predictive.synth.pipeline":
             for names in meta.get("splits", {}).values():
                 for n in names:
                     for ext in (".csv", ".json"):
@@ -1133,7 +1133,7 @@ def _prepare_out_dir(out: Path) -> None:
             index.unlink()
     if any(out.iterdir()):
         raise FileExistsError(
-            f"{out} is not empty and holds no earlier output of predictive.synthetic; choose another --out"
+            f"{out} is not empty and holds no earlier output of predictive.synth.pipeline; choose another --out"
         )
 
 

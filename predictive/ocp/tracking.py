@@ -1,6 +1,6 @@
 """Tracking gait simulations: the predictive collocation problem plus tracking terms.
 
-Two modes, both built on :class:`~predictive.collocation.PredictiveGaitProblem` (same grid,
+Two modes, both built on :class:`~predictive.ocp.collocation.PredictiveGaitProblem` (same grid,
 backward-Euler collocation, implicit dynamics, contact model, bounds and effort; see its module
 docstring) by overriding its objective:
 
@@ -11,7 +11,7 @@ docstring) by overriding its objective:
   IMUs of an averaged stride with virtual IMUs (:func:`sspinn.kinematics.virtual_imu`), speed
   free; outputs angles, torques, GRFs and speed.
 
-Formulation (in addition to :mod:`predictive.collocation`):
+Formulation (in addition to :mod:`predictive.ocp.collocation`):
 
 * **Full gait cycle**, periodic (node ``N`` = node 0 moved forward by ``v·T``), no left/right
   symmetry (the tracked data are one stride and may be one-sided). The duration ``T`` is fixed
@@ -70,7 +70,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from predictive.collocation import (
+from predictive.ocp.collocation import (
     GaitCycle,
     NodeExpressions,
     OCPError,
@@ -78,7 +78,7 @@ from predictive.collocation import (
     PredictiveGaitProblem,
     solve_predictive,
 )
-from predictive.solution import GaitSolution
+from predictive.ocp.solution import GaitSolution
 from sspinn import dynamics as dyn
 from sspinn import kinematics
 from sspinn.body import BodyParameters, IMUPlacement, JointLimits
@@ -520,7 +520,7 @@ def solve_tracking(
         **settings: further :class:`TrackingSettings` fields (``w_acc``, ``speed_bounds``, …).
 
     Raises:
-        predictive.collocation.OCPError: IPOPT failed and ``raise_on_failure``.
+        predictive.ocp.collocation.OCPError: IPOPT failed and ``raise_on_failure``.
     """
     n_nodes = len(signals[0].target) if signals else 0
     cfg = TrackingSettings(
@@ -560,7 +560,7 @@ def solve_tracking(
 
 def speed_from_stride_duration(duration: float) -> float:
     """A label-free speed guess (m/s) from the stride duration (s): the inverse of
-    :func:`predictive.collocation.typical_stride_duration` (T = 1.4 − 0.2·v), clipped to 0.5–3.5."""
+    :func:`predictive.ocp.collocation.typical_stride_duration` (T = 1.4 − 0.2·v), clipped to 0.5–3.5."""
     return float(np.clip((1.4 - duration) / 0.2, 0.5, 3.5))
 
 
