@@ -7,7 +7,15 @@ import pytest
 import scipy.linalg
 
 from envs.sagittal_walker import SagittalWalkerEnv
-from predictive.generator.closed_loop import N_Z, GaitReference, GaitTracker, LQRWeights, periodic_lqr, resample_cycle, step_map
+from predictive.generator.closed_loop import (
+    N_Z,
+    GaitReference,
+    GaitTracker,
+    LQRWeights,
+    periodic_lqr,
+    resample_cycle,
+    step_map,
+)
 
 
 def test_periodic_lqr_of_a_constant_system_is_the_dare_gain() -> None:

@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from envs.sagittal_walker import SagittalWalkerEnv
-from predictive.ocp.gait_analysis import ReferenceGait
 from predictive.experiments.controller_comparison import (
     ComparisonConfig,
     MethodSpec,
@@ -18,6 +17,7 @@ from predictive.experiments.controller_comparison import (
     winter_rmsd,
 )
 from predictive.generator.gait_generator import GeneratorConfig, GeneratorTrainer
+from predictive.ocp.gait_analysis import ReferenceGait
 
 
 def _traces(n_cycles: int = 5, period: int = 100, bw: float = 700.0) -> dict[str, np.ndarray]:

@@ -7,7 +7,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from predictive import DEFAULT_STARTS, GaitSolution, OCPError, OCPSettings, Start, solve_predictive, typical_stride_duration
+from predictive import (
+    DEFAULT_STARTS,
+    GaitSolution,
+    OCPError,
+    OCPSettings,
+    Start,
+    solve_predictive,
+    typical_stride_duration,
+)
 from predictive.__main__ import main as cli_main
 from predictive.ocp.gait_analysis import compare_with_reference, load_winter, normalised_cycle, plot_gait
 from predictive.ocp.solution import MIRROR_Q, MIRROR_TAU

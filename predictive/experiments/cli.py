@@ -1,14 +1,15 @@
 """The experiment sub-commands of ``python -m predictive``: ``track-imu`` and ``compare``.
 
 ``python -m predictive track-imu --data ../shared/data/dorschky_P03_walking --out results/ocp/imu_tracking``:
-IMU tracking of an averaged stride, compared with its labels. Reads the averaged stride (:func:`sspinn.readers.read_averaged_stride`; body height and mass are
-not recorded there, so 1.75 m / 70 kg are assumed unless given), solves
-:func:`predictive.ocp.tracking.solve_imu_tracking` (labels unused), compares the estimate with the
-labels (:func:`predictive.experiments.solution_vs_labels.compare_with_labels`) and prints the table next to the
-paper's OCP figures. Writes ``<out>.npz/.json`` (the solution), ``<out>_tracked.npz/.json``
-(tracked signals, residuals, starts, times), ``<out>_metrics.json``, ``<out>_table.md`` and
-``<out>.png`` (angles, moments, GRF versus the labels over the cycle). Predictive initial guesses
-are cached in ``<out>_guesses/``.
+IMU tracking of an averaged stride, compared with its labels. Reads the averaged stride
+(:func:`sspinn.readers.read_averaged_stride`; body height and mass are not recorded there, so
+1.75 m / 70 kg are assumed unless given), solves
+:func:`predictive.ocp.imu_tracking.solve_imu_tracking` (labels unused), compares the estimate with
+the labels (:func:`predictive.experiments.solution_vs_labels.compare_with_labels`) and prints the
+table next to the paper's OCP figures. Writes ``<out>.npz/.json`` (the solution),
+``<out>_tracked.npz/.json`` (tracked signals, residuals, starts, times), ``<out>_metrics.json``,
+``<out>_table.md`` and ``<out>.png`` (angles, moments, GRF versus the labels over the cycle).
+Predictive initial guesses are cached in ``<out>_guesses/``.
 
 ``python -m predictive compare --config configs/predictive/compare.yaml --out results/compare``:
 the comparison harness of :mod:`predictive.experiments.controller_comparison` (table, learning
@@ -91,8 +92,8 @@ def run_compare(args: argparse.Namespace) -> int:
 def run_track_imu(args: argparse.Namespace) -> int:
     """Run ``track-imu``; returns the exit code (1 if IPOPT failed on every start)."""
     from predictive.experiments.solution_vs_labels import compare_with_labels, plot_against_labels, write_comparison
+    from predictive.ocp.imu_tracking import solve_imu_tracking
     from predictive.ocp.limits import check_body
-    from predictive.ocp.tracking import solve_imu_tracking
     from sspinn.body import BodyParameters
     from sspinn.readers import read_averaged_stride
 

@@ -25,7 +25,8 @@ from typing import Any, Literal
 import numpy as np
 
 from predictive.ocp.solution import CONTACT_THRESHOLD_BW, GaitSolution
-from predictive.ocp.tracking import TrackingResult, stride_duration
+from predictive.ocp.tracking import TrackingResult
+from predictive.ocp.tracking_data import stride_duration
 from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS
 from sspinn.dataset import Recording
 from sspinn.evaluation import compute_metrics

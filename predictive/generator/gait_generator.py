@@ -7,7 +7,7 @@ whether a gait is acceptable, the objective which one is chosen.
 
 Representation (chosen so that the constraints the OCP imposes hold by construction):
 
-* Cycle duration T = :func:`predictive.ocp.collocation.typical_stride_duration` of the speed (as the
+* Cycle duration T = :func:`predictive.ocp.generic_gait.typical_stride_duration` of the speed (as the
   OCP's default, which fixes it because a free duration drifts to shuffling strides).
 * Right-leg joint angles: mean + harmonics 1…K of the cycle. Left leg: the right leg half a cycle
   later (odd harmonics change sign) — the symmetric gait of the OCP's half-cycle mode.
@@ -31,7 +31,7 @@ Loss per batch of (speed, body) at random phases of the half cycle (the other ha
 * ``slide``: SSPINNpose's L_slide, (contact-point speed × F_y / BW)².
 
 Training starts with ``warmup_steps`` of fitting the data-free textbook shapes of
-:func:`predictive.ocp.collocation.generic_gait` (the OCP's initial guess), then minimises the loss
+:func:`predictive.ocp.generic_gait.generic_gait` (the OCP's initial guess), then minimises the loss
 with Adam. No recorded or optimised gait is used. Checkpoints every ``checkpoint_every`` steps,
 ``resume``, a checkpoint on Ctrl-C and a CSV learning curve (loss vs wall time).
 """
@@ -50,7 +50,8 @@ import numpy as np
 import torch
 import yaml
 
-from predictive.ocp.collocation import ankle_strength, default_joint_limits, generic_gait, typical_stride_duration
+from predictive.ocp.generic_gait import generic_gait, typical_stride_duration
+from predictive.ocp.settings import ankle_strength, default_joint_limits
 from predictive.ocp.solution import GaitSolution
 from sspinn import dynamics, kinematics
 from sspinn.body import BodyParameters

@@ -1,8 +1,9 @@
-"""Dynamically exact, non-periodic gait: a chain of single-stride optimal control problems.
+"""The single-stride NLP of the synthetic-data stride chain (backward Euler on the 100 Hz grid).
 
-The periodic solutions of :mod:`predictive.ocp.collocation` repeat one gait cycle forever. Synthetic
-recordings need stride-to-stride variability and speed changes while every sample still obeys
-the equations of motion. :func:`simulate_chain` builds them stride by stride (receding horizon):
+The periodic solutions of :mod:`predictive.ocp.collocation` repeat one gait cycle forever;
+synthetic recordings are chains of single strides instead (:mod:`predictive.synth.chain`), each
+an NLP of this module. Its model, bounds, effort and IPOPT settings are those of the periodic
+problem (:class:`~predictive.ocp.settings.ProblemSettings`, the base of :class:`StrideSettings`):
 
 * **Grid.** Backward Euler with a fixed step ``h`` (default 0.01 s, so the nodes are the 100 Hz
   samples of a recording). Stride ``k`` has ``N_k = round(T_k/h)`` nodes (:class:`StridePlan`).
@@ -26,8 +27,8 @@ the equations of motion. :func:`simulate_chain` builds them stride by stride (re
   horizon's last node toward the periodic gait at that stride's speed and phase. Without it the
   end state is free and a chain of greedy strides drifts (a single stride's effort is lowest
   when the body is let down at its end).
-* **Horizon.** ``1 + lookahead`` strides; only the first is kept, the next horizon starts from
-  its last node, and a solved lookahead stride is the next horizon's initial guess.
+* **Horizon.** One NLP holds ``1 + lookahead`` strides, one bucket each (see
+  :func:`~predictive.synth.chain.simulate_chain` for how horizons are chained).
 * **Node-count buckets.** One compiled NLP serves every stride of up to ``bucket`` nodes: nodes
   beyond ``N_k`` are inactive copies of the stride's last node (their constraints switch, by a
   0/1 parameter, to ``q = q_prev, u = u_prev, q̈ = 0``), so a handful of solvers
@@ -38,40 +39,39 @@ the equations of motion. :func:`simulate_chain` builds them stride by stride (re
   solution and often has joints on their bounds (a straight knee): IPOPT's default bound push
   (1e-2) and initial barrier (0.1) move it far from the guess and cost hundreds of iterations,
   so the first attempt uses ``bound_push = bound_frac = 1e-8`` and a monotone barrier from
-  1e-4 (an unperturbed walking stride: ~20 instead of ~140 iterations); a failed stride is
-  retried with IPOPT's defaults and the reference guess. Strides whose speed or duration differ
-  from the reference need a new contact timing and take more (about 90 iterations, 3 s per
-  stride on a shared 2-core CPU, for the default 2 % variability). Giving the GRF their own
-  variables (lifted contact) and sampling the guess at the reference's own pace instead of
-  stretching it were tried and did not reduce the iterations.
-* **Stride boundary.** Phase 0 of the references (the stride boundary) lies 12 % of the cycle
-  before the right foot's contact onset: mid-flight when running, left single support when
-  walking. A boundary at an impact made the terminal velocity target very sensitive to timing
-  (about 30 % more iterations when running).
+  1e-4 (:data:`WARM_START_IPOPT`; an unperturbed walking stride: ~20 instead of ~140
+  iterations); a failed stride is retried with IPOPT's defaults and the reference guess. Strides
+  whose speed or duration differ from the reference need a new contact timing and take more
+  (about 90 iterations, 3 s per stride on a shared 2-core CPU, for the default 2 %
+  variability). Giving the GRF their own variables (lifted contact) and sampling the guess at
+  the reference's own pace instead of stretching it were tried and did not reduce the iterations.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field
-from pathlib import Path
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any, Final
 
 import casadi as ca
 import numpy as np
 
 from predictive.ocp import perturbation
-from predictive.ocp.collocation import OCPSettings, _joint_type_values, default_joint_limits
-from predictive.ocp.solution import GaitSolution
+from predictive.ocp.collocation import OCPSettings
+from predictive.ocp.settings import (
+    ACC_SCALE,
+    ProblemSettings,
+    acceleration_regularisation,
+    default_joint_limits,
+    nlp_scales,
+    strength_scaled,
+)
 from sspinn import dynamics as dyn
 from sspinn.body import N_PARAMETERS, BodyParameters, JointLimits
 from sspinn.contact import ContactParameters
 from sspinn.conventions import N_Q, N_TAU
-
-#: IPOPT statuses accepted for a stride (the node residual is checked separately).
-ACCEPTED_STATUSES: Final = ("Solve_Succeeded",)
 
 #: Maximal nodes per stride of the compiled NLPs (h = 0.01 s: 0.24 … 1.6 s strides).
 DEFAULT_BUCKETS: Final[tuple[int, ...]] = (24, 28, 32, 37, 43, 50, 58, 67, 78, 90, 104, 120, 139, 160)
@@ -84,15 +84,8 @@ WARM_START_IPOPT: Final[dict[str, Any]] = {
     "bound_frac": 1e-8,
 }
 
-#: Stride boundary relative to the right foot's contact onset, fraction of the cycle.
-DEFAULT_BOUNDARY: Final = -0.12
-
 _PER_NODE: Final = 3 * N_Q + N_TAU  # q_rel, u, q̈, τ (scaled)
 _NODE_PAR: Final = 3 + N_TAU  # active, 1/N, T, effort weights
-
-
-class ChainError(RuntimeError):
-    """A stride of the chain could not be solved to the required accuracy."""
 
 
 def bucket_for(n_nodes: int, buckets: Sequence[int] = DEFAULT_BUCKETS) -> int:
@@ -103,43 +96,33 @@ def bucket_for(n_nodes: int, buckets: Sequence[int] = DEFAULT_BUCKETS) -> int:
     raise ValueError(f"a stride of {n_nodes} nodes exceeds the largest bucket {max(buckets)}")
 
 
-@dataclass(frozen=True)
-class StrideSettings:
-    """Settings of the stride OCPs (shared by every stride of a dataset).
+@dataclass(frozen=True, kw_only=True)
+class StrideSettings(ProblemSettings):
+    """Settings of the stride OCPs (shared by every stride of a dataset; keyword-only): the
+    stride problem's own fields below plus the model, bounds, effort and IPOPT fields of
+    :class:`~predictive.ocp.settings.ProblemSettings` (``tau_max``, ``tau_bound``, ``w_acc``,
+    ``ankle_strength_slope``, ``pelvis_height_bounds``, ``tilt_bounds``, ``tol``), with tighter
+    IPOPT defaults for the strides.
 
     Attributes:
         h: time step, s (backward Euler; the sample interval of the recordings).
-        w_acc: weight of the q̈ regularisation (as in :class:`~predictive.ocp.collocation.OCPSettings`).
         w_terminal: weight of the terminal tracking term (dimensionless, see the module docstring).
         sigma_q: terminal tolerance of q (except pelvis_tx), m or rad.
         sigma_u_joint: terminal tolerance of the angular speeds, rad/s.
         sigma_u_ty: terminal tolerance of the vertical pelvis speed, m/s.
         sigma_u_tx: terminal tolerance of the forward pelvis speed, fraction of max(v, 1 m/s).
-        tau_max: normalising torque per joint type (hip, knee, ankle), BW·H.
-        tau_bound: torque bound as a multiple of τmax.
-        ankle_strength_slope: k of the ankle's angle-dependent strength exp(±k·θ), 1/rad.
-        pelvis_height_bounds: pelvis_ty range, fractions of body height.
-        tilt_bounds: pelvis_tilt range, rad.
-        tol: IPOPT tolerance.
-        constr_tol: IPOPT constr_viol_tol (scaled units: BW, BW·H, scaled rates).
-        max_iter: IPOPT iteration limit per attempt.
+        constr_tol: IPOPT constr_viol_tol, here 1e-9 (the labels must satisfy the dynamics).
+        max_iter: IPOPT iteration limit per attempt, here 1000 (a failed stride has fallbacks).
         residual_tol: largest accepted Kane residual at a node, BW / BW·H (checked with NumPy).
         buckets: node-count buckets of the compiled NLPs.
     """
 
     h: float = 0.01
-    w_acc: float = 0.1
     w_terminal: float = 2.0
     sigma_q: float = 0.05
     sigma_u_joint: float = 0.5
     sigma_u_ty: float = 0.2
     sigma_u_tx: float = 0.1
-    tau_max: tuple[float, float, float] = (0.1, 0.1, 0.1)
-    tau_bound: float = 3.0
-    ankle_strength_slope: float = 1.0
-    pelvis_height_bounds: tuple[float, float] = (0.3, 0.7)
-    tilt_bounds: tuple[float, float] = (-0.6, 0.6)
-    tol: float = 1e-6
     constr_tol: float = 1e-9
     max_iter: int = 1000
     residual_tol: float = 1e-7
@@ -148,32 +131,17 @@ class StrideSettings:
     def __post_init__(self) -> None:
         if not self.h > 0:
             raise ValueError(f"h must be > 0 s, got {self.h}")
-        for name in ("w_acc", "w_terminal"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        super().__post_init__()
+        if self.w_terminal < 0:
+            raise ValueError(f"w_terminal must be >= 0, got {self.w_terminal}")
         if not self.buckets or min(self.buckets) < 2:
             raise ValueError(f"buckets must be node counts >= 2, got {self.buckets}")
 
     def ocp_settings(self, speed: float, n_nodes: int, duration: float) -> OCPSettings:
-        """The matching settings of the periodic (half-cycle) problem at ``speed`` (m/s)."""
-        return OCPSettings(
-            speed=speed,
-            n_nodes=n_nodes,
-            duration=duration,
-            w_acc=self.w_acc,
-            tau_max=self.tau_max,
-            tau_bound=self.tau_bound,
-            ankle_strength_slope=self.ankle_strength_slope,
-            pelvis_height_bounds=self.pelvis_height_bounds,
-            tilt_bounds=self.tilt_bounds,
-        )
-
-    def to_dict(self) -> dict[str, Any]:
-        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> StrideSettings:
-        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in data.items()})
+        """The periodic (half-cycle) problem of the same model at ``speed`` (m/s): these
+        :data:`~predictive.ocp.settings.ProblemSettings.MODEL_FIELDS`, the periodic problem's own
+        IPOPT settings."""
+        return OCPSettings(speed=speed, n_nodes=n_nodes, duration=duration, **self.model_settings())
 
 
 @dataclass(frozen=True)
@@ -300,7 +268,7 @@ class StrideProblem:
         self.joint_limits = joint_limits if joint_limits is not None else default_joint_limits()
         self.ipopt_options = dict(ipopt_options or {})
         self.params = _ParamLayout(len(self.buckets), self.n)
-        self.a_scale = np.full(N_Q, 10.0)
+        self.a_scale = np.full(N_Q, ACC_SCALE)
         t0 = time.perf_counter()
         self._solver = self._build()
         self.build_time = time.perf_counter() - t0
@@ -329,8 +297,8 @@ class StrideProblem:
         res = dyn.kane_residual(q, u, a, tn * tau_max, grf, w, body) / res_scale
         g_active = ca.vertcat(((q_rel - q_prev_rel) / s.h - u) / us, ((u - u_prev) / s.h - a) / as_, res)
         g_copy = ca.vertcat((q_rel - q_prev_rel) / (s.h * us), (u - u_prev) / (s.h * as_), z[2 * N_Q : 3 * N_Q])
-        te = self._strength_scaled(tn, q) if s.ankle_strength_slope else tn
-        effort = ca.dot(c, te**2) + s.w_acc * ca.sumsqr(a * (T**2 / (4 * math.pi**2)))
+        te = strength_scaled(tn, q, s.ankle_strength_slope)
+        effort = ca.dot(c, te**2) + s.w_acc * acceleration_regularisation(a, T)
         g = active * g_active + (1 - active) * g_copy
         cost = active * effort * inv_n + (1 - active) * 1e-3 * ca.sumsqr(tn)
         return ca.Function("stride_node", [z, zp, body, res_scale, tau_max, us, x0, npar], [g, cost])
@@ -360,37 +328,14 @@ class StrideProblem:
         objective += s.w_terminal * (ca.sumsqr(dq) + ca.sumsqr(du)) / (2 * N_Q)
         nlp = {"x": z, "p": P, "f": objective, "g": ca.vertcat(*g)}
         self.n_constraints = int(nlp["g"].shape[0])
-        opts: dict[str, Any] = {
-            "tol": s.tol,
-            "constr_viol_tol": s.constr_tol,
-            "max_iter": s.max_iter,
-            "linear_solver": "mumps",
-            "mu_strategy": "adaptive",
-            "print_level": 0,
-            "sb": "yes",
-            **self.ipopt_options,
-            **perturbation.extra_ipopt_options(),
-        }
-        plugin = {"ipopt": opts, "print_time": False, "error_on_fail": False, "expand": True}
+        plugin = {"ipopt": s.ipopt_options(self.ipopt_options), "print_time": False, "error_on_fail": False, "expand": True}
         return ca.nlpsol("stride_chain", "ipopt", nlp, plugin)
-
-    def _strength_scaled(self, tn: Any, q: Any) -> Any:
-        """As :meth:`PredictiveGaitProblem._strength_scaled`: ankle torque / exp(±k·θ)."""
-        k = self.settings.ankle_strength_slope
-        out = [tn[j] for j in range(N_TAU)]
-        for j in (2, 5):  # ankle_r, ankle_l in JOINTS order
-            out[j] = tn[j] * ca.exp(k * q[3 + j] * ca.tanh(tn[j] / 0.02))
-        return ca.vertcat(*out)
 
     # ------------------------------------------------------------------ solving
     def scales(self, body: BodyParameters, speed: float) -> dict[str, np.ndarray]:
-        """Residual (N, N·m), torque (N·m) and speed (m/s, rad/s) scales of ``body`` at ``speed``."""
-        bw, H = body.body_weight, body.height
-        return {
-            "res_scale": np.array([bw, bw] + [bw * H] * (N_Q - 2)),
-            "tau_max": _joint_type_values(self.settings.tau_max) * bw * H,
-            "u_scale": np.array([max(speed, 1.0), 1.0, 2.0] + [5.0] * N_TAU),
-        }
+        """Residual (N, N·m), torque (N·m) and speed (m/s, rad/s) scales of ``body`` at ``speed``
+        (:func:`~predictive.ocp.settings.nlp_scales`)."""
+        return nlp_scales(self.settings, body, speed)
 
     def solve(
         self,
@@ -482,13 +427,7 @@ class StrideProblem:
         return result
 
     def _bounds(self, body: BodyParameters) -> tuple[np.ndarray, np.ndarray]:
-        s = self.settings
-        lo_j, hi_j = self.joint_limits.arrays()
-        H = body.height
-        q_lo = np.concatenate([[-np.inf, s.pelvis_height_bounds[0] * H, s.tilt_bounds[0]], lo_j])
-        q_hi = np.concatenate([[np.inf, s.pelvis_height_bounds[1] * H, s.tilt_bounds[1]], hi_j])
-        lo = np.concatenate([q_lo, np.full(2 * N_Q, -np.inf), np.full(N_TAU, -s.tau_bound)])
-        hi = np.concatenate([q_hi, np.full(2 * N_Q, np.inf), np.full(N_TAU, s.tau_bound)])
+        lo, hi = self.settings.node_bounds(self.joint_limits, body.height)
         return np.tile(lo, self.n), np.tile(hi, self.n)
 
     def _pack_guess(
@@ -564,420 +503,3 @@ class StrideSolverCache:
 
     def __len__(self) -> int:
         return len(self._problems)
-
-
-# ---------------------------------------------------------------------------------------------
-# Periodic references
-# ---------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class CycleShape:
-    """A periodic cycle on the normalised phase φ ∈ [0, 1): q with pelvis_tx detrended
-    (q_x − v·t), u with the mean speed removed from pelvis_tx and multiplied by T (rates per unit
-    phase), τ (N·m), GRF (N)."""
-
-    speed: float
-    duration: float
-    phase: np.ndarray
-    q: np.ndarray
-    u_phase: np.ndarray
-    tau: np.ndarray
-    grf: np.ndarray
-
-    @classmethod
-    def from_solution(cls, sol: GaitSolution, boundary: float = 0.0) -> CycleShape:
-        """The cycle of ``sol`` with phase 0 at ``boundary`` (fraction of the cycle) after the
-        right foot's contact onset, so that cycles of different speeds line up."""
-        q = sol.q.copy()
-        q[:, 0] -= sol.speed * sol.time
-        u = sol.u.copy()
-        u[:, 0] -= sol.speed
-        origin = sol.right_heel_strike() / sol.n_nodes + boundary
-        phase = (sol.time / sol.duration - origin) % 1.0
-        order = np.argsort(phase)
-        return cls(
-            sol.speed, sol.duration, phase[order], q[order], u[order] * sol.duration, sol.tau[order], sol.grf[order]
-        )
-
-    def at(self, phase: np.ndarray) -> tuple[np.ndarray, ...]:
-        """(q, u_phase, τ, GRF) at the phases (periodic linear interpolation)."""
-        phase = np.asarray(phase, dtype=float)
-
-        def interp(y: np.ndarray) -> np.ndarray:
-            return np.stack([np.interp(phase, self.phase, y[:, i], period=1.0) for i in range(y.shape[1])], axis=1)
-
-        return interp(self.q), interp(self.u_phase), interp(self.tau), interp(self.grf)
-
-
-class PeriodicReference:
-    """Periodic gaits of one body at a few nominal speeds, blended linearly in speed.
-
-    :meth:`stride` gives the guess and the terminal target of a stride of any speed and node
-    count (speeds outside the nominal range use the nearest nominal gait). Every cycle is
-    rotated so that its phase 0 (the stride boundary) lies ``boundary`` (fraction of the cycle)
-    after the right foot's contact onset: the default, 0.12 before it, is in the flight phase when
-    running and in the left single support when walking, where the state changes smoothly
-    (a boundary at an impact makes the terminal target of the velocities very sensitive to timing).
-    """
-
-    def __init__(self, solutions: Sequence[GaitSolution], boundary: float = DEFAULT_BOUNDARY) -> None:
-        if not solutions:
-            raise ValueError("PeriodicReference needs at least one periodic solution")
-        shapes = (CycleShape.from_solution(s, boundary) for s in solutions)
-        self.shapes = sorted(shapes, key=lambda c: c.speed)
-        self.speeds = np.array([c.speed for c in self.shapes])
-
-    def nominal_duration(self, speed: float) -> float:
-        """Stride duration at ``speed`` (m/s) interpolated between the nominal solutions, s."""
-        return float(np.interp(speed, self.speeds, [c.duration for c in self.shapes]))
-
-    def _blend(self, speed: float, phase: np.ndarray) -> tuple[np.ndarray, ...]:
-        if speed <= self.speeds[0]:
-            return self.shapes[0].at(phase)
-        if speed >= self.speeds[-1]:
-            return self.shapes[-1].at(phase)
-        i = int(np.searchsorted(self.speeds, speed))  # speeds[i-1] < speed <= speeds[i]
-        a, b = self.shapes[i - 1], self.shapes[i]
-        lam = (speed - a.speed) / (b.speed - a.speed)
-        return tuple((1 - lam) * xa + lam * xb for xa, xb in zip(a.at(phase), b.at(phase)))
-
-    def stride(self, speed: float, n_nodes: int, h: float, x_prev: float = 0.0) -> ReferenceStride:
-        """Reference stride of ``n_nodes`` nodes at ``speed`` (m/s), step ``h`` (s), after a
-        previous state at pelvis_tx = ``x_prev`` (m).
-
-        The reference cycle is stretched to the stride: node k lies at phase k/n, so the last
-        node is the state just before the next stride's boundary.
-
-        Returns:
-            The nodes' q, u, τ and GRF and the state before the first node on the same reference
-            (pelvis_tx = x_prev).
-        """
-        T = n_nodes * h
-        phase = np.arange(-1, n_nodes) * h / T
-        q, u_phase, tau, grf = self._blend(speed, phase)
-        q[:, 0] += x_prev - q[0, 0] + speed * h * np.arange(n_nodes + 1)
-        u = u_phase / T
-        u[:, 0] += speed
-        return ReferenceStride(q[1:], u[1:], tau[1:], grf[1:], q[0], u[0])
-
-
-@dataclass(frozen=True)
-class ReferenceStride:
-    """A stride sampled from a :class:`PeriodicReference`: q, u (n, 9), τ (n, 6), GRF (n, 4) at
-    the nodes and the state before the first node, q_prev and u_prev (9,) (SI units)."""
-
-    q: np.ndarray
-    u: np.ndarray
-    tau: np.ndarray
-    grf: np.ndarray
-    q_prev: np.ndarray
-    u_prev: np.ndarray
-
-
-def _blend_into(q: np.ndarray, q_ref_prev: np.ndarray, q_prev: np.ndarray, width: float = 5.0) -> np.ndarray:
-    """The reference q shifted so that it continues from ``q_prev`` instead of ``q_ref_prev``,
-    the offset decaying over ``width`` nodes (pelvis_tx is already continuous)."""
-    dq = q_prev - q_ref_prev
-    dq[0] = 0.0
-    return q + dq[None, :] * np.exp(-np.arange(1, len(q) + 1) / width)[:, None]
-
-
-# ---------------------------------------------------------------------------------------------
-# The chain
-# ---------------------------------------------------------------------------------------------
-@dataclass
-class StrideRecord:
-    """Statistics of one kept stride: its plan (speed m/s, nodes), IPOPT's status, iterations and
-    time (s, all attempts), the number of attempts, the objective, the max Kane residual at its
-    nodes (BW / BW·H), the rung of :data:`FALLBACKS` that solved it and the speed it was planned
-    at (differs from ``speed`` on the rungs that change the plan)."""
-
-    index: int
-    speed: float
-    n_nodes: int
-    status: str
-    iterations: int
-    solve_time: float
-    attempts: int
-    objective: float
-    max_residual: float
-    fallback: str = "warm"
-    planned_speed: float = float("nan")
-
-
-@dataclass
-class ChainResult:
-    """A solved chain: the ground truth at every sample (units of :mod:`sspinn.conventions`).
-
-    Attributes:
-        q, u, qdd: (T, 9) coordinates, speeds (the collocation u) and accelerations (backward
-            differences of u; the first uses ``u_prev``).
-        tau: (T, 6) joint torques, N·m.
-        grf: (T, 4) contact-model ground reaction forces, N; w: (T, 2) contact-point fractions.
-        speed: (T,) the average pelvis speed of the sample's stride, m/s.
-        stride: (T,) index of the sample's stride.
-        q_prev, u_prev: (9,) the state before the first sample.
-        strides: per-stride statistics.
-        h: time step, s.
-        ended_early: empty, or why the chain ended before its last planned stride (every rung of
-            the fallback ladder failed; see :func:`simulate_chain`).
-    """
-
-    q: np.ndarray
-    u: np.ndarray
-    qdd: np.ndarray
-    tau: np.ndarray
-    grf: np.ndarray
-    w: np.ndarray
-    speed: np.ndarray
-    stride: np.ndarray
-    q_prev: np.ndarray
-    u_prev: np.ndarray
-    strides: list[StrideRecord]
-    h: float
-    ended_early: str = ""
-
-    _ARRAYS = ("q", "u", "qdd", "tau", "grf", "w", "speed", "stride", "q_prev", "u_prev")
-
-    @property
-    def n_samples(self) -> int:
-        return self.q.shape[0]
-
-    def residual(self, body: BodyParameters) -> np.ndarray:
-        """(T, 9) Kane residual of the stored labels (q, u, q̈, τ, GRF, w), BW and BW·H."""
-        return node_residual(self.q, self.u, self.qdd, self.tau, body, grf=self.grf, w=self.w)
-
-    def save(self, path: str | Path) -> Path:
-        """Write ``<path>.npz`` (arrays and the per-stride statistics as a structured array)."""
-        path = Path(path).with_suffix(".npz")
-        path.parent.mkdir(parents=True, exist_ok=True)
-        stats = np.array([tuple(asdict(r).values()) for r in self.strides], dtype=_STRIDE_DTYPE)
-        tmp = path.with_name(path.stem + ".tmp.npz")
-        np.savez(
-            tmp,
-            h=self.h,
-            strides=stats,
-            ended_early=np.array(self.ended_early),
-            **{k: getattr(self, k) for k in self._ARRAYS},
-        )
-        tmp.replace(path)
-        return path
-
-    @classmethod
-    def load(cls, path: str | Path) -> ChainResult:
-        with np.load(Path(path).with_suffix(".npz")) as data:
-            arrays = {k: data[k] for k in cls._ARRAYS}
-            strides = [
-                StrideRecord(**{name: row[name].item() for name in _STRIDE_DTYPE.names}) for row in data["strides"]
-            ]
-            return cls(**arrays, strides=strides, h=float(data["h"]), ended_early=str(data["ended_early"]))
-
-
-_STRIDE_DTYPE = np.dtype(
-    [
-        ("index", "i8"),
-        ("speed", "f8"),
-        ("n_nodes", "i8"),
-        ("status", "U32"),
-        ("iterations", "i8"),
-        ("solve_time", "f8"),
-        ("attempts", "i8"),
-        ("objective", "f8"),
-        ("max_residual", "f8"),
-        ("fallback", "U16"),
-        ("planned_speed", "f8"),
-    ]
-)
-
-
-#: The fallback ladder of a stride, tried in this order until one solves (see :func:`simulate_chain`).
-FALLBACKS: Final[tuple[str, ...]] = ("warm", "default", "perturbed", "nominal", "smaller_change", "previous_speed")
-
-#: Relative size of the "perturbed" rung's guess perturbation (joint angles and torques).
-PERTURBATION: Final = 0.02
-
-
-def _rung_plan(rung: str, plan: StridePlan, previous_speed: float, reference: PeriodicReference, h: float) -> StridePlan:
-    """The stride plan that ``rung`` of :data:`FALLBACKS` solves instead of ``plan``."""
-    if rung in ("warm", "default", "perturbed"):
-        return plan
-    speed = {
-        "nominal": plan.speed,
-        "smaller_change": 0.5 * (plan.speed + previous_speed),
-        "previous_speed": previous_speed,
-    }[rung]
-    return StridePlan(speed=speed, n_nodes=max(2, int(round(reference.nominal_duration(speed) / h))))
-
-
-def simulate_chain(
-    body: BodyParameters,
-    plans: Sequence[StridePlan],
-    reference: PeriodicReference,
-    solvers: StrideSolverCache,
-    *,
-    lookahead: int = 0,
-    on_stride: Callable[[StrideRecord], None] | None = None,
-    min_strides: int = 1,
-) -> ChainResult:
-    """Solve the strides ``plans`` one after the other (see the module docstring).
-
-    The chain starts from the reference's periodic state at the first plan's speed (pelvis_tx 0
-    before the first sample). Each horizon holds the kept stride and ``lookahead`` further
-    strides (the last plan repeated past the end).
-
-    **Fallback ladder.** One IPOPT run from one guess is one sample of a distribution (another
-    machine's rounding can end in ``Infeasible_Problem_Detected`` where this one succeeds), so a
-    stride that fails is tried again down :data:`FALLBACKS`, and the first rung that reaches
-    ``Solve_Succeeded`` with a node residual ≤ ``residual_tol`` is kept:
-
-    1. ``warm``: the plan, the carried (lookahead) or reference guess, warm-start IPOPT options;
-    2. ``default``: the plan, the reference guess blended into the previous state, IPOPT's
-       default options;
-    3. ``perturbed``: as 2 with joint angles and torques of the guess perturbed by
-       :data:`PERTURBATION` (relative, seeded by the stride index: deterministic);
-    4. ``nominal``: the planned speed at the reference's nominal duration and unit effort
-       weights (no stride-to-stride variability), default options;
-    5. ``smaller_change``: half the planned change of speed from the previous stride, nominal
-       duration and effort;
-    6. ``previous_speed``: the previous stride's speed (a steady stride), nominal duration.
-
-    Rungs 4–6 change the stride's plan; the labels stay exact (they come from the solution) and
-    each :class:`StrideRecord` names its rung. If every rung fails, the recording **ends cleanly
-    after the last solved stride** (``ChainResult.ended_early`` says why) provided at least
-    ``min_strides`` were solved; otherwise :class:`ChainError` is raised.
-
-    Args:
-        body: the (true) body parameters.
-        plans: the strides to keep.
-        reference: periodic gaits of ``body`` (guesses and terminal targets).
-        solvers: compiled NLPs (shared between calls).
-        lookahead: strides solved beyond the kept one (0 or more).
-        on_stride: called with each kept stride's statistics (progress).
-        min_strides: strides that must be solved before the recording may end early.
-
-    Raises:
-        ChainError: every rung failed for one of the first ``min_strides`` strides.
-    """
-    s = solvers.settings
-    h = s.h
-    if not plans:
-        raise ValueError("simulate_chain needs at least one stride plan")
-    if lookahead < 0:
-        raise ValueError(f"lookahead must be >= 0, got {lookahead}")
-    padded = list(plans) + [plans[-1]] * lookahead
-    first = reference.stride(plans[0].speed, plans[0].n_nodes, h, 0.0)
-    q_prev, u_prev = first.q_prev, first.u_prev
-    q0_prev, u0_prev = q_prev.copy(), u_prev.copy()
-    previous_speed = plans[0].speed
-    carried: tuple[np.ndarray, np.ndarray] | None = None  # solved lookahead (q, τ) of the next stride
-    chunks: list[tuple[np.ndarray, ...]] = []
-    records: list[StrideRecord] = []
-    ended_early = ""
-    for k, planned in enumerate(plans):
-        result: StrideResult | None = None
-        total_iter, total_time, n_try = 0, 0.0, 0
-        failures: list[str] = []
-        plan = planned
-        for rung in FALLBACKS:
-            plan = _rung_plan(rung, planned, previous_speed, reference, h)
-            if rung in ("nominal", "smaller_change", "previous_speed") and plan == planned:
-                continue  # nothing new to try on this rung
-            horizon = [plan] + padded[k + 1 : k + 1 + lookahead]
-            guess_q, guess_tau, target = _horizon_guess(
-                rung, horizon, reference, h, q_prev, carried if rung == "warm" else None, k
-            )
-            n_try += 1
-            problem = solvers.get([p.n_nodes for p in horizon], warm=rung == "warm")
-            result = problem.solve(body, q_prev, u_prev, horizon, target.q[-1], target.u[-1], guess_q, guess_tau)
-            total_iter += result.iterations
-            total_time += result.solve_time
-            if result.status in ACCEPTED_STATUSES and result.max_residual <= s.residual_tol:
-                break
-            failures.append(f"{rung}: {result.status}, residual {result.max_residual:.3g}")
-            result = None
-        if result is None:
-            reason = (
-                f"stride {k} (speed {planned.speed:.3f} m/s, {planned.n_nodes} nodes) failed on every rung of the "
-                f"fallback ladder ({'; '.join(failures)})"
-            )
-            if k < min_strides:
-                raise ChainError(reason)
-            ended_early = f"ended after stride {k - 1}: {reason}"
-            break
-        q, u, qdd, tau = result.stride(0)
-        chunks.append((q, u, qdd, tau, np.full(len(q), plan.speed), np.full(len(q), k)))
-        carried = None
-        if lookahead and plan == planned:
-            nq, _, _, ntau = result.stride(1)
-            carried = (nq, ntau)
-        q_prev, u_prev = q[-1], u[-1]
-        previous_speed = plan.speed
-        record = StrideRecord(
-            index=k,
-            speed=plan.speed,
-            n_nodes=plan.n_nodes,
-            status=result.status,
-            iterations=total_iter,
-            solve_time=total_time,
-            attempts=n_try,
-            objective=result.objective,
-            max_residual=float(np.abs(node_residual(q, u, qdd, tau, body, solvers.contact)).max()),
-            fallback=rung,
-            planned_speed=planned.speed,
-        )
-        records.append(record)
-        if on_stride is not None:
-            on_stride(record)
-    q, u, qdd, tau, speed, stride = (np.concatenate(parts) for parts in zip(*chunks))
-    grf, w = dyn.contact_forces(q, u, body, solvers.contact)
-    return ChainResult(
-        q=q,
-        u=u,
-        qdd=qdd,
-        tau=tau,
-        grf=np.asarray(grf),
-        w=np.asarray(w),
-        speed=speed,
-        stride=stride.astype(np.int64),
-        q_prev=q0_prev,
-        u_prev=u0_prev,
-        strides=records,
-        h=h,
-        ended_early=ended_early,
-    )
-
-
-def _horizon_guess(
-    rung: str,
-    horizon: Sequence[StridePlan],
-    reference: PeriodicReference,
-    h: float,
-    q_prev: np.ndarray,
-    carried: tuple[np.ndarray, np.ndarray] | None,
-    index: int,
-) -> tuple[np.ndarray, np.ndarray, ReferenceStride]:
-    """Initial guess (q, τ) of a horizon on ``rung`` and the terminal target (the reference stride
-    of the horizon's last plan). ``warm``: the carried lookahead stride (if any) or the reference
-    blended from the previous guess; other rungs: the reference blended into ``q_prev``, on
-    ``perturbed`` with a deterministic relative perturbation of the angles and torques."""
-    qs: list[np.ndarray] = []
-    taus: list[np.ndarray] = []
-    x_last, q_last = q_prev[0], q_prev
-    target = None
-    for i, p in enumerate(horizon):
-        target = reference.stride(p.speed, p.n_nodes, h, x_last)
-        if i == 0 and carried is not None:
-            qs.append(carried[0])
-            taus.append(carried[1])
-        else:
-            start = q_last if rung == "warm" else (q_prev if i == 0 else target.q_prev)
-            qs.append(_blend_into(target.q, target.q_prev, start))
-            taus.append(target.tau)
-        x_last, q_last = qs[-1][-1, 0], qs[-1][-1]
-    assert target is not None
-    q, tau = np.vstack(qs), np.vstack(taus)
-    if rung == "perturbed":
-        rng = np.random.default_rng([index, 7])
-        q = q.copy()
-        q[:, 2:] += PERTURBATION * np.abs(q[:, 2:]).max(axis=0) * rng.standard_normal(q[:, 2:].shape)
-        tau = tau * (1 + PERTURBATION * rng.standard_normal(tau.shape))
-    return q, tau, target

@@ -4,7 +4,7 @@ Entry point: :func:`predictive.synth.pipeline.generate_dataset` (``python -m pre
 :mod:`~predictive.synth.cli`). The method is described in :mod:`~predictive.synth.pipeline`;
 each step lives in its own module:
 
-* :mod:`~predictive.synth.config` — :class:`SynthConfig` and its parts (YAML);
+* :mod:`~predictive.synth.config` — :class:`~predictive.synth.config.SynthConfig` and its parts (YAML);
 * :mod:`~predictive.synth.subjects` — virtual subjects and their true (perturbed) bodies;
 * :mod:`~predictive.synth.cache` — the file caches, their keys and ``CODE_VERSION``;
 * :mod:`~predictive.synth.gait_library` — periodic gaits (templates, per subject) and their fallbacks;

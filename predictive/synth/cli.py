@@ -32,7 +32,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command; returns the exit code."""
-    from predictive.synth.pipeline import SynthConfig, generate_dataset
+    from predictive.synth.config import SynthConfig
+    from predictive.synth.pipeline import generate_dataset
 
     config = SynthConfig.from_yaml(args.config, workers=args.workers, seed=args.seed)
     t0 = time.perf_counter()
