@@ -1,8 +1,8 @@
 """Predictive simulation: the full comparison, and the time to a controller for a *new* speed.
 
-1. Runs the comparison harness (:mod:`predictive.comparison`) from a config — the table of
-   self-supervised generator vs SB3 agents vs OCP on the same environment and metrics — and
-   prints it (the report with plots goes to ``--out``).
+1. Runs the comparison harness (:mod:`predictive.experiments.controller_comparison`) from a
+   config — the table of self-supervised generator vs SB3 agents vs OCP on the same environment
+   and metrics — and prints it (the report with plots goes to ``--out``).
 2. **Time to a controller for a new speed** (speeds no method was built for): the self-supervised
    generator (one forward pass + LQR; and with its brief fine-tune) against the named baseline
    "re-solving the OCP (IPOPT, 100 nodes per half cycle) + LQR", measured in the same run, each
@@ -35,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--skip-table", action="store_true", help="only the new-speed timing")
     args = parser.parse_args(argv)
 
-    from predictive.comparison import (
+    from predictive.experiments.controller_comparison import (
         ComparisonConfig,
         MethodSpec,
         evaluate_controller,

@@ -102,7 +102,7 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     ``reset(options={"target_speed": v})``. ``reset(options={"initial_state": (q, u)})`` starts
     from another state instead of standing (q, u: 9 coordinates and speeds in SI units; pelvis_tx
     is set to 0 and the same noise is added) — e.g. on a gait cycle, for controllers that track one
-    (:mod:`predictive.closed_loop`).
+    (:mod:`predictive.generator.closed_loop`).
 
     ## Passive joint moments
 

@@ -1,125 +1,36 @@
 """Command line: ``python -m predictive solve --speed 1.3 --out results/ocp/walk_1.3``.
 
-Solves the predictive gait problem, prints IPOPT's status, iterations, solve time, the Kane
-residual at the nodes, stance fractions and — when ``../shared/data/winter_walking`` exists —
-the RMSD against Winter's normal walking, and writes ``<out>.npz``/``<out>.json`` (the
-solution), ``<out>_summary.json`` and ``<out>.png`` (angles and GRF versus % gait cycle).
+The dispatcher of ``python -m predictive``; each sub-command lives next to what it drives:
+
+* ``solve`` — one predictive gait by trajectory optimisation (:mod:`predictive.ocp.cli`);
+* ``track-imu`` — IMU tracking of an averaged stride, compared with its labels
+  (:mod:`predictive.experiments.cli`);
+* ``synth`` — a physically exact synthetic dataset (:mod:`predictive.synth.cli`);
+* ``train-generator``, ``generate`` — the self-supervised gait generator (:mod:`predictive.generator.cli`);
+* ``compare`` — generator vs SB3 agents vs OCP on the same environment (:mod:`predictive.experiments.cli`).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import math
 import sys
-from pathlib import Path
 
-import numpy as np
-
-from predictive import compare_cli, generator_cli, synth_cli, tracking_cli
-from predictive.analysis import DEFAULT_DATA_DIR, compare_with_reference, load_winter, plot_gait
-from predictive.collocation import OCPError, solve_predictive
-from predictive.limits import check_body, check_speed, solution_problems
-from predictive.solution import GaitSolution
-from sspinn.errors import ArgumentParser, UserError, run_cli
-
-#: Speeds below this are compared with Winter's walking data, m/s.
-WALKING_MAX_SPEED = 2.0
+from predictive.experiments import cli as experiments_cli
+from predictive.generator import cli as generator_cli
+from predictive.ocp import cli as ocp_cli
+from predictive.synth import cli as synth_cli
+from sspinn.errors import ArgumentParser, run_cli
 
 
 def _parser() -> argparse.ArgumentParser:
     parser = ArgumentParser(prog="python -m predictive", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    solve = sub.add_parser("solve", help="solve a predictive gait problem and write the solution + plot")
-    solve.add_argument("--speed", type=float, required=True, help="average speed, m/s")
-    solve.add_argument("--out", type=Path, required=True, help="output path without suffix")
-    solve.add_argument("--nodes", type=int, default=None, help="collocation nodes (default 50 half / 100 full)")
-    solve.add_argument("--rate-hz", type=float, default=None,
-                       help="put the nodes on a sampling grid of this rate, e.g. 100 (instead of --nodes)")
-    solve.add_argument("--cycle", choices=("half", "full"), default="half", help="symmetric half or full cycle")
-    solve.add_argument("--effort", choices=("squared", "cubed"), default="squared")
-    solve.add_argument("--duration", type=float, default=None, help="stride duration, s (default: typical)")
-    solve.add_argument("--free-duration", action="store_true", help="optimise the stride duration")
-    solve.add_argument("--w-acc", type=float, default=None, help="weight of the acceleration regularisation")
-    solve.add_argument("--guess", type=Path, default=None, help="previous solution (.npz/.json) as initial guess")
-    solve.add_argument("--height", type=float, default=1.75, help="body height, m")
-    solve.add_argument("--mass", type=float, default=70.0, help="body mass, kg")
-    solve.add_argument("--data-dir", type=Path, default=DEFAULT_DATA_DIR, help="folder holding winter_walking/")
-    solve.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
-    tracking_cli.add_parser(sub)  # track-imu: IMU tracking of an averaged stride (predictive/tracking_cli.py)
-    synth_cli.add_parser(sub)  # synth: physically exact synthetic dataset (predictive/synth_cli.py)
-    generator_cli.add_parsers(sub)  # train-generator, generate: self-supervised gait generator
-    compare_cli.add_parser(sub)  # compare: generator vs SB3 agents vs OCP (predictive/comparison.py)
+    ocp_cli.add_parser(sub)  # solve
+    experiments_cli.add_track_imu_parser(sub)  # track-imu
+    synth_cli.add_parser(sub)  # synth
+    generator_cli.add_parsers(sub)  # train-generator, generate
+    experiments_cli.add_compare_parser(sub)  # compare
     return parser
-
-
-def _check_solve_args(args: argparse.Namespace) -> None:
-    """Reject what the model cannot do before anything is built (see predictive.limits)."""
-    check_speed(args.speed, "--speed")
-    check_body(args.height, args.mass)
-    for name, value, low in (("--nodes", args.nodes, 4), ("--rate-hz", args.rate_hz, 1e-9), ("--duration", args.duration, 1e-9)):
-        if value is not None and not (math.isfinite(value) and value >= low):
-            raise UserError(f"{name} {value} must be a finite number ≥ {low:g}")
-    if args.w_acc is not None and not (math.isfinite(args.w_acc) and args.w_acc >= 0):
-        raise UserError(f"--w-acc {args.w_acc} must be a finite number ≥ 0")
-    if args.duration is not None and not 0.2 <= args.duration <= 3.0:
-        raise UserError(f"--duration {args.duration} s is not a human stride duration (0.2–3 s)")
-
-
-def _solve(args: argparse.Namespace) -> int:
-    from sspinn.body import BodyParameters
-
-    _check_solve_args(args)
-    body = BodyParameters.from_anthropometry(args.height, args.mass)
-    extra = {} if args.w_acc is None else {"w_acc": args.w_acc}
-    guess = GaitSolution.load(args.guess) if args.guess is not None else None
-    try:
-        sol = solve_predictive(
-            args.speed,
-            body,
-            n_nodes=args.nodes,
-            rate_hz=args.rate_hz,
-            effort=args.effort,
-            gait_cycle=args.cycle,
-            guess=guess,
-            duration=args.duration,
-            free_duration=args.free_duration,
-            verbose=args.verbose,
-            **extra,
-        )
-    except OCPError as exc:
-        print(f"FAILED: {exc}", file=sys.stderr)
-        if exc.solution is not None:
-            path = exc.solution.save(args.out.with_name(args.out.name + "_failed"))
-            print(f"last iterate written to {path}", file=sys.stderr)
-        return 1
-    problems = solution_problems(sol)
-    if problems:
-        where = ""
-        if all(np.isfinite(getattr(sol, k)).all() for k in ("q", "u", "tau", "grf")):
-            where = f"; the rejected solution is written to {sol.save(args.out.with_name(args.out.name + '_failed'))} for inspection"
-        print(f"FAILED: IPOPT reported {sol.status}, but the solution is not acceptable: {'; '.join(problems)}{where}",
-              file=sys.stderr)
-        return 1
-    summary = sol.summary()
-    reference = None
-    if args.speed < WALKING_MAX_SPEED:
-        try:
-            reference = load_winter(args.data_dir)
-        except FileNotFoundError as exc:
-            print(f"(no comparison with Winter: {exc})")
-        else:
-            summary.update({f"winter_{k}": v for k, v in compare_with_reference(sol, reference).items()})
-    npz = sol.save(args.out)
-    png = plot_gait(sol, args.out.with_name(args.out.name + ".png"), reference)
-    summary_path = args.out.with_name(args.out.name + "_summary.json")
-    summary_path.write_text(json.dumps(summary, indent=2))
-    width = max(len(k) for k in summary)
-    for key, value in summary.items():
-        text = f"{value:.6g}" if isinstance(value, float) else str(value)
-        print(f"{key:<{width}}  {text}")
-    print(f"wrote {npz}, {npz.with_name(npz.name[:-4] + '.json')}, {summary_path}, {png}")
-    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -130,16 +41,14 @@ def main(argv: list[str] | None = None) -> int:
 
 def _main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
-    if args.command == "solve":
-        return _solve(args)
-    if args.command == tracking_cli.COMMAND:
-        return tracking_cli.run(args)
+    if args.command == ocp_cli.COMMAND:
+        return ocp_cli.run(args)
     if args.command == synth_cli.COMMAND:
         return synth_cli.run(args)
     if args.command in generator_cli.COMMANDS:
         return generator_cli.run(args)
-    if args.command == compare_cli.COMMAND:
-        return compare_cli.run(args)
+    if args.command in experiments_cli.COMMANDS:
+        return experiments_cli.run(args)
     raise AssertionError(args.command)  # argparse enforces the sub-commands
 
 

@@ -215,16 +215,17 @@ def main() -> None:
         return cli(sspinn_main, ["evaluate", "--model", str(model), "--data", str(tmp / "unlabelled"), "--out", str(tmp / "rep")])
 
     def bad_solution() -> Outcome:
-        from predictive.collocation import solve_predictive
+        from predictive.ocp import cli as solve_cli
+        from predictive.ocp.collocation import solve_predictive
 
         sol = solve_predictive(0.0, n_nodes=6, duration=0.4)
         sol.tau = sol.tau + 50.0
-        real = predictive_cli.solve_predictive
-        predictive_cli.solve_predictive = lambda *a, **k: sol
+        real = solve_cli.solve_predictive
+        solve_cli.solve_predictive = lambda *a, **k: sol
         try:
             return cli(predictive_cli.main, ["solve", "--speed", "0", "--nodes", "6", "--duration", "0.4", "--out", str(tmp / "s")])
         finally:
-            predictive_cli.solve_predictive = real
+            solve_cli.solve_predictive = real
 
     def nan_stride() -> Outcome:
         folder = tmp / "stride"

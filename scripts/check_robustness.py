@@ -16,7 +16,7 @@ needed a fallback rung, and recordings that ended early, are counted (they are n
 that is what the fallback ladder is for) and reported.
 
 Perturbations (:data:`PERTURBATIONS`): relative noise of 1e-9 or 1e-8 on every IPOPT initial
-guess with different seeds (``SSPINN_OCP_JITTER``, :mod:`predictive.perturbation`), 1 vs 2
+guess with different seeds (``SSPINN_OCP_JITTER``, :mod:`predictive.ocp.perturbation`), 1 vs 2
 BLAS/OpenMP threads, MUMPS pivoting options (``SSPINN_IPOPT_OPTIONS``), and other dataset seeds.
 
 Usage (one process per job; ``--jobs 2`` runs two perturbations side by side on one thread each)::

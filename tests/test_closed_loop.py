@@ -7,7 +7,15 @@ import pytest
 import scipy.linalg
 
 from envs.sagittal_walker import SagittalWalkerEnv
-from predictive.closed_loop import N_Z, GaitReference, GaitTracker, LQRWeights, periodic_lqr, resample_cycle, step_map
+from predictive.generator.closed_loop import (
+    N_Z,
+    GaitReference,
+    GaitTracker,
+    LQRWeights,
+    periodic_lqr,
+    resample_cycle,
+    step_map,
+)
 
 
 def test_periodic_lqr_of_a_constant_system_is_the_dare_gain() -> None:
@@ -77,7 +85,7 @@ def test_tracker_applies_feedforward_on_the_reference_and_feedback_off_it() -> N
 
 def test_lqr_tracks_a_small_ocp_walking_cycle_for_two_seconds() -> None:
     """A coarse predictive OCP gait (fast to solve) replayed closed loop does not fall in 2 s."""
-    from predictive.collocation import solve_predictive
+    from predictive.ocp.collocation import solve_predictive
 
     env = SagittalWalkerEnv(target_speed=1.3, max_episode_steps=200)
     sol = solve_predictive(1.3, env.body, contact=env.contact, n_nodes=100)

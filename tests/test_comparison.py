@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 
 from envs.sagittal_walker import SagittalWalkerEnv
-from predictive.analysis import ReferenceGait
-from predictive.comparison import (
+from predictive.experiments.controller_comparison import (
     ComparisonConfig,
     MethodSpec,
     executed_kane_residual,
@@ -17,7 +16,8 @@ from predictive.comparison import (
     run_comparison,
     winter_rmsd,
 )
-from predictive.gait_generator import GeneratorConfig, GeneratorTrainer
+from predictive.generator.gait_generator import GeneratorConfig, GeneratorTrainer
+from predictive.ocp.gait_analysis import ReferenceGait
 
 
 def _traces(n_cycles: int = 5, period: int = 100, bw: float = 700.0) -> dict[str, np.ndarray]:

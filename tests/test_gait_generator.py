@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from predictive.gait_generator import (
+from predictive.generator.gait_generator import (
     GaitGenerator,
     GaitLosses,
     GeneratorConfig,

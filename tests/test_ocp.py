@@ -17,8 +17,8 @@ from predictive import (
     typical_stride_duration,
 )
 from predictive.__main__ import main as cli_main
-from predictive.analysis import compare_with_reference, load_winter, normalised_cycle, plot_gait
-from predictive.solution import MIRROR_Q, MIRROR_TAU
+from predictive.ocp.gait_analysis import compare_with_reference, load_winter, normalised_cycle, plot_gait
+from predictive.ocp.solution import MIRROR_Q, MIRROR_TAU
 
 #: ../shared/data (optional real recordings; see tests/conftest.py)
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"

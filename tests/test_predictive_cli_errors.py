@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 import predictive.__main__ as predictive_cli
-from predictive.collocation import solve_predictive
-from predictive.limits import RequestError, check_body, check_speed, solution_problems
-from predictive.solution import GaitSolution
+import predictive.ocp.cli as solve_cli
+from predictive.ocp.collocation import solve_predictive
+from predictive.ocp.limits import RequestError, check_body, check_speed, solution_problems
+from predictive.ocp.solution import GaitSolution
 from sspinn.errors import UserError
 
 
@@ -72,7 +73,7 @@ def test_a_solution_violating_the_dynamics_is_reported_as_failed(standing, tmp_p
     broken = GaitSolution.load(standing.save(tmp_path / "ok"))
     broken.tau = broken.tau + 50.0  # 50 N·m the dynamics do not explain
     assert any("Kane residual at its own nodes" in p for p in solution_problems(broken))
-    monkeypatch.setattr(predictive_cli, "solve_predictive", lambda *a, **k: broken)
+    monkeypatch.setattr(solve_cli, "solve_predictive", lambda *a, **k: broken)
     code = predictive_cli.main(["solve", "--speed", "0", "--nodes", "6", "--duration", "0.4", "--out", str(tmp_path / "s")])
     err = capsys.readouterr().err
     assert code == 1 and "FAILED: IPOPT reported Solve_Succeeded, but the solution is not acceptable" in err

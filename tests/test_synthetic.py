@@ -1,5 +1,5 @@
-"""Synthetic gait data (predictive.synthetic, predictive.stride_chain): a tiny dataset of two
-subjects with two running strides each (~30 s cold on 2 CPU cores), plus fast unit tests."""
+"""Synthetic gait data (predictive.synth, predictive.ocp.stride_nlp): a tiny dataset of two subjects
+with two running strides each (~30 s cold on 2 CPU cores), plus fast unit tests."""
 
 from __future__ import annotations
 
@@ -13,18 +13,12 @@ import pytest
 import yaml
 
 from predictive.__main__ import main as cli_main
-from predictive.stride_chain import StridePlan, bucket_for
-from predictive.synthetic import (
-    BodyVariation,
-    SynthConfig,
-    Variability,
-    body_deviation,
-    generate_dataset,
-    perturb_body,
-    plan_strides,
-    residual_stats,
-    sample_subjects,
-)
+from predictive.ocp.stride_nlp import StridePlan, bucket_for
+from predictive.synth.config import BodyVariation, SynthConfig, Variability
+from predictive.synth.pipeline import generate_dataset
+from predictive.synth.planning import plan_strides
+from predictive.synth.recording import residual_stats
+from predictive.synth.subjects import body_deviation, perturb_body, sample_subjects
 from sspinn.body import BodyParameters
 from sspinn.conventions import N_Q, SEGMENTS
 from sspinn.dataset import Dataset, Recording
@@ -226,8 +220,9 @@ def test_stride_plans_cover_the_duration_with_bounded_speed_changes() -> None:
 @pytest.fixture(scope="module")
 def running_chain_setup():
     """A nominal body's periodic 3.5 m/s gait (reference) and a shared solver cache."""
-    from predictive.stride_chain import PeriodicReference, StrideSettings, StrideSolverCache
-    from predictive.synthetic import _solve_periodic_ladder
+    from predictive.ocp.stride_nlp import StrideSettings, StrideSolverCache
+    from predictive.synth.gait_library import _solve_periodic_ladder
+    from predictive.synth.periodic_reference import PeriodicReference
 
     body = BodyParameters.from_anthropometry(1.75, 70.0)
     settings = StrideSettings()
@@ -238,9 +233,9 @@ def running_chain_setup():
 def _failing_solves(monkeypatch: pytest.MonkeyPatch, fail_calls: set[int]) -> list[int]:
     """Make the stride solves numbered ``fail_calls`` (0-based, in call order) fail as IPOPT's
     'Infeasible_Problem_Detected' would, without running IPOPT; returns the call log."""
-    from predictive import stride_chain
+    from predictive.ocp import stride_nlp
 
-    real = stride_chain.StrideProblem.solve
+    real = stride_nlp.StrideProblem.solve
     calls: list[int] = []
 
     def solve(self, body, q_prev, u_prev, plans, *args, **kwargs):
@@ -249,14 +244,14 @@ def _failing_solves(monkeypatch: pytest.MonkeyPatch, fail_calls: set[int]) -> li
         if n in fail_calls:
             nodes = sum(p.n_nodes for p in plans)
             z = np.zeros((nodes, N_Q))
-            return stride_chain.StrideResult(
+            return stride_nlp.StrideResult(
                 q=z, u=z, qdd=z, tau=np.zeros((nodes, 6)), node_counts=tuple(p.n_nodes for p in plans),
                 status="Infeasible_Problem_Detected", iterations=3, solve_time=0.0, objective=float("nan"),
                 max_residual=3.18,
             )
         return real(self, body, q_prev, u_prev, plans, *args, **kwargs)
 
-    monkeypatch.setattr(stride_chain.StrideProblem, "solve", solve)
+    monkeypatch.setattr(stride_nlp.StrideProblem, "solve", solve)
     return calls
 
 
@@ -266,7 +261,7 @@ def _plans(reference) -> list[StridePlan]:
 
 
 def test_a_failed_stride_goes_down_the_ladder(running_chain_setup, monkeypatch: pytest.MonkeyPatch) -> None:
-    from predictive.stride_chain import FALLBACKS, simulate_chain
+    from predictive.synth.chain import FALLBACKS, simulate_chain
 
     body, reference, solvers = running_chain_setup
     # stride 1 fails on warm, default, perturbed and nominal: solved on 'smaller_change'
@@ -289,7 +284,7 @@ def test_a_failed_stride_goes_down_the_ladder(running_chain_setup, monkeypatch: 
 def test_a_stride_that_fails_every_rung_ends_the_recording_cleanly(
     running_chain_setup, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
-    from predictive.stride_chain import FALLBACKS, ChainError, ChainResult, simulate_chain
+    from predictive.synth.chain import FALLBACKS, ChainError, ChainResult, simulate_chain
 
     body, reference, solvers = running_chain_setup
     _failing_solves(monkeypatch, set(range(1, 1 + len(FALLBACKS))))
@@ -312,9 +307,9 @@ class _MemoryCache:
 
 
 def test_periodic_gaits_fall_back_without_aborting(monkeypatch: pytest.MonkeyPatch) -> None:
-    from predictive import synthetic
-    from predictive.collocation import OCPError
-    from predictive.stride_chain import StrideSettings
+    from predictive.ocp.collocation import OCPError
+    from predictive.ocp.stride_nlp import StrideSettings
+    from predictive.synth import gait_library
 
     calls: list[tuple[float, object, object]] = []
 
@@ -329,17 +324,17 @@ def test_periodic_gaits_fall_back_without_aborting(monkeypatch: pytest.MonkeyPat
             raise OCPError("Restoration_Failed", "fails")
         return f"sol{speed}"
 
-    monkeypatch.setattr(synthetic, "_solve_periodic", fake_solve)
-    templates = synthetic.template_library([1.3, 1.8, 2.5, 3.5], StrideSettings(), _MemoryCache())
+    monkeypatch.setattr(gait_library, "_solve_periodic", fake_solve)
+    templates = gait_library.template_library([1.3, 1.8, 2.5, 3.5], StrideSettings(), _MemoryCache())
     assert templates[2.5][0] == "sol2.5" and templates[3.5][0] == "sol3.5"
     assert any(speed == 3.0 and guess == "sol3.5" for speed, guess, _ in calls)  # the midpoint
     events: list[dict[str, str]] = []
     body = BodyParameters.from_anthropometry(1.7, 65.0)
     fine = {v: (f"sol{v}", f"key{v}") for v in (1.3, 1.8)}
-    library = synthetic.periodic_library(body, [1.3, 1.8], StrideSettings(), _MemoryCache(), fine, events, "S01")
+    library = gait_library.periodic_library(body, [1.3, 1.8], StrideSettings(), _MemoryCache(), fine, events, "S01")
     assert library[1.3] == ("sol1.3", library[1.3][1]) and library[1.8] == ("sol1.8", "key1.8")  # the template
     assert [e["event"] for e in events] == ["periodic_from_template"] and "1.8 m/s" in events[0]["detail"]
     # an anchor that fails on every rung is a clear error naming it
-    monkeypatch.setattr(synthetic, "_solve_periodic", lambda *a, **k: (_ for _ in ()).throw(OCPError("X", "no")))
+    monkeypatch.setattr(gait_library, "_solve_periodic", lambda *a, **k: (_ for _ in ()).throw(OCPError("X", "no")))
     with pytest.raises(OCPError, match="anchor"):
-        synthetic.template_library([1.3], StrideSettings(), _MemoryCache())
+        gait_library.template_library([1.3], StrideSettings(), _MemoryCache())

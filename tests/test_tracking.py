@@ -1,5 +1,6 @@
-"""Tracking gait simulations (predictive/tracking.py): recovery of known solutions and the IMU
-tracking baseline on the real averaged stride of ../shared/data (skipped when absent)."""
+"""Tracking gait simulations (predictive/ocp/tracking.py, tracking_data.py, imu_tracking.py):
+recovery of known solutions and the IMU tracking baseline on the real averaged stride of
+../shared/data (skipped when absent)."""
 
 from __future__ import annotations
 
@@ -11,17 +12,10 @@ import pytest
 
 from predictive import GaitSolution, solve_predictive
 from predictive.__main__ import main as cli_main
-from predictive.label_comparison import compare_with_labels, solution_at_times
-from predictive.tracking import (
-    IMU_SIGNALS,
-    TrackedSignal,
-    TrackingGaitProblem,
-    TrackingSettings,
-    roll_cycle,
-    signals_from_solution,
-    solve_imu_tracking,
-    solve_tracking,
-)
+from predictive.experiments.solution_vs_labels import compare_with_labels, solution_at_times
+from predictive.ocp.imu_tracking import IMU_SIGNALS, roll_cycle, solve_imu_tracking
+from predictive.ocp.tracking import TrackedSignal, TrackingGaitProblem, TrackingSettings, solve_tracking
+from predictive.ocp.tracking_data import signals_from_solution
 from sspinn.body import IMUPlacement
 from sspinn.conventions import COORDINATES, GRF, JOINTS, SEGMENTS
 from sspinn.dataset import SAMPLE_RATE_HZ, Labels, Recording

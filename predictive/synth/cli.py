@@ -2,7 +2,7 @@
 
 ``python -m predictive synth --config configs/synth/default.yaml --out data/synth_default``
 
-Generates the dataset of :mod:`predictive.synthetic` (progress bar on stderr), then prints its
+Generates the dataset of :mod:`predictive.synth.pipeline` (progress bar on stderr), then prints its
 size, the generation time, the solver statistics and the Kane residual of the written labels.
 A second run with the same configuration reads everything from the cache.
 """
@@ -32,7 +32,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command; returns the exit code."""
-    from predictive.synthetic import SynthConfig, generate_dataset
+    from predictive.synth.config import SynthConfig
+    from predictive.synth.pipeline import generate_dataset
 
     config = SynthConfig.from_yaml(args.config, workers=args.workers, seed=args.seed)
     t0 = time.perf_counter()

@@ -13,10 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
-from predictive.solution import CONTACT_THRESHOLD_BW, GaitSolution
+from predictive.ocp.solution import CONTACT_THRESHOLD_BW, GaitSolution
 
 #: Default location of the shared real data, relative to the repository root.
-DEFAULT_DATA_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+DEFAULT_DATA_DIR = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 
 #: Compared signals: name → (sspinn column in q (rad) or grf (BW), Winter column).
 _ANGLES = {"hip": (3, "hip_flexion_r_angle"), "knee": (4, "knee_angle_r_angle"), "ankle": (5, "ankle_angle_r_angle")}

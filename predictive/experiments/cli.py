@@ -1,31 +1,38 @@
-"""The ``track-imu`` sub-command of ``python -m predictive``: IMU tracking of an averaged stride.
+"""The experiment sub-commands of ``python -m predictive``: ``track-imu`` and ``compare``.
 
-``python -m predictive track-imu --data ../shared/data/dorschky_P03_walking --out results/ocp/imu_tracking``
+``python -m predictive track-imu --data ../shared/data/dorschky_P03_walking --out results/ocp/imu_tracking``:
+IMU tracking of an averaged stride, compared with its labels. Reads the averaged stride
+(:func:`sspinn.readers.read_averaged_stride`; body height and mass are not recorded there, so
+1.75 m / 70 kg are assumed unless given), solves
+:func:`predictive.ocp.imu_tracking.solve_imu_tracking` (labels unused), compares the estimate with
+the labels (:func:`predictive.experiments.solution_vs_labels.compare_with_labels`) and prints the
+table next to the paper's OCP figures. Writes ``<out>.npz/.json`` (the solution),
+``<out>_tracked.npz/.json`` (tracked signals, residuals, starts, times), ``<out>_metrics.json``,
+``<out>_table.md`` and ``<out>.png`` (angles, moments, GRF versus the labels over the cycle).
+Predictive initial guesses are cached in ``<out>_guesses/``.
 
-Reads the averaged stride (:func:`sspinn.readers.read_averaged_stride`; body height and mass are
-not recorded there, so 1.75 m / 70 kg are assumed unless given), solves
-:func:`predictive.tracking.solve_imu_tracking` (labels unused), compares the estimate with the
-labels (:func:`predictive.label_comparison.compare_with_labels`) and prints the table next to the
-paper's OCP figures. Writes ``<out>.npz/.json`` (the solution), ``<out>_tracked.npz/.json``
-(tracked signals, residuals, starts, times), ``<out>_metrics.json``, ``<out>_table.md`` and
-``<out>.png`` (angles, moments, GRF versus the labels over the cycle). Predictive initial guesses
-are cached in ``<out>_guesses/``.
+``python -m predictive compare --config configs/predictive/compare.yaml --out results/compare``:
+the comparison harness of :mod:`predictive.experiments.controller_comparison` (table, learning
+curves, gait cycles, stick figures in ``<out>/report.md``).
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 from typing import Any
 
-#: Sub-command name.
-COMMAND = "track-imu"
+#: Sub-command names.
+TRACK_IMU = "track-imu"
+COMPARE = "compare"
+COMMANDS = (TRACK_IMU, COMPARE)
 
 
-def add_parser(sub: Any) -> argparse.ArgumentParser:
+def add_track_imu_parser(sub: Any) -> argparse.ArgumentParser:
     """Register the ``track-imu`` sub-command on an ``argparse`` sub-parsers object."""
-    p = sub.add_parser(COMMAND, help="IMU tracking (label-free OCP baseline) of an averaged stride, compared with its labels")
+    p = sub.add_parser(TRACK_IMU, help="IMU tracking (label-free OCP baseline) of an averaged stride, compared with its labels")
     p.add_argument("--data", type=Path, required=True, help="averaged-stride folder (signals.csv, meta.json)")
     p.add_argument("--out", type=Path, required=True, help="output path without suffix")
     p.add_argument("--nodes", type=int, default=100, help="collocation nodes per stride")
@@ -48,11 +55,45 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     return p
 
 
+def add_compare_parser(sub: Any) -> argparse.ArgumentParser:
+    """Register the ``compare`` sub-command on an ``argparse`` sub-parsers object."""
+    p = sub.add_parser(COMPARE, help="self-supervised generator vs SB3 agents vs OCP on the same env and metrics")
+    p.add_argument("--config", type=Path, default=Path("configs/predictive/compare.yaml"))
+    p.add_argument("--out", type=Path, required=True, help="report folder")
+    p.add_argument("--seeds", type=int, default=None, help="use only the first N seeds (quick runs)")
+    return p
+
+
 def run(args: argparse.Namespace) -> int:
-    """Run the sub-command; returns the exit code (1 if IPOPT failed on every start)."""
-    from predictive.label_comparison import compare_with_labels, plot_against_labels, write_comparison
-    from predictive.limits import check_body
-    from predictive.tracking import solve_imu_tracking
+    """Run ``args.command`` (one of :data:`COMMANDS`); returns the exit code."""
+    if args.command == TRACK_IMU:
+        return run_track_imu(args)
+    if args.command == COMPARE:
+        return run_compare(args)
+    raise ValueError(f"not an experiment sub-command: {args.command!r}")
+
+
+def run_compare(args: argparse.Namespace) -> int:
+    """Run ``compare``; returns the exit code (2 for a bad configuration)."""
+    from predictive.experiments.controller_comparison import ComparisonConfig, run_comparison
+
+    try:
+        config = ComparisonConfig.from_yaml(args.config)
+        if args.seeds is not None:
+            config.seeds = config.seeds[: max(1, args.seeds)]
+        run_comparison(config, args.out)
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"python -m predictive compare: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"report: {args.out / 'report.md'}")
+    return 0
+
+
+def run_track_imu(args: argparse.Namespace) -> int:
+    """Run ``track-imu``; returns the exit code (1 if IPOPT failed on every start)."""
+    from predictive.experiments.solution_vs_labels import compare_with_labels, plot_against_labels, write_comparison
+    from predictive.ocp.imu_tracking import solve_imu_tracking
+    from predictive.ocp.limits import check_body
     from sspinn.body import BodyParameters
     from sspinn.readers import read_averaged_stride
 
@@ -112,15 +153,4 @@ def run(args: argparse.Namespace) -> int:
     return 0 if sol.success else 1
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Stand-alone entry point (the same as ``python -m predictive track-imu``)."""
-    parser = argparse.ArgumentParser(prog="python -m predictive")
-    add_parser(parser.add_subparsers(dest="command", required=True))
-    return run(parser.parse_args(argv))
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
-
-
-__all__ = ["COMMAND", "add_parser", "main", "run"]
+__all__ = ["COMMANDS", "COMPARE", "TRACK_IMU", "add_compare_parser", "add_track_imu_parser", "run"]

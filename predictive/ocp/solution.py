@@ -66,10 +66,10 @@ class GaitSolution:
         solve_time: wall-clock time of the IPOPT call, s.
         build_time: time to create the solver (symbolic setup and code), s.
         objective: final objective value (dimensionless).
-        settings: the :class:`~predictive.collocation.OCPSettings` as a dict.
+        settings: the :class:`~predictive.ocp.collocation.OCPSettings` as a dict.
         contact: the contact parameters as a dict.
         tau_max: (6,) normalising torques, N·m.
-        starts: for a multi-start (:meth:`~predictive.collocation.PredictiveGaitProblem.solve_multistart`)
+        starts: for a multi-start (:meth:`~predictive.ocp.collocation.PredictiveGaitProblem.solve_multistart`)
             one dict per start (amplitude, IPOPT options, status, objective, iterations,
             chosen); empty for a single IPOPT run.
     """

@@ -1,17 +1,19 @@
 """Tracking gait simulations: the predictive collocation problem plus tracking terms.
 
-Two modes, both built on :class:`~predictive.collocation.PredictiveGaitProblem` (same grid,
+Two modes, both built on :class:`~predictive.ocp.collocation.PredictiveGaitProblem` (same grid,
 backward-Euler collocation, implicit dynamics, contact model, bounds and effort; see its module
 docstring) by overriding its objective:
 
 * :func:`solve_tracking` — track any named signals (kinematics, GRFs, torques, IMU channels;
   :data:`SIGNAL_KINDS`) given at the nodes, e.g. an averaged real stride's joint angles and GRFs.
-* :func:`solve_imu_tracking` — the label-free optimal-control baseline of SSPINNpose (Dorschky
-  et al. 2019, J Biomech 95:109278): track the sagittal signals (acc_x, acc_y, gyr_z) of the
-  IMUs of an averaged stride with virtual IMUs (:func:`sspinn.kinematics.virtual_imu`), speed
-  free; outputs angles, torques, GRFs and speed.
+* :func:`~predictive.ocp.imu_tracking.solve_imu_tracking` — the label-free optimal-control
+  baseline of SSPINNpose (Dorschky et al. 2019, J Biomech 95:109278): track the sagittal signals
+  (acc_x, acc_y, gyr_z) of the IMUs of an averaged stride with virtual IMUs
+  (:func:`sspinn.kinematics.virtual_imu`), speed free; outputs angles, torques, GRFs and speed.
 
-Formulation (in addition to :mod:`predictive.collocation`):
+Tracked signals come from recordings or solutions via :mod:`predictive.ocp.tracking_data`.
+
+Formulation (in addition to :mod:`predictive.ocp.collocation`):
 
 * **Full gait cycle**, periodic (node ``N`` = node 0 moved forward by ``v·T``), no left/right
   symmetry (the tracked data are one stride and may be one-sided). The duration ``T`` is fixed
@@ -34,20 +36,6 @@ Formulation (in addition to :mod:`predictive.collocation`):
 * **Virtual IMUs** use the node's q, u and q̈, where u_k and q̈_k are backward differences: the
   simulated accelerometer lags the node time by ≈ h (one node interval) and the gyroscope by
   ≈ h/2; with 100 nodes per stride this is ≈ 1 % of the cycle and is not corrected.
-* **Solving IMU tracking** (:func:`solve_imu_tracking`). Scales: the across-trial standard
-  deviation per sample when the averaged stride comes with ``variance.csv``, else each
-  channel's standard deviation over the cycle. Weights: IMU channels 1, effort 0.01, w_acc 0.001
-  (the predictive w_acc = 0.1 penalises the very accelerations that are tracked). Initial guess:
-  the predictive gait at a label-free speed guess from the stride duration
-  (:func:`speed_from_stride_duration`) on the same grid, **rolled to start at its right heel
-  strike** like the data (:func:`roll_cycle`; unrolled, its heel strike lay at 5–33 % of the
-  cycle and IPOPT ended in poor local optima, e.g. standing). Speed continuation: one solve at
-  the fixed guessed speed, then the speed is freed (without it, a walking guess sometimes
-  drifted to standing). By default a multi-start over three speed guesses
-  (:data:`DEFAULT_SPEED_FACTORS`): among the successful starts whose right heel strike lies at
-  the data's first sample (± 5 % of the cycle; an averaged stride is cut there), the lowest
-  objective wins (label-free). With these, starts from 0.9–1.5 m/s reached the same solution
-  on the real data; the data-free :meth:`~PredictiveGaitProblem.generic_guess` is less robust.
 
 Signal names (units SI; signs of :mod:`sspinn.conventions`): the coordinates except pelvis_tx
 (``hip_r`` …, rad; ``pelvis_ty``, m), speeds ``d_<coordinate>`` (``d_pelvis_tx`` is the forward
@@ -61,7 +49,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -70,21 +57,19 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from predictive.collocation import (
+from predictive.ocp.collocation import (
     GaitCycle,
     NodeExpressions,
     OCPError,
     OCPSettings,
     PredictiveGaitProblem,
-    solve_predictive,
 )
-from predictive.solution import GaitSolution
+from predictive.ocp.solution import GaitSolution
 from sspinn import dynamics as dyn
 from sspinn import kinematics
 from sspinn.body import BodyParameters, IMUPlacement, JointLimits
 from sspinn.contact import ContactParameters
-from sspinn.conventions import COORDINATES, GRAVITY, GRF, IMU_CHANNELS, JOINTS, N_GRF, N_Q, N_TAU, SEGMENTS, imu_columns
-from sspinn.dataset import Recording
+from sspinn.conventions import COORDINATES, GRF, IMU_CHANNELS, JOINTS, N_GRF, N_Q, N_TAU, SEGMENTS, imu_columns
 
 #: Lower bounds of the default normalising scales (the data's standard deviation over the cycle),
 #: per signal kind, SI units: a nearly constant signal is not weighted without limit.
@@ -374,110 +359,6 @@ class TrackingResult:
 
 
 # ---------------------------------------------------------------------------------------------
-# Data → tracked signals
-# ---------------------------------------------------------------------------------------------
-def stride_duration(recording: Recording) -> float:
-    """The stride duration of an averaged-stride recording (``provenance['stride_duration_s']``,
-    s), else the recording's duration."""
-    return float(recording.provenance.get("stride_duration_s", recording.duration))
-
-
-def recording_signal(recording: Recording, name: str) -> np.ndarray:
-    """(n_samples,) one named signal of a recording (IMU channel or label column), SI units."""
-    if SIGNAL_KINDS.get(name, ("",))[0] == "imu":
-        seg, ch = name.rsplit("_", 2)[0], "_".join(name.rsplit("_", 2)[1:])
-        if seg not in recording.segments:
-            raise KeyError(f"{recording.name}: no IMU on {seg}; available: {list(recording.segments)}")
-        return recording.imu[:, recording.segments.index(seg), IMU_CHANNELS.index(ch)]
-    if recording.labels is None:
-        raise KeyError(f"{recording.name}: no labels, so no {name!r}")
-    return recording.labels.column(name)
-
-
-def resample_periodic(values: np.ndarray, time: np.ndarray, duration: float, n_nodes: int) -> np.ndarray:
-    """Values sampled at ``time`` (s, within one period starting at 0) at the node times
-    k·duration/n_nodes, by periodic linear interpolation (period ``duration``)."""
-    keep = time < duration - 1e-9
-    return np.interp(np.arange(n_nodes) * duration / n_nodes, time[keep], np.asarray(values)[keep], period=duration)
-
-
-def signals_from_recording(
-    recording: Recording,
-    names: Sequence[str],
-    n_nodes: int,
-    *,
-    duration: float | None = None,
-    scales: Mapping[str, float | np.ndarray] | None = None,
-    weights: Mapping[str, float] | None = None,
-) -> list[TrackedSignal]:
-    """Tracked signals from the first stride of a recording (starting at t = 0).
-
-    Args:
-        recording: e.g. :func:`sspinn.readers.read_averaged_stride`.
-        names: signal names (:data:`SIGNAL_KINDS`; IMU channels or label columns).
-        n_nodes: collocation nodes per cycle.
-        duration: stride duration, s (default :func:`stride_duration`).
-        scales: per-signal scale (scalar, or (n_nodes,) at the nodes); default :func:`default_scale`.
-        weights: per-signal weight (default 1).
-    """
-    T = stride_duration(recording) if duration is None else duration
-    scales = scales or {}
-    weights = weights or {}
-    out = []
-    for name in names:
-        target = resample_periodic(recording_signal(recording, name), recording.time, T, n_nodes)
-        scale = scales.get(name, default_scale(name, target))
-        out.append(TrackedSignal(name, target, scale, float(weights.get(name, 1.0))))
-    return out
-
-
-def averaged_stride_scales(
-    folder: str | Path, names: Sequence[str], n_nodes: int, mass: float | None = None
-) -> dict[str, np.ndarray]:
-    """Across-trial standard deviations of an averaged stride (``variance.csv`` next to
-    ``signals.csv``, as in ``../shared/data/dorschky_P03_walking``) at the node times, floored at
-    :data:`MIN_SCALES`: the normalisation of Dorschky et al. (2019), who divided the tracking
-    errors by the intertrial variance.
-
-    ``names`` are IMU channels (``<segment>_acc_x`` …) or GRFs (``grf_x_r`` …, converted from BW
-    to N with ``mass`` in kg). The file's N rows span one stride (``meta.json``'s
-    ``stride_duration_s``) and are interpolated periodically to ``n_nodes`` nodes.
-    """
-    folder = Path(folder)
-    path = folder / "variance.csv"
-    if not path.exists():
-        raise FileNotFoundError(f"{path}: no across-trial variance for this averaged stride")
-    with path.open() as fh:
-        header = [c.strip() for c in fh.readline().strip().split(",")]
-    var = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-    n_file = var.shape[0]
-    frac = np.arange(n_nodes) / n_nodes
-    out: dict[str, np.ndarray] = {}
-    for name in names:
-        if name not in header:
-            raise KeyError(f"{path}: no column {name!r}")
-        std = np.sqrt(np.clip(var[:, header.index(name)], 0.0, None))
-        if name in GRF:
-            if mass is None:
-                raise ValueError(f"{name}: the mass is needed to convert BW to N")
-            std = std * mass * GRAVITY
-        std = np.interp(frac, np.arange(n_file) / n_file, std, period=1.0)
-        out[name] = np.maximum(std, MIN_SCALES[SIGNAL_KINDS[name][1]])
-    return out
-
-
-def signals_from_solution(
-    sol: GaitSolution, names: Sequence[str], placement: IMUPlacement | None = None
-) -> list[TrackedSignal]:
-    """Tracked signals computed from a gait solution at its own nodes (for synthetic tests):
-    the signals of :func:`signal_function` with the solution's body, scales
-    :func:`default_scale`."""
-    fun = signal_function(names, sol.body, placement).map(sol.n_nodes)
-    y = np.asarray(fun(sol.q.T, sol.u.T, sol.qdd.T, sol.tau.T, sol.grf.T)).T
-    return [TrackedSignal(n, y[:, i], default_scale(n, y[:, i])) for i, n in enumerate(names)]
-
-
-# ---------------------------------------------------------------------------------------------
 # Solvers
 # ---------------------------------------------------------------------------------------------
 def solve_tracking(
@@ -501,7 +382,7 @@ def solve_tracking(
     """Track ``signals`` (each given at ``n`` nodes over one cycle) over a full periodic cycle.
 
     Args:
-        signals: the tracked signals (:func:`signals_from_recording`); their length is the number
+        signals: the tracked signals (:func:`~predictive.ocp.tracking_data.signals_from_recording`); their length is the number
             of collocation nodes.
         duration: stride duration T, s (fixed).
         speed: average speed, m/s: fixed, or the initial guess when ``free_speed``.
@@ -520,7 +401,7 @@ def solve_tracking(
         **settings: further :class:`TrackingSettings` fields (``w_acc``, ``speed_bounds``, …).
 
     Raises:
-        predictive.collocation.OCPError: IPOPT failed and ``raise_on_failure``.
+        predictive.ocp.collocation.OCPError: IPOPT failed and ``raise_on_failure``.
     """
     n_nodes = len(signals[0].target) if signals else 0
     cfg = TrackingSettings(
@@ -556,221 +437,3 @@ def solve_tracking(
             {"status": r.solution.status, "objective": r.solution.objective, "chosen": r is best} for r in results
         ]
     return best
-
-
-def speed_from_stride_duration(duration: float) -> float:
-    """A label-free speed guess (m/s) from the stride duration (s): the inverse of
-    :func:`predictive.collocation.typical_stride_duration` (T = 1.4 − 0.2·v), clipped to 0.5–3.5."""
-    return float(np.clip((1.4 - duration) / 0.2, 0.5, 3.5))
-
-
-def predictive_guess(
-    speed: float,
-    duration: float,
-    body: BodyParameters,
-    *,
-    n_nodes: int = 50,
-    cache_dir: str | Path | None = None,
-    verbose: bool = False,
-) -> GaitSolution:
-    """The predictive (effort-minimising, symmetric half-cycle) gait at ``speed`` (m/s) with the
-    stride ``duration`` (s), used as initial guess for tracking. With ``cache_dir`` the solution
-    is stored there and reused when the speed, duration, node count and body match."""
-    path = None
-    if cache_dir is not None:
-        name = f"predictive_v{speed:.3f}_T{duration:.4f}_H{body.height:.3f}_M{body.mass:.1f}_n{n_nodes}"
-        path = Path(cache_dir) / name
-        if path.with_name(name + ".npz").exists():
-            cached = GaitSolution.load(path)
-            same = (
-                cached.success
-                and cached.body == body
-                and cached.settings.get("n_nodes") == n_nodes
-                and math.isclose(cached.speed, speed, abs_tol=1e-9)
-                and math.isclose(cached.duration, duration, abs_tol=1e-9)
-            )
-            if same:
-                return cached
-    sol = solve_predictive(speed, body, n_nodes=n_nodes, duration=duration, verbose=verbose)
-    if path is not None:
-        sol.save(path)
-    return sol
-
-
-def roll_cycle(sol: GaitSolution, start: int) -> GaitSolution:
-    """The same periodic cycle started at node ``start``: node k of the result is node
-    (start + k) mod n of ``sol``; pelvis_tx continues across the wrap by one stride (v·T) and is
-    shifted to start at 0. Times, speed and duration are unchanged."""
-    n = sol.n_nodes
-    idx = (np.arange(n) + start) % n
-    q = sol.q[idx].copy()
-    q[np.arange(n) + start % n >= n, 0] += sol.stride_length
-    q[:, 0] -= q[0, 0]
-    return dataclasses.replace(sol, q=q, u=sol.u[idx], qdd=sol.qdd[idx], tau=sol.tau[idx], grf=sol.grf[idx], w=sol.w[idx])
-
-
-#: Default multi-start of :func:`solve_imu_tracking`: factors on the stride-duration speed guess.
-DEFAULT_SPEED_FACTORS: tuple[float, ...] = (0.85, 1.0, 1.2)
-
-#: IMU channels tracked by default: every sagittal channel of every IMU.
-IMU_SIGNALS: tuple[str, ...] = tuple(imu_columns())
-
-
-def solve_imu_tracking(
-    recording: Recording,
-    body: BodyParameters | None = None,
-    *,
-    n_nodes: int = 100,
-    imu_weight: float = 1.0,
-    effort_weight: float = 0.01,
-    w_acc: float = 0.001,
-    speed_guess: float | Sequence[float] | None = None,
-    free_speed: bool = True,
-    guess: GaitSolution | str = "predictive",
-    guess_cache: str | Path | None = None,
-    imu_scales: Mapping[str, float | np.ndarray] | str = "auto",
-    placement: IMUPlacement | None = None,
-    ipopt_options: Mapping[str, Any] | None = None,
-    verbose: bool = False,
-    raise_on_failure: bool = False,
-    heel_strike_tolerance: float | None = 0.05,
-    **settings: Any,
-) -> TrackingResult:
-    """Label-free gait estimation from one averaged stride of IMU data (Dorschky et al. 2019).
-
-    Tracks acc_x, acc_y and gyr_z of every IMU of ``recording`` with virtual IMUs at
-    ``placement`` (default: ``recording.placement``, i.e. the positions of the data's meta), plus
-    effort, over a full periodic cycle of the data's stride duration with the speed free. Only
-    the IMU data (and their across-trial variance), the stride duration and height/mass are
-    used — no labels.
-
-    Args:
-        recording: one averaged stride starting at right heel strike
-            (:func:`sspinn.readers.read_averaged_stride` with ``periods=1``).
-        body: body parameters (default: Winter scaling from the recording's height and mass).
-        n_nodes: collocation nodes per stride.
-        imu_weight: weight of every IMU channel.
-        effort_weight: weight of the torque effort (dimensionless, see the module docstring).
-        w_acc: weight of the q̈ regularisation (the predictive default 0.1 competes with the
-            tracked accelerations; 0.1 led to slow-walking local optima in tests).
-        speed_guess: initial speed(s), m/s (default: a multi-start from the label-free
-            :func:`speed_from_stride_duration` × :data:`DEFAULT_SPEED_FACTORS`). Several values:
-            a multi-start — one solve from each, the successful one with the lowest objective is
-            returned (label-free choice; see ``heel_strike_tolerance``); all are listed in
-            ``result.info["starts"]``. A single
-            start is one IPOPT path: on another CPU a 1.2 m/s stride tracked from 1.0 m/s ended at
-            0.93 m/s, which the multi-start's lowest objective rules out.
-        free_speed: optimise the speed (else it is fixed to the (first) speed guess).
-        guess: "predictive" (:func:`predictive_guess` at each speed guess on the same grid,
-            ``n_nodes/2`` nodes per half cycle, cached in ``guess_cache``, started at its right
-            heel strike like the data: :func:`roll_cycle`), "generic" (data-free textbook shapes)
-            or a :class:`GaitSolution` (used as it is).
-        imu_scales: "variance" (across-trial standard deviation per sample,
-            :func:`averaged_stride_scales`, from ``variance.csv`` in the recording's source
-            folder, as Dorschky et al.), "std" (each channel's standard deviation over the
-            cycle, :func:`default_scale`), "auto" (variance if that file exists, else std) or a
-            mapping channel → scale.
-        heel_strike_tolerance: an averaged stride starts at right heel strike (that is how it
-            was cut), so a multi-start prefers the solutions whose right heel strike lies within
-            this fraction of the cycle of the first sample, the lowest objective among them
-            winning (None: the lowest objective alone). On the real averaged walking stride the
-            lowest objective alone chose a start whose heel strike came 7.5 % of the cycle early
-            (moment correlation r 0.37 instead of 0.63).
-        **settings: further :class:`TrackingSettings` fields.
-
-    Returns:
-        The tracking result; ``result.solution`` holds angles, torques, GRFs and the speed;
-        ``result.info`` the scaling used, the starts, ``wall_time_s`` (everything: predictive
-        guesses, NLP construction, all IPOPT runs) and ``ipopt_time_s`` (all IPOPT runs).
-    """
-    t_start = time.perf_counter()
-    body = body if body is not None else BodyParameters.from_anthropometry(recording.height, recording.mass)
-    duration = stride_duration(recording)
-    if speed_guess is None:
-        v0 = speed_from_stride_duration(duration)
-        speeds = [v0 * f for f in DEFAULT_SPEED_FACTORS]
-    else:
-        speeds = [float(v) for v in np.atleast_1d(np.asarray(speed_guess, dtype=float))]
-    names = [f"{s}_{c}" for s in recording.segments for c in IMU_CHANNELS]
-    scales, scaling = _imu_scales(recording, names, n_nodes, imu_scales)
-    signals = signals_from_recording(
-        recording, names, n_nodes, duration=duration, scales=scales, weights={n: imu_weight for n in names}
-    )
-    if isinstance(guess, str) and guess not in ("predictive", "generic"):
-        raise ValueError(f"guess must be 'predictive', 'generic' or a GaitSolution, got {guess!r}")
-    results: list[TrackingResult] = []
-    for v0 in speeds:
-        if guess == "predictive":
-            predicted = predictive_guess(v0, duration, body, n_nodes=max(n_nodes // 2, 4), cache_dir=guess_cache)
-            guess_sol: GaitSolution | None = roll_cycle(predicted, predicted.right_heel_strike())
-        else:
-            guess_sol = guess if isinstance(guess, GaitSolution) else None
-        results.append(
-            solve_tracking(
-                signals,
-                duration,
-                v0,
-                body,
-                free_speed=free_speed,
-                effort_weight=effort_weight,
-                w_acc=w_acc,
-                guess=guess_sol,
-                placement=placement if placement is not None else recording.placement,
-                ipopt_options=ipopt_options,
-                verbose=verbose,
-                raise_on_failure=raise_on_failure,
-                **settings,
-            )
-        )
-    best = min(results, key=lambda r: _start_rank(r.solution, heel_strike_tolerance))
-    best.info = {
-        "scaling": scaling,
-        "guess": guess if isinstance(guess, str) else "solution",
-        "starts": [
-            {
-                "speed_guess": v0,
-                "status": r.solution.status,
-                "objective": r.solution.objective,
-                "speed": r.solution.speed,
-                "iterations": r.solution.iterations,
-                "solve_time_s": r.solution.solve_time,
-                "heel_strike_pct": 100.0 * r.solution.right_heel_strike() / r.solution.n_nodes,
-                "chosen": r is best,
-            }
-            for v0, r in zip(speeds, results)
-        ],
-        "ipopt_time_s": float(sum(r.solution.solve_time for r in results)),
-        "wall_time_s": time.perf_counter() - t_start,
-    }
-    return best
-
-
-def heel_strike_offset(sol: GaitSolution) -> float:
-    """Cyclic distance of the solution's right heel strike from its first node, fraction of the
-    cycle (0 … 0.5)."""
-    frac = sol.right_heel_strike() / sol.n_nodes
-    return float(min(frac, 1.0 - frac))
-
-
-def _start_rank(sol: GaitSolution, heel_strike_tolerance: float | None) -> tuple[bool, bool, float]:
-    """Sort key of a multi-start: successful first, then (with a tolerance) solutions whose right
-    heel strike lies at the data's first sample, then the lowest objective."""
-    off_phase = heel_strike_tolerance is not None and heel_strike_offset(sol) > heel_strike_tolerance
-    return (not sol.success, off_phase, sol.objective)
-
-
-def _imu_scales(
-    recording: Recording, names: Sequence[str], n_nodes: int, imu_scales: Mapping[str, float | np.ndarray] | str
-) -> tuple[Mapping[str, float | np.ndarray] | None, str]:
-    """(scales for :func:`signals_from_recording`, name of the scaling) from ``imu_scales``."""
-    if not isinstance(imu_scales, str):
-        return imu_scales, "given"
-    source = recording.provenance.get("source")
-    has_variance = source is not None and (Path(source) / "variance.csv").exists()
-    if imu_scales == "variance" or (imu_scales == "auto" and has_variance):
-        if not has_variance:
-            raise FileNotFoundError(f"{recording.name}: no variance.csv in the recording's source folder {source!r}")
-        return averaged_stride_scales(Path(source), names, n_nodes), "variance"
-    if imu_scales in ("std", "auto"):
-        return None, "std"
-    raise ValueError(f"imu_scales must be 'auto', 'variance', 'std' or a mapping, got {imu_scales!r}")

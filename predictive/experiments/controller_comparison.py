@@ -3,10 +3,10 @@
 Every method is run on the same :class:`envs.sagittal_walker.SagittalWalkerEnv` (default physics,
 the task's body, target speed and reset seeds) and scored by the same code:
 
-* **generator** — the self-supervised gait generator (:mod:`predictive.gait_generator`): one
-  forward pass per speed (optionally a brief L-BFGS fine-tune), deployed by
-  :class:`predictive.closed_loop.GaitTracker` (feedforward + periodic LQR);
-* **ocp** — predictive trajectory optimisation (:func:`predictive.collocation.solve_predictive`
+* **generator** — the self-supervised gait generator (:mod:`predictive.generator.gait_generator`):
+  one forward pass per speed (optionally a brief L-BFGS fine-tune), deployed by
+  :class:`predictive.generator.closed_loop.GaitTracker` (feedforward + periodic LQR);
+* **ocp** — predictive trajectory optimisation (:func:`predictive.ocp.collocation.solve_predictive`
   with the environment's contact model, 100 nodes per half cycle) deployed the same way;
 * **sb3** — trained stable-baselines3 agents (:mod:`agents`), one checkpoint per target speed.
 
@@ -36,9 +36,21 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+import gymnasium
 import numpy as np
 
-from predictive.closed_loop import GaitTracker, LQRWeights, resample_cycle
+import envs  # noqa: F401  (registers the environment)
+from agents.checkpoints import checkpoint_steps, load_agent
+from agents.plot_learning_curve import read_evaluations
+from agents.rollout import run_episode
+from predictive.generator.closed_loop import GaitTracker, LQRWeights, resample_cycle
+from predictive.generator.gait_generator import generate, load_generator
+from predictive.ocp.collocation import OCPError, solve_predictive
+from predictive.ocp.gait_analysis import load_winter
+from sspinn import dynamics
+from sspinn.body import BodyParameters
+from sspinn.evaluation import angle_jitter
+from sspinn.plotting import draw_stick_figure
 from sspinn.yaml_config import construct, read_section
 
 #: Vertical force (BW) above which a foot counts as loaded (heel strike detection).
@@ -119,15 +131,11 @@ class Controller:
 
 # ------------------------------------------------------------------------------------------ methods
 def make_env(config: ComparisonConfig, speed: float) -> Any:
-    import gymnasium
-
-    import envs  # noqa: F401  (registers the environment)
-
     return gymnasium.make("sspinn/SagittalWalker-v0", height=config.height, mass=config.mass, target_speed=speed)
 
 
 def tracker_controller(solution: Any, env: Any, weights: LQRWeights, setup_s: float, solve_s: float, note: str) -> Controller:
-    """Feedforward + LQR controller of a gait cycle (:mod:`predictive.closed_loop`)."""
+    """Feedforward + LQR controller of a gait cycle (:mod:`predictive.generator.closed_loop`)."""
     start = time.perf_counter()
     ref = resample_cycle(solution.time, solution.q, solution.tau, solution.speed, solution.duration, env.unwrapped)
     tracker = GaitTracker.build(env.unwrapped, ref, weights)
@@ -136,10 +144,6 @@ def tracker_controller(solution: Any, env: Any, weights: LQRWeights, setup_s: fl
 
 
 def generator_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> Controller:
-
-    from predictive.gait_generator import generate, load_generator
-    from sspinn.body import BodyParameters
-
     model, gcfg = load_generator(spec.model)
     train_s = model.training_wall_s_
     start = time.perf_counter()
@@ -151,8 +155,6 @@ def generator_controller(spec: MethodSpec, config: ComparisonConfig, speed: floa
 
 
 def ocp_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> Controller:
-    from predictive.collocation import OCPError, solve_predictive
-
     start = time.perf_counter()
     try:
         sol = solve_predictive(speed, env.unwrapped.body, contact=env.unwrapped.contact, n_nodes=spec.n_nodes)
@@ -165,8 +167,6 @@ def agent_training_time(checkpoint: Path) -> float:
     """Wall time (s) the run had trained when ``checkpoint`` was written, from its
     ``evaluations.csv``: the row at or before a periodic checkpoint's steps; for ``best_model.zip``
     the evaluation with the highest mean return (when the callback saved it); else the last row."""
-    from agents.checkpoints import checkpoint_steps
-
     cols = agent_evaluations(checkpoint)
     if not cols:
         return float("nan")
@@ -186,8 +186,6 @@ def agent_training_time(checkpoint: Path) -> float:
 def agent_evaluations(checkpoint: str | Path) -> dict[str, np.ndarray]:
     """Columns of the run's ``evaluations.csv`` (:func:`agents.plot_learning_curve.read_evaluations`),
     found next to the checkpoint or up to two folders above it; empty if there is none."""
-    from agents.plot_learning_curve import read_evaluations
-
     for folder in Path(checkpoint).resolve().parents[:3]:
         cols = read_evaluations(folder)
         if cols:
@@ -196,8 +194,6 @@ def agent_evaluations(checkpoint: str | Path) -> dict[str, np.ndarray]:
 
 
 def sb3_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> Controller:
-    from agents.checkpoints import load_agent
-
     path = spec.checkpoints.get(float(speed))
     if path is None or not Path(path).exists():
         return Controller(None, None, float("nan"), float("nan"), None, "not trained for this speed")
@@ -212,8 +208,6 @@ BUILDERS = {"generator": generator_controller, "ocp": ocp_controller, "sb3": sb3
 # ------------------------------------------------------------------------------------------ metrics
 def executed_kane_residual(traces: dict[str, np.ndarray], env: Any) -> float:
     """Mean |Kane residual| (BW) of the pelvis translation rows over the episode (module docstring)."""
-    from sspinn import dynamics
-
     e = env.unwrapped
     q, u, tau = traces["q"], traces["u"], traces["torques"]
     if len(q) < 3:
@@ -306,9 +300,6 @@ def evaluate_controller(
 ) -> tuple[list[dict[str, Any]], dict[str, np.ndarray] | None, np.ndarray | None]:
     """Episodes over ``seeds`` → per-episode metrics, the mean cycle of the first successful
     episode and its states (for stick figures)."""
-    from agents.rollout import run_episode
-    from sspinn.evaluation import angle_jitter
-
     e = env.unwrapped
     rows, cycle, states = [], None, None
     for seed in seeds:
@@ -353,8 +344,6 @@ def run_comparison(config: ComparisonConfig, out: str | Path) -> list[CellResult
 
 
 def _winter(data_dir: str | None) -> Any:
-    from predictive.analysis import load_winter
-
     try:
         return load_winter(data_dir)
     except FileNotFoundError:
@@ -395,9 +384,6 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from sspinn.body import BodyParameters
-    from sspinn.plotting import draw_stick_figure
 
     summaries = [c.summary() for c in cells]
     (out / "results.json").write_text(json.dumps(
@@ -494,7 +480,7 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
             for v in config.speeds for c in [per_speed.get(v)]) + " |")
     lines += ["", "![learning curves](learning_curves.png)", ""]
     lines += [f"![cycles {v}](cycles_{v}.png)" for v in config.speeds]
-    lines += ["", "![stick figures](stick_figures.png)", "", "Metrics and start states: see `predictive/comparison.py`."]
+    lines += ["", "![stick figures](stick_figures.png)", "", "Metrics and start states: see `predictive/experiments/controller_comparison.py`."]
     path = out / "report.md"
     path.write_text("\n".join(lines) + "\n")
     return path

@@ -57,9 +57,9 @@ ankle dorsiflexion +, a positive pelvis_tilt leans the trunk back):
   motion (fewer impact spikes, no chattering): q̈·T²/(4π²) is the acceleration on the
   normalised cycle (for q = A·sin(2πt/T) its amplitude is A, in rad or m), so the term does
   not favour slow or fast strides when the duration is free.
-* **Bounds.** Joint ranges from :class:`sspinn.body.JointLimits` (default here:
-  :func:`default_joint_limits`, knee ≤ 0), pelvis height and trunk tilt ranges, |τ| ≤ 3·τmax,
-  duration bounds.
+* **Bounds.** Joint ranges from :class:`sspinn.body.JointLimits` (default:
+  :func:`~predictive.ocp.settings.default_joint_limits`, knee ≤ 0), pelvis height and trunk tilt
+  ranges, |τ| ≤ 3·τmax, duration bounds.
 * **Initial guess and multi-start.** Data-free (:meth:`PredictiveGaitProblem.generic_guess`):
   pelvis_tx = v·t at constant hip height and textbook-shaped joint-angle curves (sinusoidal hip,
   Gaussian knee-flexion bump in swing), zero torques. The problem is not convex, and which local
@@ -75,7 +75,11 @@ ankle dorsiflexion +, a positive pelvis_tilt leans the trunk back):
   u/2 for the trunk, u/max(v, 1) for pelvis_tx); the kinematic constraints are written as
   velocity and acceleration differences divided by the same scales, the dynamics by BW or BW·H.
 
-Extension (:mod:`predictive.tracking`): subclasses add objective terms by overriding
+The settings, bounds, scales, strength-scaled effort and IPOPT options that this problem shares
+with the stride NLP of the synthetic data (:mod:`predictive.ocp.stride_nlp`) are built in
+:mod:`predictive.ocp.settings`; the data-free guess comes from :mod:`predictive.ocp.generic_gait`.
+
+Extension (:mod:`predictive.ocp.tracking`): subclasses add objective terms by overriding
 :meth:`PredictiveGaitProblem._objective`, which receives the node expressions
 (:class:`NodeExpressions`) of the already built constraints.
 
@@ -94,13 +98,22 @@ from typing import Any, Final, Literal
 import casadi as ca
 import numpy as np
 
-from predictive import perturbation
-from predictive.limits import check_speed
-from predictive.solution import GaitSolution, mirror_states
+from predictive.ocp import perturbation
+from predictive.ocp.generic_gait import generic_gait, typical_stride_duration
+from predictive.ocp.limits import check_speed
+from predictive.ocp.settings import (
+    ACC_SCALE,
+    ProblemSettings,
+    acceleration_regularisation,
+    default_joint_limits,
+    nlp_scales,
+    strength_scaled,
+)
+from predictive.ocp.solution import GaitSolution, mirror_states
 from sspinn import dynamics as dyn
 from sspinn.body import BodyParameters, JointLimits
 from sspinn.contact import ContactParameters
-from sspinn.conventions import JOINTS, N_Q, N_TAU
+from sspinn.conventions import N_Q, N_TAU
 
 Effort = Literal["squared", "cubed"]
 GaitCycle = Literal["full", "half"]
@@ -146,20 +159,13 @@ DEFAULT_STARTS: Final[tuple[Start, ...]] = (
 )
 
 
-def default_joint_limits() -> JointLimits:
-    """Human sagittal ranges of motion (rad): hip −30°…+90° (flexion +), knee −120°…0° (knee
-    flexion is negative; hyperextension excluded), ankle −40°…+30° (dorsiflexion +)."""
-    lo = {"hip": -math.radians(30), "knee": -math.radians(120), "ankle": -math.radians(40)}
-    hi = {"hip": math.radians(90), "knee": 0.0, "ankle": math.radians(30)}
-    return JointLimits(
-        lower={j: lo[j.split("_")[0]] for j in JOINTS},
-        upper={j: hi[j.split("_")[0]] for j in JOINTS},
-    )
-
-
 @dataclass(frozen=True)
-class OCPSettings:
-    """Settings of :func:`solve_predictive` (stored with every solution).
+class OCPSettings(ProblemSettings):
+    """Settings of :func:`solve_predictive` (stored with every solution): the periodic problem's
+    own fields below plus the model, bounds, effort and IPOPT fields of
+    :class:`~predictive.ocp.settings.ProblemSettings` (keyword-only; ``tau_max``, ``tau_bound``,
+    ``w_acc``, ``ankle_strength_slope``, ``pelvis_height_bounds``, ``tilt_bounds``, ``tol``,
+    ``constr_tol`` 1e-8, ``max_iter`` 3000).
 
     Attributes:
         speed: average forward speed v, m/s (pelvis_tx advances v·T per cycle); with
@@ -174,17 +180,6 @@ class OCPSettings:
         duration_bounds: (min, max) stride duration in s when free.
         free_speed: optimise the average speed within ``speed_bounds``.
         speed_bounds: (min, max) average speed in m/s when free.
-        tau_max: normalising torque per joint type (hip, knee, ankle) in units of BW·H
-            (body weight × body height, N·m); also sets the bound |τ| ≤ tau_bound·τmax.
-        tau_bound: torque bound as a multiple of ``tau_max``.
-        w_acc: weight of the q̈ regularisation (dimensionless, see the module docstring).
-        ankle_strength_slope: k in the ankle's relative strength exp(±k·θ_ankle), 1/rad
-            (0: angle-independent strength; see the module docstring).
-        pelvis_height_bounds: pelvis_ty (hip joint centre height) range as fractions of H.
-        tilt_bounds: pelvis_tilt (trunk global angle) range, rad.
-        tol: IPOPT tolerance (scaled NLP error); constr_viol_tol is ``constr_tol``.
-        constr_tol: IPOPT constr_viol_tol (scaled units: BW, BW·H, scaled velocities).
-        max_iter: IPOPT iteration limit.
     """
 
     speed: float
@@ -196,15 +191,6 @@ class OCPSettings:
     duration_bounds: tuple[float, float] = (0.4, 2.0)
     free_speed: bool = False
     speed_bounds: tuple[float, float] = (0.0, 10.0)
-    tau_max: tuple[float, float, float] = (0.1, 0.1, 0.1)
-    tau_bound: float = 3.0
-    w_acc: float = 0.1
-    ankle_strength_slope: float = 1.0
-    pelvis_height_bounds: tuple[float, float] = (0.3, 0.7)
-    tilt_bounds: tuple[float, float] = (-0.6, 0.6)
-    tol: float = 1e-6
-    constr_tol: float = 1e-8
-    max_iter: int = 3000
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.speed) and self.speed >= 0):
@@ -222,8 +208,7 @@ class OCPSettings:
             raise ValueError(f"speed_bounds must satisfy 0 <= min <= max (m/s), got {self.speed_bounds}")
         if self.duration is not None and not self.duration > 0:
             raise ValueError(f"duration must be > 0 s, got {self.duration}")
-        if self.w_acc < 0:
-            raise ValueError(f"w_acc must be >= 0, got {self.w_acc}")
+        super().__post_init__()
 
     @property
     def stride_duration(self) -> float:
@@ -231,25 +216,10 @@ class OCPSettings:
         T = self.duration if self.duration is not None else typical_stride_duration(self.speed)
         return float(np.clip(T, *self.duration_bounds)) if self.free_duration else float(T)
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-native dict (tuples as lists), as stored in :attr:`GaitSolution.settings`."""
-        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> OCPSettings:
-        """Inverse of :meth:`to_dict` (e.g. ``OCPSettings.from_dict(solution.settings)``)."""
-        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in data.items()})
-
 
 # ---------------------------------------------------------------------------------------------
 # Index helpers
 # ---------------------------------------------------------------------------------------------
-def _joint_type_values(values: tuple[float, float, float]) -> np.ndarray:
-    """Per-joint values (JOINTS order) from per-type (hip, knee, ankle) values."""
-    table = dict(zip(("hip", "knee", "ankle"), values))
-    return np.array([table[j.split("_")[0]] for j in JOINTS])
-
-
 @dataclass
 class _Layout:
     """Decision-vector layout: per node [q, u, a, tau] (scaled), then the duration T (s) and the
@@ -330,14 +300,14 @@ class PredictiveGaitProblem:
         self.joint_limits = joint_limits if joint_limits is not None else default_joint_limits()
         self.bw = self.body.body_weight
         self.height = self.body.height
-        self.tau_max = _joint_type_values(settings.tau_max) * self.bw * self.height  # N·m
+        scales = nlp_scales(settings, self.body, settings.speed)
+        self.tau_max = scales["tau_max"]  # N·m
         self.layout = _Layout(settings.n_nodes)
         # variable scales (physical = scale · scaled)
-        v = max(settings.speed, 1.0)
         self.q_scale = np.ones(N_Q)
-        self.u_scale = np.array([v, 1.0, 2.0] + [5.0] * N_TAU)
-        self.a_scale = np.full(N_Q, 10.0)
-        self.res_scale = np.array([self.bw, self.bw] + [self.bw * self.height] * (N_Q - 2))
+        self.u_scale = scales["u_scale"]
+        self.a_scale = np.full(N_Q, ACC_SCALE)
+        self.res_scale = scales["res_scale"]
         self._node_fun = self._build_node_function()
         self._nlp, self._bounds = self._build_nlp()
 
@@ -395,11 +365,9 @@ class PredictiveGaitProblem:
         nlp = {"x": z, "f": objective, "g": ca.vertcat(*g)}
 
         # bounds (physical → scaled)
-        lo_j, hi_j = self.joint_limits.arrays()
-        q_lo = np.concatenate([[-np.inf, s.pelvis_height_bounds[0] * self.height, s.tilt_bounds[0]], lo_j])
-        q_hi = np.concatenate([[np.inf, s.pelvis_height_bounds[1] * self.height, s.tilt_bounds[1]], hi_j])
-        node_lo = np.concatenate([q_lo / self.q_scale, np.full(2 * N_Q, -np.inf), np.full(N_TAU, -s.tau_bound)])
-        node_hi = np.concatenate([q_hi / self.q_scale, np.full(2 * N_Q, np.inf), np.full(N_TAU, s.tau_bound)])
+        node_lo, node_hi = s.node_bounds(self.joint_limits, self.height)
+        node_lo[:N_Q] /= self.q_scale
+        node_hi[:N_Q] /= self.q_scale
         t_lo, t_hi = s.duration_bounds if s.free_duration else (s.stride_duration, s.stride_duration)
         v_lo, v_hi = s.speed_bounds if s.free_speed else (s.speed, s.speed)
         lbx = np.concatenate([np.tile(node_lo, lay.n), [t_lo, v_lo]])
@@ -416,11 +384,9 @@ class PredictiveGaitProblem:
         effort = 0
         reg = 0
         for k in range(self.layout.n):
-            tn = x.tau_scaled[k]
-            if s.ankle_strength_slope:
-                tn = self._strength_scaled(tn, x.q[k])
+            tn = strength_scaled(x.tau_scaled[k], x.q[k], s.ankle_strength_slope)
             effort += ca.sum1(tn**2) if s.effort == "squared" else ca.sum1(ca.fabs(tn) ** 3)
-            reg += ca.sumsqr(x.a[k] * (x.T**2 / (4 * math.pi**2)))
+            reg += acceleration_regularisation(x.a[k], x.T)
         return effort / self.layout.n, reg / self.layout.n
 
     def _objective(self, x: NodeExpressions) -> Any:
@@ -429,30 +395,8 @@ class PredictiveGaitProblem:
         effort, reg = self._effort_terms(x)
         return effort + self.settings.w_acc * reg
 
-    def _strength_scaled(self, tn: Any, q: Any) -> Any:
-        """Normalised torques divided by the relative ankle strength exp(±k·θ_ankle): plantarflexor
-        torque (τ < 0) is weaker with the ankle plantarflexed (θ < 0), dorsiflexor torque the
-        other way round (muscle force–length relation); the sign is blended smoothly by tanh."""
-        k = self.settings.ankle_strength_slope
-        out = [tn[j] for j in range(N_TAU)]
-        for j in (2, 5):  # ankle_r, ankle_l in JOINTS order
-            theta = q[3 + j]
-            out[j] = tn[j] * ankle_strength(tn[j], theta, k, ca.exp, ca.tanh)
-        return ca.vertcat(*out)
-
     def _get_solver(self, ipopt_options: Mapping[str, Any] | None, verbose: bool) -> ca.Function:
-        s = self.settings
-        opts: dict[str, Any] = {
-            "tol": s.tol,
-            "constr_viol_tol": s.constr_tol,
-            "max_iter": s.max_iter,
-            "linear_solver": "mumps",
-            "mu_strategy": "adaptive",
-            "print_level": 5 if verbose else 0,
-            "sb": "no" if verbose else "yes",  # IPOPT's banner
-        }
-        opts.update(ipopt_options or {})
-        opts.update(perturbation.extra_ipopt_options())
+        opts = self.settings.ipopt_options(ipopt_options, verbose)
         plugin_opts = {"ipopt": opts, "print_time": False, "error_on_fail": False}
         return ca.nlpsol("predictive_gait", "ipopt", self._nlp, plugin_opts)
 
@@ -644,63 +588,6 @@ class PredictiveGaitProblem:
         )
 
 
-def generic_gait(
-    speed: float, duration: float, time: np.ndarray, body: BodyParameters, amplitude: float = 1.0
-) -> np.ndarray:
-    """Data-free textbook gait coordinates q (n, 9) at ``time`` (s) for a cycle of ``duration``.
-
-    pelvis_tx = v·t, hip joint centre at a constant height, upright trunk; per leg (left half a
-    cycle later), with s = t/T from the leg's heel strike and a stance fraction σ (0.6 walking,
-    0.35 running, switched at 2 m/s): hip = h0 + A·cos(2πs), the knee flexed by a Gaussian bump
-    in mid-swing (and a smaller one in early stance), the ankle briefly plantarflexed around
-    toe-off. For ``speed == 0`` it is quiet standing. Used as the initial guess of the OCP and
-    as the warm-up target of the self-supervised gait generator. ``amplitude`` scales the joint
-    excursions (hip swing, knee bumps, ankle push-off): the starts of a multi-start
-    (:data:`DEFAULT_STARTS`) differ in it.
-    """
-    t = np.asarray(time, dtype=float)
-    T = float(duration)
-    leg = body.femur_r.length + body.tibia_r.length - body.foot_r.toe[1]
-    running = speed >= 2.0
-    stance = 0.35 if running else 0.6
-    hip_amp, knee_stance, knee_swing, ankle_push = (0.45, 0.4, 1.6, 0.3) if running else (0.35, 0.15, 1.0, 0.3)
-    if not speed > 0:
-        hip_amp = knee_stance = knee_swing = ankle_push = 0.0
-    hip_amp, knee_stance, knee_swing, ankle_push = (
-        amplitude * a for a in (hip_amp, knee_stance, knee_swing, ankle_push)
-    )
-    q = np.zeros((len(t), N_Q))
-    q[:, 0] = speed * t
-    q[:, 1] = (0.92 if running else 0.97) * leg
-    q[:, 2] = -0.05 if running else 0.0
-
-    def bump(phase: np.ndarray, centre: float, width: float) -> np.ndarray:
-        d = (phase - centre + 0.5) % 1.0 - 0.5
-        return np.exp(-((d / width) ** 2))
-
-    for first, offset in ((3, 0.0), (6, 0.5)):
-        ph = (t / T + offset) % 1.0
-        swing_mid = stance + 0.4 * (1 - stance)
-        q[:, first] = 0.1 + hip_amp * np.cos(2 * np.pi * ph)
-        q[:, first + 1] = -0.05 - knee_stance * bump(ph, 0.15, 0.1) - knee_swing * bump(ph, swing_mid, 0.15)
-        q[:, first + 2] = 0.05 - ankle_push * bump(ph, stance, 0.08)
-    return q
-
-
-def ankle_strength(tau_scaled: Any, theta: Any, slope: float, exp: Any, tanh: Any) -> Any:
-    """exp(k·θ·tanh(τn/0.02)): the factor (1 / relative ankle strength) that multiplies the
-    normalised ankle torque τn in the effort (module docstring); ``exp``/``tanh`` of the backend
-    (CasADi, torch or NumPy)."""
-    return exp(slope * theta * tanh(tau_scaled / 0.02))
-
-
-def typical_stride_duration(speed: float) -> float:
-    """A typical adult stride (gait-cycle) duration in s at ``speed`` in m/s: the line through
-    1.14 s at 1.3 m/s (Winter's normal walking: 1.14 s at 1.325 m/s) and 0.70 s at 3.5 m/s
-    (running at ≈170 steps/min), ``1.4 − 0.2·v``, clipped to [0.6, 1.4] s (1.4 s: standing)."""
-    return float(np.clip(1.4 - 0.2 * speed, 0.6, 1.4))
-
-
 def solve_predictive(
     speed: float,
     body: BodyParameters | None = None,
@@ -763,7 +650,7 @@ def solve_predictive(
     Raises:
         OCPError: IPOPT did not return ``Solve_Succeeded`` (from any start; and ``raise_on_failure``).
     """
-    speed = check_speed(speed)  # predictive.limits: reject what the model cannot do, before building
+    speed = check_speed(speed)  # predictive.ocp.limits: reject what the model cannot do, before building
     if rate_hz is not None:
         if free_duration:
             raise ValueError("rate_hz needs a fixed stride duration (free_duration=False)")

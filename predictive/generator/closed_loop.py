@@ -1,7 +1,7 @@
 """Closed-loop deployment of a periodic gait in the Gymnasium environment.
 
-A gait cycle — from trajectory optimisation (:mod:`predictive.collocation`) or from the
-self-supervised gait generator (:mod:`predictive.gait_generator`) — is only a plan: replayed open
+A gait cycle — from trajectory optimisation (:mod:`predictive.ocp.collocation`) or from the
+self-supervised gait generator (:mod:`predictive.generator.gait_generator`) — is only a plan: replayed open
 loop, any mismatch (the environment's discrete integration, passive joint moments, initial-state
 noise) makes the body fall within a few steps. Both are therefore deployed the same way, by a
 **feedforward + periodic time-varying LQR** controller:

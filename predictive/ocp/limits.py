@@ -24,7 +24,7 @@ import numpy as np
 from sspinn.errors import UserError
 
 if TYPE_CHECKING:
-    from predictive.solution import GaitSolution
+    from predictive.ocp.solution import GaitSolution
 
 #: Highest average speed, m/s, the model is asked for (human sprint top speed ≈ 9.6 m/s).
 MAX_SPEED: Final = 10.0

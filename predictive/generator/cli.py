@@ -1,7 +1,7 @@
 """``python -m predictive train-generator`` and ``python -m predictive generate``.
 
 * ``train-generator --config configs/predictive/generator.yaml --out runs/generator [--resume]``:
-  trains the self-supervised gait generator (:mod:`predictive.gait_generator`); writes
+  trains the self-supervised gait generator (:mod:`predictive.generator.gait_generator`); writes
   ``checkpoint.pt`` (also on Ctrl-C), ``generator.pt``, ``history.csv`` and ``config.yaml``.
 * ``generate --model runs/generator/generator.pt --speed 1.3 --out results/generated/walk_1.3``:
   one gait cycle for a speed and body, written like an OCP solution (``.npz``/``.json``, summary,
@@ -36,7 +36,7 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from predictive.gait_generator import GeneratorConfig, GeneratorTrainer, generate, load_generator
+    from predictive.generator.gait_generator import GeneratorConfig, GeneratorTrainer, generate, load_generator
 
     try:
         if args.command == COMMANDS[0]:
@@ -46,8 +46,8 @@ def run(args: argparse.Namespace) -> int:
             trainer.fit(resume=resume)
             print(f"trained {trainer.step} steps in {trainer.wall:.0f} s → {args.out / 'generator.pt'}")
             return 0
-        from predictive.analysis import compare_with_reference, load_winter, plot_gait
-        from predictive.limits import check_body, check_speed
+        from predictive.ocp.gait_analysis import compare_with_reference, load_winter, plot_gait
+        from predictive.ocp.limits import check_body, check_speed
         from sspinn.body import BodyParameters
 
         check_speed(args.speed, "--speed")

@@ -11,7 +11,7 @@ Time alignment: the solution's node times t_k = k·T/N are the data's times (the
 start at right heel strike at t = 0 and node 0 was tracked to the data's first sample), so by
 default the solution is compared at the label times without any shift (``align="data"``). The
 heel strike of the model (first node whose right vertical GRF exceeds
-:data:`~predictive.solution.CONTACT_THRESHOLD_BW`) and of the labels (same threshold) are reported
+:data:`~predictive.ocp.solution.CONTACT_THRESHOLD_BW`) and of the labels (same threshold) are reported
 as a check; ``align="heel_strike"`` instead shifts the solution in time so that the two coincide.
 """
 
@@ -24,8 +24,9 @@ from typing import Any, Literal
 
 import numpy as np
 
-from predictive.solution import CONTACT_THRESHOLD_BW, GaitSolution
-from predictive.tracking import TrackingResult, stride_duration
+from predictive.ocp.solution import CONTACT_THRESHOLD_BW, GaitSolution
+from predictive.ocp.tracking import TrackingResult
+from predictive.ocp.tracking_data import stride_duration
 from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS
 from sspinn.dataset import Recording
 from sspinn.evaluation import compute_metrics

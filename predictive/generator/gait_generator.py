@@ -7,7 +7,7 @@ whether a gait is acceptable, the objective which one is chosen.
 
 Representation (chosen so that the constraints the OCP imposes hold by construction):
 
-* Cycle duration T = :func:`predictive.collocation.typical_stride_duration` of the speed (as the
+* Cycle duration T = :func:`predictive.ocp.generic_gait.typical_stride_duration` of the speed (as the
   OCP's default, which fixes it because a free duration drifts to shuffling strides).
 * Right-leg joint angles: mean + harmonics 1…K of the cycle. Left leg: the right leg half a cycle
   later (odd harmonics change sign) — the symmetric gait of the OCP's half-cycle mode.
@@ -25,13 +25,13 @@ Loss per batch of (speed, body) at random phases of the half cycle (the other ha
 * ``kane``: mean squared pelvis residual in BW (forces) and BW·H (moment) — SSPINNpose's L_K;
 * ``effort``: the OCP's objective — mean Σ_j (τ_j / 0.1·BW·H)² of the actuator torques (total
   minus the environment's passive joint moments), ankle strength-scaled, plus ``w_acc`` × the
-  acceleration regularisation on the normalised cycle (:mod:`predictive.collocation`);
+  acceleration regularisation on the normalised cycle (:mod:`predictive.ocp.collocation`);
 * ``bounds``: SSPINNpose's L_B with the OCP's ranges — joint ranges, pelvis height and tilt, and
   the environment's torque limits (with a margin for feedback);
 * ``slide``: SSPINNpose's L_slide, (contact-point speed × F_y / BW)².
 
 Training starts with ``warmup_steps`` of fitting the data-free textbook shapes of
-:func:`predictive.collocation.generic_gait` (the OCP's initial guess), then minimises the loss
+:func:`predictive.ocp.generic_gait.generic_gait` (the OCP's initial guess), then minimises the loss
 with Adam. No recorded or optimised gait is used. Checkpoints every ``checkpoint_every`` steps,
 ``resume``, a checkpoint on Ctrl-C and a CSV learning curve (loss vs wall time).
 """
@@ -50,8 +50,9 @@ import numpy as np
 import torch
 import yaml
 
-from predictive.collocation import ankle_strength, default_joint_limits, generic_gait, typical_stride_duration
-from predictive.solution import GaitSolution
+from predictive.ocp.generic_gait import generic_gait, typical_stride_duration
+from predictive.ocp.settings import ankle_strength, default_joint_limits
+from predictive.ocp.solution import GaitSolution
 from sspinn import dynamics, kinematics
 from sspinn.body import BodyParameters
 from sspinn.contact import ContactParameters

@@ -1,0 +1,127 @@
+"""The ``solve`` sub-command of ``python -m predictive``: one predictive gait (trajectory optimisation).
+
+``python -m predictive solve --speed 1.3 --out results/ocp/walk_1.3``
+
+Solves the predictive gait problem (:func:`predictive.ocp.collocation.solve_predictive`), prints
+IPOPT's status, iterations, solve time, the Kane residual at the nodes, stance fractions and —
+when ``../shared/data/winter_walking`` exists — the RMSD against Winter's normal walking, and
+writes ``<out>.npz``/``<out>.json`` (the solution), ``<out>_summary.json`` and ``<out>.png``
+(angles and GRF versus % gait cycle).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from predictive.ocp.collocation import OCPError, solve_predictive
+from predictive.ocp.gait_analysis import DEFAULT_DATA_DIR, compare_with_reference, load_winter, plot_gait
+from predictive.ocp.limits import check_body, check_speed, solution_problems
+from predictive.ocp.solution import GaitSolution
+from sspinn.errors import UserError
+
+#: Sub-command name.
+COMMAND = "solve"
+
+#: Speeds below this are compared with Winter's walking data, m/s.
+WALKING_MAX_SPEED = 2.0
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Register the ``solve`` sub-command on an ``argparse`` sub-parsers object."""
+    solve = sub.add_parser(COMMAND, help="solve a predictive gait problem and write the solution + plot")
+    solve.add_argument("--speed", type=float, required=True, help="average speed, m/s")
+    solve.add_argument("--out", type=Path, required=True, help="output path without suffix")
+    solve.add_argument("--nodes", type=int, default=None, help="collocation nodes (default 50 half / 100 full)")
+    solve.add_argument("--rate-hz", type=float, default=None,
+                       help="put the nodes on a sampling grid of this rate, e.g. 100 (instead of --nodes)")
+    solve.add_argument("--cycle", choices=("half", "full"), default="half", help="symmetric half or full cycle")
+    solve.add_argument("--effort", choices=("squared", "cubed"), default="squared")
+    solve.add_argument("--duration", type=float, default=None, help="stride duration, s (default: typical)")
+    solve.add_argument("--free-duration", action="store_true", help="optimise the stride duration")
+    solve.add_argument("--w-acc", type=float, default=None, help="weight of the acceleration regularisation")
+    solve.add_argument("--guess", type=Path, default=None, help="previous solution (.npz/.json) as initial guess")
+    solve.add_argument("--height", type=float, default=1.75, help="body height, m")
+    solve.add_argument("--mass", type=float, default=70.0, help="body mass, kg")
+    solve.add_argument("--data-dir", type=Path, default=DEFAULT_DATA_DIR, help="folder holding winter_walking/")
+    solve.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
+    return solve
+
+
+def _check_solve_args(args: argparse.Namespace) -> None:
+    """Reject what the model cannot do before anything is built (see predictive.ocp.limits)."""
+    check_speed(args.speed, "--speed")
+    check_body(args.height, args.mass)
+    for name, value, low in (("--nodes", args.nodes, 4), ("--rate-hz", args.rate_hz, 1e-9), ("--duration", args.duration, 1e-9)):
+        if value is not None and not (math.isfinite(value) and value >= low):
+            raise UserError(f"{name} {value} must be a finite number ≥ {low:g}")
+    if args.w_acc is not None and not (math.isfinite(args.w_acc) and args.w_acc >= 0):
+        raise UserError(f"--w-acc {args.w_acc} must be a finite number ≥ 0")
+    if args.duration is not None and not 0.2 <= args.duration <= 3.0:
+        raise UserError(f"--duration {args.duration} s is not a human stride duration (0.2–3 s)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the sub-command; returns the exit code (1 if IPOPT failed or the solution is not acceptable)."""
+    from sspinn.body import BodyParameters
+
+    _check_solve_args(args)
+    body = BodyParameters.from_anthropometry(args.height, args.mass)
+    extra = {} if args.w_acc is None else {"w_acc": args.w_acc}
+    guess = GaitSolution.load(args.guess) if args.guess is not None else None
+    try:
+        sol = solve_predictive(
+            args.speed,
+            body,
+            n_nodes=args.nodes,
+            rate_hz=args.rate_hz,
+            effort=args.effort,
+            gait_cycle=args.cycle,
+            guess=guess,
+            duration=args.duration,
+            free_duration=args.free_duration,
+            verbose=args.verbose,
+            **extra,
+        )
+    except OCPError as exc:
+        print(f"FAILED: {exc}", file=sys.stderr)
+        if exc.solution is not None:
+            path = exc.solution.save(args.out.with_name(args.out.name + "_failed"))
+            print(f"last iterate written to {path}", file=sys.stderr)
+        return 1
+    problems = solution_problems(sol)
+    if problems:
+        where = ""
+        if all(np.isfinite(getattr(sol, k)).all() for k in ("q", "u", "tau", "grf")):
+            where = f"; the rejected solution is written to {sol.save(args.out.with_name(args.out.name + '_failed'))} for inspection"
+        print(f"FAILED: IPOPT reported {sol.status}, but the solution is not acceptable: {'; '.join(problems)}{where}",
+              file=sys.stderr)
+        return 1
+    summary = sol.summary()
+    reference = None
+    if args.speed < WALKING_MAX_SPEED:
+        try:
+            reference = load_winter(args.data_dir)
+        except FileNotFoundError as exc:
+            print(f"(no comparison with Winter: {exc})")
+        else:
+            summary.update({f"winter_{k}": v for k, v in compare_with_reference(sol, reference).items()})
+    npz = sol.save(args.out)
+    png = plot_gait(sol, args.out.with_name(args.out.name + ".png"), reference)
+    summary_path = args.out.with_name(args.out.name + "_summary.json")
+    summary_path.write_text(json.dumps(summary, indent=2))
+    width = max(len(k) for k in summary)
+    for key, value in summary.items():
+        text = f"{value:.6g}" if isinstance(value, float) else str(value)
+        print(f"{key:<{width}}  {text}")
+    print(f"wrote {npz}, {npz.with_name(npz.name[:-4] + '.json')}, {summary_path}, {png}")
+    return 0
+
+
+__all__ = ["COMMAND", "WALKING_MAX_SPEED", "add_parser", "run"]

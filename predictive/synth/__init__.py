@@ -1,0 +1,16 @@
+"""Physically exact synthetic gait data with ground truth (the sspinn dataset format v1).
+
+Entry point: :func:`predictive.synth.pipeline.generate_dataset` (``python -m predictive synth``,
+:mod:`~predictive.synth.cli`). The method is described in :mod:`~predictive.synth.pipeline`;
+each step lives in its own module:
+
+* :mod:`~predictive.synth.config` — :class:`~predictive.synth.config.SynthConfig` and its parts (YAML);
+* :mod:`~predictive.synth.subjects` — virtual subjects and their true (perturbed) bodies;
+* :mod:`~predictive.synth.cache` — the file caches, their keys and ``CODE_VERSION``;
+* :mod:`~predictive.synth.gait_library` — periodic gaits (templates, per subject) and their fallbacks;
+* :mod:`~predictive.synth.periodic_reference` — periodic gaits resampled to strides (guesses, targets);
+* :mod:`~predictive.synth.planning` — stride plans (variability, speed changes);
+* :mod:`~predictive.synth.chain` — the chain of stride OCPs and its fallback ladder;
+* :mod:`~predictive.synth.recording` — one recording: its chain, labels, IMUs and provenance;
+* :mod:`~predictive.synth.pipeline` — subjects and datasets, parallel workers, output.
+"""

@@ -1,0 +1,342 @@
+"""Dynamically exact, non-periodic gait: a chain of single-stride optimal control problems.
+
+The periodic solutions of :mod:`predictive.ocp.collocation` repeat one gait cycle forever. Synthetic
+recordings need stride-to-stride variability and speed changes while every sample still obeys
+the equations of motion. :func:`simulate_chain` builds them stride by stride (receding horizon)
+from the single-stride NLP of :mod:`predictive.ocp.stride_nlp` (grid, chaining, variables,
+constraints, objective, buckets and IPOPT's warm start are described there):
+
+* **Chaining.** Each stride starts from the *fixed* last sample of the previous one, so the
+  recording is one backward-Euler trajectory whose Kane residual is zero to IPOPT's constraint
+  tolerance at every sample (:class:`ChainResult`).
+* **Horizon.** ``1 + lookahead`` strides; only the first is kept, the next horizon starts from
+  its last node, and a solved lookahead stride is the next horizon's initial guess.
+* **Guesses and targets.** Otherwise the initial guess is the periodic reference
+  (:class:`~predictive.synth.periodic_reference.PeriodicReference`) resampled to the stride and
+  blended into the previous state, and the terminal target is the reference at the horizon's
+  last stride.
+* **Fallback ladder** (:data:`FALLBACKS`). One IPOPT run from one guess is one sample of a
+  distribution, so a stride that fails is tried again on further rungs (IPOPT's defaults, a
+  perturbed guess, a nominal or smaller change of the plan); if every rung fails the recording
+  ends cleanly after its last solved stride (see :func:`simulate_chain`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Final
+
+import numpy as np
+
+from predictive.ocp.stride_nlp import StridePlan, StrideResult, StrideSolverCache, node_residual
+from predictive.synth.periodic_reference import PeriodicReference, ReferenceStride, blend_into
+from sspinn import dynamics as dyn
+from sspinn.body import BodyParameters
+
+#: IPOPT statuses accepted for a stride (the node residual is checked separately).
+ACCEPTED_STATUSES: Final = ("Solve_Succeeded",)
+
+
+class ChainError(RuntimeError):
+    """A stride of the chain could not be solved to the required accuracy."""
+
+
+@dataclass
+class StrideRecord:
+    """Statistics of one kept stride: its plan (speed m/s, nodes), IPOPT's status, iterations and
+    time (s, all attempts), the number of attempts, the objective, the max Kane residual at its
+    nodes (BW / BW·H), the rung of :data:`FALLBACKS` that solved it and the speed it was planned
+    at (differs from ``speed`` on the rungs that change the plan)."""
+
+    index: int
+    speed: float
+    n_nodes: int
+    status: str
+    iterations: int
+    solve_time: float
+    attempts: int
+    objective: float
+    max_residual: float
+    fallback: str = "warm"
+    planned_speed: float = float("nan")
+
+
+@dataclass
+class ChainResult:
+    """A solved chain: the ground truth at every sample (units of :mod:`sspinn.conventions`).
+
+    Attributes:
+        q, u, qdd: (T, 9) coordinates, speeds (the collocation u) and accelerations (backward
+            differences of u; the first uses ``u_prev``).
+        tau: (T, 6) joint torques, N·m.
+        grf: (T, 4) contact-model ground reaction forces, N; w: (T, 2) contact-point fractions.
+        speed: (T,) the average pelvis speed of the sample's stride, m/s.
+        stride: (T,) index of the sample's stride.
+        q_prev, u_prev: (9,) the state before the first sample.
+        strides: per-stride statistics.
+        h: time step, s.
+        ended_early: empty, or why the chain ended before its last planned stride (every rung of
+            the fallback ladder failed; see :func:`simulate_chain`).
+    """
+
+    q: np.ndarray
+    u: np.ndarray
+    qdd: np.ndarray
+    tau: np.ndarray
+    grf: np.ndarray
+    w: np.ndarray
+    speed: np.ndarray
+    stride: np.ndarray
+    q_prev: np.ndarray
+    u_prev: np.ndarray
+    strides: list[StrideRecord]
+    h: float
+    ended_early: str = ""
+
+    _ARRAYS = ("q", "u", "qdd", "tau", "grf", "w", "speed", "stride", "q_prev", "u_prev")
+
+    @property
+    def n_samples(self) -> int:
+        return self.q.shape[0]
+
+    def residual(self, body: BodyParameters) -> np.ndarray:
+        """(T, 9) Kane residual of the stored labels (q, u, q̈, τ, GRF, w), BW and BW·H."""
+        return node_residual(self.q, self.u, self.qdd, self.tau, body, grf=self.grf, w=self.w)
+
+    def save(self, path: str | Path) -> Path:
+        """Write ``<path>.npz`` (arrays and the per-stride statistics as a structured array)."""
+        path = Path(path).with_suffix(".npz")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        stats = np.array([tuple(asdict(r).values()) for r in self.strides], dtype=_STRIDE_DTYPE)
+        tmp = path.with_name(path.stem + ".tmp.npz")
+        np.savez(
+            tmp,
+            h=self.h,
+            strides=stats,
+            ended_early=np.array(self.ended_early),
+            **{k: getattr(self, k) for k in self._ARRAYS},
+        )
+        tmp.replace(path)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> ChainResult:
+        with np.load(Path(path).with_suffix(".npz")) as data:
+            arrays = {k: data[k] for k in cls._ARRAYS}
+            strides = [
+                StrideRecord(**{name: row[name].item() for name in _STRIDE_DTYPE.names}) for row in data["strides"]
+            ]
+            return cls(**arrays, strides=strides, h=float(data["h"]), ended_early=str(data["ended_early"]))
+
+
+_STRIDE_DTYPE = np.dtype(
+    [
+        ("index", "i8"),
+        ("speed", "f8"),
+        ("n_nodes", "i8"),
+        ("status", "U32"),
+        ("iterations", "i8"),
+        ("solve_time", "f8"),
+        ("attempts", "i8"),
+        ("objective", "f8"),
+        ("max_residual", "f8"),
+        ("fallback", "U16"),
+        ("planned_speed", "f8"),
+    ]
+)
+
+
+#: The fallback ladder of a stride, tried in this order until one solves (see :func:`simulate_chain`).
+FALLBACKS: Final[tuple[str, ...]] = ("warm", "default", "perturbed", "nominal", "smaller_change", "previous_speed")
+
+#: Relative size of the "perturbed" rung's guess perturbation (joint angles and torques).
+PERTURBATION: Final = 0.02
+
+
+def _rung_plan(rung: str, plan: StridePlan, previous_speed: float, reference: PeriodicReference, h: float) -> StridePlan:
+    """The stride plan that ``rung`` of :data:`FALLBACKS` solves instead of ``plan``."""
+    if rung in ("warm", "default", "perturbed"):
+        return plan
+    speed = {
+        "nominal": plan.speed,
+        "smaller_change": 0.5 * (plan.speed + previous_speed),
+        "previous_speed": previous_speed,
+    }[rung]
+    return StridePlan(speed=speed, n_nodes=max(2, int(round(reference.nominal_duration(speed) / h))))
+
+
+def simulate_chain(
+    body: BodyParameters,
+    plans: Sequence[StridePlan],
+    reference: PeriodicReference,
+    solvers: StrideSolverCache,
+    *,
+    lookahead: int = 0,
+    on_stride: Callable[[StrideRecord], None] | None = None,
+    min_strides: int = 1,
+) -> ChainResult:
+    """Solve the strides ``plans`` one after the other (see the module docstring).
+
+    The chain starts from the reference's periodic state at the first plan's speed (pelvis_tx 0
+    before the first sample). Each horizon holds the kept stride and ``lookahead`` further
+    strides (the last plan repeated past the end).
+
+    **Fallback ladder.** One IPOPT run from one guess is one sample of a distribution (another
+    machine's rounding can end in ``Infeasible_Problem_Detected`` where this one succeeds), so a
+    stride that fails is tried again down :data:`FALLBACKS`, and the first rung that reaches
+    ``Solve_Succeeded`` with a node residual ≤ ``residual_tol`` is kept:
+
+    1. ``warm``: the plan, the carried (lookahead) or reference guess, warm-start IPOPT options;
+    2. ``default``: the plan, the reference guess blended into the previous state, IPOPT's
+       default options;
+    3. ``perturbed``: as 2 with joint angles and torques of the guess perturbed by
+       :data:`PERTURBATION` (relative, seeded by the stride index: deterministic);
+    4. ``nominal``: the planned speed at the reference's nominal duration and unit effort
+       weights (no stride-to-stride variability), default options;
+    5. ``smaller_change``: half the planned change of speed from the previous stride, nominal
+       duration and effort;
+    6. ``previous_speed``: the previous stride's speed (a steady stride), nominal duration.
+
+    Rungs 4–6 change the stride's plan; the labels stay exact (they come from the solution) and
+    each :class:`StrideRecord` names its rung. If every rung fails, the recording **ends cleanly
+    after the last solved stride** (``ChainResult.ended_early`` says why) provided at least
+    ``min_strides`` were solved; otherwise :class:`ChainError` is raised.
+
+    Args:
+        body: the (true) body parameters.
+        plans: the strides to keep.
+        reference: periodic gaits of ``body`` (guesses and terminal targets).
+        solvers: compiled NLPs (shared between calls).
+        lookahead: strides solved beyond the kept one (0 or more).
+        on_stride: called with each kept stride's statistics (progress).
+        min_strides: strides that must be solved before the recording may end early.
+
+    Raises:
+        ChainError: every rung failed for one of the first ``min_strides`` strides.
+    """
+    s = solvers.settings
+    h = s.h
+    if not plans:
+        raise ValueError("simulate_chain needs at least one stride plan")
+    if lookahead < 0:
+        raise ValueError(f"lookahead must be >= 0, got {lookahead}")
+    padded = list(plans) + [plans[-1]] * lookahead
+    first = reference.stride(plans[0].speed, plans[0].n_nodes, h, 0.0)
+    q_prev, u_prev = first.q_prev, first.u_prev
+    q0_prev, u0_prev = q_prev.copy(), u_prev.copy()
+    previous_speed = plans[0].speed
+    carried: tuple[np.ndarray, np.ndarray] | None = None  # solved lookahead (q, τ) of the next stride
+    chunks: list[tuple[np.ndarray, ...]] = []
+    records: list[StrideRecord] = []
+    ended_early = ""
+    for k, planned in enumerate(plans):
+        result: StrideResult | None = None
+        total_iter, total_time, n_try = 0, 0.0, 0
+        failures: list[str] = []
+        plan = planned
+        for rung in FALLBACKS:
+            plan = _rung_plan(rung, planned, previous_speed, reference, h)
+            if rung in ("nominal", "smaller_change", "previous_speed") and plan == planned:
+                continue  # nothing new to try on this rung
+            horizon = [plan] + padded[k + 1 : k + 1 + lookahead]
+            guess_q, guess_tau, target = _horizon_guess(
+                rung, horizon, reference, h, q_prev, carried if rung == "warm" else None, k
+            )
+            n_try += 1
+            problem = solvers.get([p.n_nodes for p in horizon], warm=rung == "warm")
+            result = problem.solve(body, q_prev, u_prev, horizon, target.q[-1], target.u[-1], guess_q, guess_tau)
+            total_iter += result.iterations
+            total_time += result.solve_time
+            if result.status in ACCEPTED_STATUSES and result.max_residual <= s.residual_tol:
+                break
+            failures.append(f"{rung}: {result.status}, residual {result.max_residual:.3g}")
+            result = None
+        if result is None:
+            reason = (
+                f"stride {k} (speed {planned.speed:.3f} m/s, {planned.n_nodes} nodes) failed on every rung of the "
+                f"fallback ladder ({'; '.join(failures)})"
+            )
+            if k < min_strides:
+                raise ChainError(reason)
+            ended_early = f"ended after stride {k - 1}: {reason}"
+            break
+        q, u, qdd, tau = result.stride(0)
+        chunks.append((q, u, qdd, tau, np.full(len(q), plan.speed), np.full(len(q), k)))
+        carried = None
+        if lookahead and plan == planned:
+            nq, _, _, ntau = result.stride(1)
+            carried = (nq, ntau)
+        q_prev, u_prev = q[-1], u[-1]
+        previous_speed = plan.speed
+        record = StrideRecord(
+            index=k,
+            speed=plan.speed,
+            n_nodes=plan.n_nodes,
+            status=result.status,
+            iterations=total_iter,
+            solve_time=total_time,
+            attempts=n_try,
+            objective=result.objective,
+            max_residual=float(np.abs(node_residual(q, u, qdd, tau, body, solvers.contact)).max()),
+            fallback=rung,
+            planned_speed=planned.speed,
+        )
+        records.append(record)
+        if on_stride is not None:
+            on_stride(record)
+    q, u, qdd, tau, speed, stride = (np.concatenate(parts) for parts in zip(*chunks))
+    grf, w = dyn.contact_forces(q, u, body, solvers.contact)
+    return ChainResult(
+        q=q,
+        u=u,
+        qdd=qdd,
+        tau=tau,
+        grf=np.asarray(grf),
+        w=np.asarray(w),
+        speed=speed,
+        stride=stride.astype(np.int64),
+        q_prev=q0_prev,
+        u_prev=u0_prev,
+        strides=records,
+        h=h,
+        ended_early=ended_early,
+    )
+
+
+def _horizon_guess(
+    rung: str,
+    horizon: Sequence[StridePlan],
+    reference: PeriodicReference,
+    h: float,
+    q_prev: np.ndarray,
+    carried: tuple[np.ndarray, np.ndarray] | None,
+    index: int,
+) -> tuple[np.ndarray, np.ndarray, ReferenceStride]:
+    """Initial guess (q, τ) of a horizon on ``rung`` and the terminal target (the reference stride
+    of the horizon's last plan). ``warm``: the carried lookahead stride (if any) or the reference
+    blended from the previous guess; other rungs: the reference blended into ``q_prev``, on
+    ``perturbed`` with a deterministic relative perturbation of the angles and torques."""
+    qs: list[np.ndarray] = []
+    taus: list[np.ndarray] = []
+    x_last, q_last = q_prev[0], q_prev
+    target = None
+    for i, p in enumerate(horizon):
+        target = reference.stride(p.speed, p.n_nodes, h, x_last)
+        if i == 0 and carried is not None:
+            qs.append(carried[0])
+            taus.append(carried[1])
+        else:
+            start = q_last if rung == "warm" else (q_prev if i == 0 else target.q_prev)
+            qs.append(blend_into(target.q, target.q_prev, start))
+            taus.append(target.tau)
+        x_last, q_last = qs[-1][-1, 0], qs[-1][-1]
+    assert target is not None
+    q, tau = np.vstack(qs), np.vstack(taus)
+    if rung == "perturbed":
+        rng = np.random.default_rng([index, 7])
+        q = q.copy()
+        q[:, 2:] += PERTURBATION * np.abs(q[:, 2:]).max(axis=0) * rng.standard_normal(q[:, 2:].shape)
+        tau = tau * (1 + PERTURBATION * rng.standard_normal(tau.shape))
+    return q, tau, target

@@ -1,0 +1,224 @@
+"""Configuration of a synthetic dataset: :class:`SynthConfig` and its parts (YAML).
+
+``configs/synth/*.yaml`` hold a (partial) mapping of the :class:`SynthConfig` fields; nested
+sections configure the subjects' height and BMI (:class:`SubjectDistribution`), the deviations
+of their true segment parameters (:class:`BodyVariation`), the stride-to-stride variability
+(:class:`Variability`) and the stride OCPs (:class:`~predictive.ocp.stride_nlp.StrideSettings`).
+:meth:`SynthConfig.key` hashes everything that determines the dataset's content; every random
+draw comes from a stream of :attr:`SynthConfig.seed` (:meth:`SynthConfig.rng`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from predictive.ocp.stride_nlp import StrideSettings
+from predictive.synth.cache import CODE_VERSION, jsonable, stable_hash
+from predictive.synth.periodic_reference import DEFAULT_BOUNDARY
+from sspinn.dataset import SPLITS
+from sspinn.imu_errors import IMUErrorModel
+
+
+@dataclass(frozen=True)
+class SubjectDistribution:
+    """Distribution of the virtual subjects' height (m) and BMI (kg/m²): normal, clipped."""
+
+    height_mean: float = 1.75
+    height_sd: float = 0.08
+    height_range: tuple[float, float] = (1.55, 1.95)
+    bmi_mean: float = 23.0
+    bmi_sd: float = 2.5
+    bmi_range: tuple[float, float] = (18.5, 30.0)
+
+
+@dataclass(frozen=True)
+class BodyVariation:
+    """Half-widths of the uniform deviations of the true segment parameters from Winter's scaling
+    (fractions; see :mod:`predictive.synth.subjects`). All zero: the true body is the generic one."""
+
+    mass: float = 0.10
+    inertia: float = 0.10
+    length: float = 0.05
+    foot: float = 0.05
+    com_along: float = 0.03
+    com_across: float = 0.01
+    asymmetry: float = 0.02
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if not 0 <= v < 0.5:
+                raise ValueError(f"body_variation.{f.name} must be in [0, 0.5), got {v}")
+
+
+@dataclass(frozen=True)
+class Variability:
+    """Stride-to-stride variability and speed changes.
+
+    Attributes:
+        speed_cv: relative std of a stride's speed around the program's target.
+        duration_cv: relative std of a stride's duration around the reference duration.
+        effort_log_sd: std of the log of the per-joint effort weights.
+        max_speed_change: largest change of the target speed from one stride to the next, m/s.
+        clip: normal draws are clipped to ± clip standard deviations.
+    """
+
+    speed_cv: float = 0.02
+    duration_cv: float = 0.02
+    effort_log_sd: float = 0.2
+    max_speed_change: float = 0.25
+    clip: float = 2.5
+
+
+@dataclass(frozen=True)
+class SynthConfig:
+    """Configuration of :func:`~predictive.synth.pipeline.generate_dataset` (YAML: :meth:`from_yaml`).
+
+    Attributes:
+        name: dataset name (prefix of the recording names).
+        seed: master seed; everything random derives from it.
+        n_subjects: number of virtual subjects.
+        splits: subjects per split (train/val/test; must add up to ``n_subjects``).
+        programs: speed programs, m/s; a recording runs through one program's speeds in order.
+        program_names: one name per program (used in recording names).
+        programs_per_subject: recordings per subject: subject i gets programs i, i+1, … (cyclic).
+        shuffle_speeds: visit a program's speeds in a random order per recording.
+        duration_s: minimal duration of a recording, s (whole strides are kept).
+        subjects: height and BMI distribution.
+        body_variation: deviations of the true segment parameters.
+        variability: stride-to-stride variability.
+        stride: settings of the stride OCPs.
+        lookahead: strides solved beyond the kept one in each horizon.
+        boundary: stride boundary relative to the right contact onset, fraction of the cycle.
+        imu_errors: "default" (:class:`~sspinn.imu_errors.IMUErrorModel` defaults), "none" or a
+            mapping of IMUErrorModel fields.
+        cache_dir: folder of the caches.
+        workers: parallel processes (one subject each); 1: in this process.
+    """
+
+    name: str = "synth"
+    seed: int = 0
+    n_subjects: int = 6
+    splits: Mapping[str, int] = field(default_factory=lambda: {"train": 4, "val": 1, "test": 1})
+    programs: tuple[tuple[float, ...], ...] = ((0.9, 1.3, 1.8), (2.5, 3.0, 3.5))
+    program_names: tuple[str, ...] = ("walk", "run")
+    programs_per_subject: int = 1
+    shuffle_speeds: bool = False
+    duration_s: float = 20.0
+    subjects: SubjectDistribution = field(default_factory=SubjectDistribution)
+    body_variation: BodyVariation = field(default_factory=BodyVariation)
+    variability: Variability = field(default_factory=Variability)
+    stride: StrideSettings = field(default_factory=StrideSettings)
+    lookahead: int = 0
+    boundary: float = DEFAULT_BOUNDARY
+    imu_errors: str | Mapping[str, Any] = "default"
+    cache_dir: str = "results/cache/synth"
+    workers: int = 1
+
+    def __post_init__(self) -> None:
+        if self.n_subjects < 1:
+            raise ValueError(f"n_subjects must be >= 1, got {self.n_subjects}")
+        unknown = set(self.splits) - set(SPLITS)
+        if unknown:
+            raise ValueError(f"unknown split(s) {sorted(unknown)}; allowed: {SPLITS}")
+        if sum(self.splits.values()) != self.n_subjects or min(self.splits.values()) < 0:
+            raise ValueError(f"splits {dict(self.splits)} must be >= 0 and add up to n_subjects = {self.n_subjects}")
+        if not self.programs or any(not p or min(p) <= 0 for p in self.programs):
+            raise ValueError(f"programs must be non-empty lists of speeds > 0 m/s, got {self.programs}")
+        if len(self.program_names) != len(self.programs) or len(set(self.program_names)) != len(self.programs):
+            raise ValueError(f"program_names must name each program once, got {self.program_names}")
+        if not 1 <= self.programs_per_subject <= len(self.programs):
+            raise ValueError(
+                f"programs_per_subject must be in 1..{len(self.programs)}, got {self.programs_per_subject}"
+            )
+        if not self.duration_s > 0:
+            raise ValueError(f"duration_s must be > 0, got {self.duration_s}")
+        if self.workers < 1:
+            raise ValueError(f"workers must be >= 1, got {self.workers}")
+        imu_model(self)  # validates the IMU error settings
+
+    # ------------------------------------------------------------------ (de)serialisation
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], source: str = "<dict>") -> SynthConfig:
+        """Build from a (partial) mapping as in ``configs/synth/*.yaml``; unknown keys are errors."""
+        nested = {
+            "subjects": SubjectDistribution,
+            "body_variation": BodyVariation,
+            "variability": Variability,
+            "stride": StrideSettings,
+        }
+        allowed = {f.name for f in dataclasses.fields(cls)}
+        unknown = set(data) - allowed
+        if unknown:
+            raise ValueError(f"{source}: unknown setting(s) {sorted(unknown)}; allowed: {sorted(allowed)}")
+        kwargs: dict[str, Any] = {}
+        for key, value in data.items():
+            if key in nested:
+                sub_allowed = {f.name for f in dataclasses.fields(nested[key])}
+                bad = set(value or {}) - sub_allowed
+                if bad:
+                    raise ValueError(
+                        f"{source}: unknown {key} setting(s) {sorted(bad)}; allowed: {sorted(sub_allowed)}"
+                    )
+                kwargs[key] = nested[key](**{k: _tuples(v) for k, v in (value or {}).items()})
+            elif key in ("programs", "program_names"):
+                kwargs[key] = _tuples(value)
+            else:
+                kwargs[key] = value
+        try:
+            return cls(**kwargs)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{source}: {exc}") from None
+
+    @classmethod
+    def from_yaml(cls, path: str | Path, **overrides: Any) -> SynthConfig:
+        """Read ``path`` (a mapping of the fields); ``overrides`` replace top-level fields."""
+        path = Path(path)
+        data = yaml.safe_load(path.read_text()) or {}
+        if not isinstance(data, dict):
+            raise ValueError(f"{path}: expected a mapping of settings, got {type(data).__name__}")
+        data.update({k: v for k, v in overrides.items() if v is not None})
+        return cls.from_dict(data, source=str(path))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-native dict (tuples as lists)."""
+        return jsonable(dataclasses.asdict(self))
+
+    def key(self) -> str:
+        """Hash of everything that determines the dataset's content (not cache_dir, workers)."""
+        data = self.to_dict()
+        data.pop("cache_dir")
+        data.pop("workers")
+        return stable_hash({"config": data, "code": CODE_VERSION})
+
+    def rng(self, *stream: int) -> np.random.Generator:
+        """An independent generator for a named stream of :attr:`seed` (streams: 0 splits,
+        (1, subject) body, (2, subject, program, attempt) stride plan, (3, subject, program)
+        speed order)."""
+        return np.random.default_rng([self.seed, *stream])
+
+
+def imu_model(config: SynthConfig) -> IMUErrorModel:
+    """The IMU error model of ``config.imu_errors``."""
+    spec = config.imu_errors
+    if spec == "default":
+        return IMUErrorModel()
+    if spec == "none":
+        return IMUErrorModel.none()
+    if isinstance(spec, Mapping):
+        return IMUErrorModel.from_dict(spec, source="imu_errors")
+    raise ValueError(f"imu_errors must be 'default', 'none' or a mapping of IMUErrorModel fields, got {spec!r}")
+
+
+def _tuples(obj: Any) -> Any:
+    """Lists → tuples (recursively), for frozen dataclass fields read from YAML."""
+    if isinstance(obj, list):
+        return tuple(_tuples(v) for v in obj)
+    return obj

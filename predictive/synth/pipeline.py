@@ -1,0 +1,358 @@
+"""Physically exact synthetic gait data with ground truth (the sspinn dataset format v1).
+
+:func:`generate_dataset` makes virtual subjects walk and run, continuously and with
+stride-to-stride variability and speed changes, and writes recordings whose labels satisfy the
+equations of motion of the sspinn model at every 100 Hz sample. This module runs the pipeline
+(subjects, in parallel processes when ``workers > 1``, then the dataset and its ``dataset.json``);
+each step lives in its own module of :mod:`predictive.synth`.
+
+Method
+------
+1. **Virtual subjects** (:mod:`predictive.synth.subjects`): height and BMI drawn per subject
+   (what the estimator is told); the true segment parameters deviate from the generic Winter
+   scaling that the estimator assumes.
+2. **Periodic gaits of the true body** (:mod:`predictive.synth.gait_library`): the predictive
+   OCP at each program speed on the exact 100 Hz grid, warm-started from a nominal body's
+   template gaits.
+3. **Stride chain** (:mod:`predictive.synth.chain`, :mod:`predictive.synth.planning`): the
+   recording is a chain of single-stride OCPs (:mod:`predictive.ocp.stride_nlp`) on the 100 Hz
+   grid, each starting from the fixed last sample of the previous stride, with the periodic gaits
+   as initial guesses and terminal targets, per-stride variability of speed, duration and effort
+   weights and gradual speed changes. **No recording is thrown away for one stride**: a stride
+   that IPOPT cannot solve goes down a ladder of fallbacks
+   (:data:`~predictive.synth.chain.FALLBACKS`: warm start, default options, a perturbed guess,
+   the nominal duration, half the speed change, the previous speed); if every rung fails the
+   recording ends cleanly after its last solved stride. Which rung solved each stride is in the
+   recording's provenance (``strides.fallback``, ``fallbacks``, ``ended_early``), the counts in
+   ``dataset.json`` (``info.solver.fallbacks``, ``info.events``), and ``predictive synth`` prints
+   them; an early end warns (:class:`SynthWarning`). Periodic gaits have a ladder of their own
+   (:data:`~predictive.synth.gait_library.PERIODIC_FALLBACKS`).
+4. **IMUs** and 5. **labels** (:mod:`predictive.synth.recording`): IMU data measured on the
+   ground truth with the true body and an IMU error model; labels q, u, q̈, τ, GRF, w and speed
+   from the chain. The generator reports the Kane residual of the labels as written to disk.
+
+Everything is deterministic given ``SynthConfig.seed`` (serial and parallel runs give identical
+files); periodic solutions, chains and finished recordings are cached under ``cache_dir`` by a
+hash of everything that determines them (:mod:`predictive.synth.cache`), so a second run only
+reads files.
+
+Usage::
+
+    from predictive.synth.config import SynthConfig
+    from predictive.synth.pipeline import generate_dataset
+    config = SynthConfig.from_yaml("configs/synth/default.yaml")
+    dataset = generate_dataset(config, "data/synth_default")   # sspinn.dataset.Dataset
+    print(dataset.info["kane_residual"])                        # BW and BW·H, max and RMS
+
+or ``python -m predictive synth --config configs/synth/default.yaml --out data/synth_default``.
+With ``workers > 1`` the subjects are generated in spawned processes, so a script calling
+:func:`generate_dataset` needs the usual ``if __name__ == "__main__":`` guard.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Final
+
+import numpy as np
+
+from predictive.ocp.stride_nlp import StrideSolverCache
+from predictive.synth.cache import CODE_VERSION, GENERATOR_NAME, CacheStats, SynthCache, jsonable
+from predictive.synth.chain import ChainError, StrideRecord
+from predictive.synth.config import SynthConfig, imu_model
+from predictive.synth.gait_library import periodic_library, template_library
+from predictive.synth.recording import cached_recording, fallback_counts, recording_chain, residual_stats
+from predictive.synth.subjects import VirtualSubject, body_deviation, sample_subjects
+from sspinn.dataset import SPLITS, Dataset, Recording
+
+
+class SynthWarning(UserWarning):
+    """Something in a synthetic dataset did not go as planned (a recording ended early, a stride
+    plan was drawn again, a recording was dropped); also listed in ``dataset.json``
+    (``info.events``)."""
+
+
+@dataclass
+class SubjectOutput:
+    """The recordings of one subject and how they were made; ``events`` lists what did not go as
+    planned (``{"recording", "event", "detail"}``; events: ``periodic_from_template``,
+    ``plan_redrawn``, ``ended_early``, ``dropped``)."""
+
+    recordings: list[Recording]
+    strides: list[StrideRecord]
+    cache: CacheStats
+    time_s: float
+    build_time_s: float
+    events: list[dict[str, str]] = field(default_factory=list)
+
+
+def generate_subject(
+    config: SynthConfig,
+    subject: VirtualSubject,
+    cache: SynthCache | None = None,
+    solvers: StrideSolverCache | None = None,
+    on_progress: Callable[[str, float], None] | None = None,
+) -> SubjectOutput:
+    """All recordings of one subject (see the module docstring): its periodic gaits, then per
+    program the chain (:func:`~predictive.synth.recording.recording_chain`) and the recording
+    (:func:`~predictive.synth.recording.cached_recording`).
+
+    Args:
+        config: the dataset configuration.
+        subject: the subject (from :func:`~predictive.synth.subjects.sample_subjects`).
+        cache: file caches (default: ``config.cache_dir``).
+        solvers: compiled stride NLPs to share between subjects.
+        on_progress: called with (stage description, seconds of data just finished).
+    """
+    t0 = time.perf_counter()
+    cache = cache if cache is not None else SynthCache(config.cache_dir)
+    solvers = solvers if solvers is not None else StrideSolverCache(config.stride)
+    build0 = solvers.build_time
+    stats0 = dataclasses.replace(cache.stats)
+    stride_cfg = config.stride
+    model = imu_model(config)
+    programs = [(subject.index + j) % len(config.programs) for j in range(config.programs_per_subject)]
+    speeds_needed = sorted({v for j in programs for v in config.programs[j]})
+
+    def report(stage: str, seconds: float = 0.0) -> None:
+        if on_progress is not None:
+            on_progress(stage, seconds)
+
+    report(f"{subject.id}: periodic gaits")
+    templates = template_library(speeds_needed, stride_cfg, cache)
+    events: list[dict[str, str]] = []
+    library = periodic_library(subject.body, speeds_needed, stride_cfg, cache, templates, events, subject.id)
+    recordings: list[Recording] = []
+    strides: list[StrideRecord] = []
+    for j in programs:
+        name = f"{subject.id}_{config.program_names[j]}"
+        speeds = list(config.programs[j])
+        if config.shuffle_speeds:
+            speeds = [speeds[i] for i in config.rng(3, subject.index, j).permutation(len(speeds))]
+        found = recording_chain(config, subject, j, speeds, library, cache, solvers, report, events)
+        if found is None:
+            continue
+        chain, chain_key, attempt = found
+        strides.extend(chain.strides)
+        if chain.ended_early:
+            events.append({"recording": name, "event": "ended_early", "detail": chain.ended_early})
+        recordings.append(cached_recording(config, subject, j, speeds, chain, chain_key, attempt, model, cache))
+    stats = dataclasses.replace(cache.stats)
+    for f in dataclasses.fields(stats):
+        setattr(stats, f.name, getattr(stats, f.name) - getattr(stats0, f.name))
+    return SubjectOutput(recordings, strides, stats, time.perf_counter() - t0, solvers.build_time - build0, events)
+
+
+def _worker_groups(n_subjects: int, workers: int) -> list[list[int]]:
+    """Subjects per worker in snake order (0, 1, …, w−1, w−1, …, 0, 0, …), which balances the
+    alternating walking and running programs."""
+    groups: list[list[int]] = [[] for _ in range(workers)]
+    for i in range(n_subjects):
+        lap, pos = divmod(i, workers)
+        groups[pos if lap % 2 == 0 else workers - 1 - pos].append(i)
+    return [g for g in groups if g]
+
+
+def _group_job(config: SynthConfig, indices: list[int], queue: Any) -> list[SubjectOutput]:
+    """Worker entry point: the subjects ``indices`` with one solver cache; progress → ``queue``."""
+    subjects = sample_subjects(config)
+    cache = SynthCache(config.cache_dir)
+    solvers = StrideSolverCache(config.stride)
+    return [
+        generate_subject(config, subjects[i], cache, solvers, lambda stage, sec: queue.put((stage, sec)))
+        for i in indices
+    ]
+
+
+def generate_dataset(
+    config: SynthConfig, out_dir: str | Path, progress: bool = True, cache_dir: str | Path | None = None
+) -> Dataset:
+    """Generate (or load from the caches) the dataset of ``config`` into ``out_dir``.
+
+    ``out_dir`` must be empty, absent, or hold an earlier output of this generator (whose
+    recordings are replaced). The returned dataset's ``info`` holds the configuration, the
+    generation time, the Kane residual of the written labels (BW, BW·H), per-recording
+    statistics and the cache hits.
+    """
+    t0 = time.perf_counter()
+    out = Path(out_dir)
+    _prepare_out_dir(out)
+    if cache_dir is not None:
+        config = dataclasses.replace(config, cache_dir=str(cache_dir))
+    subjects = sample_subjects(config)
+    n_rec = config.programs_per_subject * len(subjects)
+    bar = _progress_bar(progress, total=round(n_rec * config.duration_s, 2))
+
+    def on_progress(stage: str, seconds: float) -> None:
+        if bar is not None:
+            bar.set_description(stage, refresh=False)
+            bar.update(round(seconds, 2))
+
+    outputs: list[SubjectOutput] = []
+    build_time = 0.0
+    cache = SynthCache(config.cache_dir)
+    try:
+        # the nominal-body templates first (shared by all subjects and workers)
+        on_progress("template gaits", 0.0)
+        template_library(sorted({v for p in config.programs for v in p}), config.stride, cache)
+        if config.workers == 1:
+            solvers = StrideSolverCache(config.stride)
+            outputs = [generate_subject(config, subject, cache, solvers, on_progress) for subject in subjects]
+            build_time = solvers.build_time
+        else:
+            outputs = _generate_parallel(config, on_progress)
+            build_time = sum(o.build_time_s for o in outputs)
+    finally:
+        if bar is not None:
+            bar.close()
+    by_split: dict[str, list[Recording]] = {s: [] for s in SPLITS if config.splits.get(s, 0) > 0}
+    for subject, output in zip(subjects, outputs):
+        by_split[subject.split].extend(output.recordings)
+    events = [e for o in outputs for e in o.events]
+    for e in events:
+        warnings.warn(f"{e['recording']}: {e['event'].replace('_', ' ')}: {e['detail']}", SynthWarning, stacklevel=2)
+    empty = [split for split, recs in by_split.items() if not recs]
+    if empty:
+        raise ChainError(
+            f"split(s) {empty} have no recording left: every recording of their subjects was dropped "
+            f"({'; '.join(e['detail'] for e in events if e['event'] == 'dropped')})"
+        )
+    cache_stats = dataclasses.replace(cache.stats)  # everything when serial, the templates when parallel
+    if config.workers > 1:
+        for o in outputs:
+            cache_stats.add(o.cache)
+    info: dict[str, Any] = {"generator": GENERATOR_NAME, "config_key": config.key()}
+    dataset = Dataset.write(out, by_split, info)
+    # the residual of the labels as written (CSV precision), with each subject's true body
+    body_of = {s.id: s.body for s in subjects}
+    per_rec: dict[str, Any] = {}
+    residuals: list[dict[str, float]] = []
+    for split in dataset.splits:
+        for rec in dataset.load(split):
+            res = residual_stats(rec, body_of[rec.subject])
+            residuals.append(res)
+            per_rec[rec.name] = {
+                "subject": rec.subject,
+                "split": split,
+                "duration_s": rec.duration,
+                "program": rec.provenance.get("program"),
+                "gait": rec.provenance.get("gait"),
+                "kane_residual": res,
+            }
+    strides = [r for o in outputs for r in o.strides]
+    info.update(
+        {
+            "code_version": CODE_VERSION,
+            "config": config.to_dict(),
+            "generation_time_s": round(time.perf_counter() - t0, 2),
+            "n_recordings": len(per_rec),
+            "total_duration_s": round(sum(v["duration_s"] for v in per_rec.values()), 2),
+            "subjects": {
+                s.id: {
+                    "split": s.split,
+                    "height_m": s.height,
+                    "mass_kg": s.mass,
+                    "body_deviation": body_deviation(s.body, s.nominal_body),
+                }
+                for s in subjects
+            },
+            "kane_residual": _combine_residuals(residuals),
+            "solver": {
+                "strides_solved": len(strides) if cache_stats.chain_solved else 0,
+                "iterations_mean": float(np.mean([r.iterations for r in strides])) if strides else None,
+                "solve_time_s": round(sum(r.solve_time for r in strides), 2),
+                "solve_time_per_stride_s": round(float(np.mean([r.solve_time for r in strides])), 3)
+                if strides
+                else None,
+                "retried_strides": int(sum(r.attempts > 1 for r in strides)),
+                "fallbacks": fallback_counts(strides),
+                "build_time_s": round(build_time, 2),
+            },
+            "cache": dataclasses.asdict(cache_stats),
+            "events": events,
+            "recordings": per_rec,
+        }
+    )
+    (out / "dataset.json").write_text(
+        json.dumps(
+            {"format": "sspinn-dataset", "version": 1, "splits": dataset.splits, "info": jsonable(info)}, indent=2
+        )
+    )
+    return Dataset.open(out)
+
+
+def _generate_parallel(config: SynthConfig, on_progress: Callable[[str, float], None]) -> list[SubjectOutput]:
+    """All subjects with ``config.workers`` processes (spawned; one solver cache each)."""
+    import multiprocessing as mp
+
+    groups = _worker_groups(config.n_subjects, config.workers)
+    ctx = mp.get_context("spawn")
+    results: dict[int, SubjectOutput] = {}
+    with ctx.Manager() as manager, ProcessPoolExecutor(max_workers=len(groups), mp_context=ctx) as pool:
+        queue = manager.Queue()
+        futures = {pool.submit(_group_job, config, g, queue): g for g in groups}
+        pending = set(futures)
+        while pending:
+            done, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+            while not queue.empty():
+                on_progress(*queue.get())
+            for fut in done:
+                results.update(zip(futures[fut], fut.result()))
+        while not queue.empty():
+            on_progress(*queue.get())
+    return [results[i] for i in range(config.n_subjects)]
+
+
+def _combine_residuals(stats: Sequence[Mapping[str, float]]) -> dict[str, float]:
+    """Max and RMS over all samples of several recordings."""
+    n = np.array([s["samples"] for s in stats], dtype=float)
+    if not len(n):
+        return {}
+    return {
+        "max_trans_bw": max(s["max_trans_bw"] for s in stats),
+        "rms_trans_bw": float(np.sqrt(np.sum(n * np.array([s["rms_trans_bw"] ** 2 for s in stats])) / n.sum())),
+        "max_rot_bwh": max(s["max_rot_bwh"] for s in stats),
+        "rms_rot_bwh": float(np.sqrt(np.sum(n * np.array([s["rms_rot_bwh"] ** 2 for s in stats])) / n.sum())),
+        "samples": int(n.sum()),
+    }
+
+
+def _prepare_out_dir(out: Path) -> None:
+    """Remove an earlier output of this generator from ``out``; refuse other non-empty folders."""
+    if not out.exists():
+        out.mkdir(parents=True)
+        return
+    index = out / "dataset.json"
+    if index.exists():
+        try:
+            meta = json.loads(index.read_text())
+        except json.JSONDecodeError:
+            meta = {}
+        if meta.get("info", {}).get("generator") == GENERATOR_NAME:
+            for names in meta.get("splits", {}).values():
+                for n in names:
+                    for ext in (".csv", ".json"):
+                        (out / f"{n}{ext}").unlink(missing_ok=True)
+            index.unlink()
+    if any(out.iterdir()):
+        raise FileExistsError(
+            f"{out} is not empty and holds no earlier output of {GENERATOR_NAME}; choose another --out"
+        )
+
+
+def _progress_bar(enabled: bool, total: float) -> Any:
+    if not enabled:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="s", unit_scale=False, desc="synthetic data", bar_format=_BAR)
+
+
+_BAR: Final = "{desc:<34.34} {percentage:3.0f}%|{bar:20}| {n:.0f}/{total:.0f} s of data [{elapsed}<{remaining}]"
