@@ -23,6 +23,7 @@ import numpy as np
 
 from agents.checkpoints import load_agent
 from agents.rollout import EpisodeResult, run_episode, summarize
+from sspinn.plotting import save_figure
 
 #: Control rate of the environment, Hz (frames are subsampled to the animation's fps).
 ENV_RATE_HZ = 100
@@ -181,9 +182,4 @@ def plot_traces(result: EpisodeResult, path: str | Path) -> Path:
         f"(mean {result.mean_speed:.2f} m/s, target {result.target_speed:.2f}), CoT {cot}, "
         f"{'fell' if result.fell else 'no fall'}"
     )
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=90)

@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from sspinn.plotting import save_figure
+
 
 def read_monitor(run_dir: str | Path) -> dict[str, np.ndarray]:
     """Training episodes of all environments, sorted by step count: ``timesteps``, ``return``,
@@ -117,12 +119,7 @@ def plot_learning_curve(run_dir: str | Path, out: str | Path, window: int = 100,
     for a in axes:
         a.grid(alpha=0.3)
     fig.suptitle(f"{Path(run_dir).name}: {int(train['timesteps'][-1]):,} steps, {len(train['return'])} training episodes")
-    fig.tight_layout()
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    return save_figure(fig, out, dpi=100)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

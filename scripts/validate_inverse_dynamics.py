@@ -16,6 +16,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from sspinn.plotting import save_figure
 from sspinn.validation.inverse_dynamics import (
     CONTACT_THRESHOLD_N,
     DEFAULT_CUTOFF_HZ,
@@ -60,10 +61,7 @@ def plot(comparisons: list[Comparison], out: Path) -> None:
         ax_row[0].set_ylabel(f"{comp.dataset}\nmoment (N·m/kg)", fontsize=8)
         ax_row[0].legend(fontsize=8)
         ax_row[1].annotate(comp.convention, (0.5, -0.3), xycoords="axes fraction", ha="center", fontsize=7)
-    fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
+    save_figure(fig, out, dpi=120)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sspinn.plotting import save_figure
 from sspinn.validation.zupt_gaitmap import (
     FEET,
     GaitmapExample,
@@ -156,10 +157,7 @@ def plot(table: StrideSpeeds, example: GaitmapExample, fits: dict[str, SagittalZ
     ax.set_ylabel("foot speed (m/s)")
     ax.set_title("foot speed signals\n(lateral heel IMU vs heel marker: nearby, not identical points)", fontsize=10)
     ax.legend(fontsize=7, loc="upper right")
-    fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
+    save_figure(fig, out, dpi=120)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -191,7 +191,7 @@ def write_report(
     import matplotlib.pyplot as plt
 
     from sspinn.body import BodyParameters
-    from sspinn.plotting import draw_stick_figure
+    from sspinn.plotting import draw_stick_figure, save_figure
 
     check_evaluable(estimates, recordings, skip)  # everything is checked before anything is written
     per = {e.name: compute_metrics(e, r, skip) for e, r in zip(estimates, recordings)}
@@ -246,9 +246,7 @@ def write_report(
             ax.set_title(f"{col} ({unit})")
             ax.legend(fontsize=8)
         fig.suptitle(f"{title}: {est.name}")
-        fig.tight_layout()
-        fig.savefig(out / f"{est.name}.png", dpi=90)
-        plt.close(fig)
+        save_figure(fig, out / f"{est.name}.png", dpi=90)
         lines.append(f"\n![{est.name}]({est.name}.png)")
     (out / "report.md").write_text("\n".join(lines) + "\n")
     result = {"title": title, "mean": mean.as_dict(), "recordings": {k: v.as_dict() for k, v in per.items()}, **(extra or {})}

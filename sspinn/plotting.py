@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -39,3 +40,15 @@ def draw_stick_figure(ax: Any, q: np.ndarray, body: BodyParameters, alpha: float
             c = pts[f"contact_{s}"]
             if grf[k + 1] > 1.0:
                 ax.arrow(c[0], c[1], grf[k] / 1000, grf[k + 1] / 1000, color=_COLORS[s], width=0.004, alpha=alpha)
+
+
+def save_figure(fig: Any, path: str | Path, dpi: int = 100) -> Path:
+    """Lay out ``fig``, write it to ``path`` (parent folders created) and close it; returns the path."""
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path

@@ -18,7 +18,7 @@ from sspinn import dynamics, simulation
 from sspinn.body import BodyParameters
 from sspinn.contact import ContactParameters
 from sspinn.conventions import COORDINATES, GRF, JOINTS
-from sspinn.plotting import draw_stick_figure, stick_points
+from sspinn.plotting import draw_stick_figure, save_figure, stick_points
 
 
 def run_drop_landing(
@@ -94,9 +94,7 @@ def plot_trajectory(traj: simulation.Trajectory, body: BodyParameters, path: Pat
     ax.set_xlabel("time (s)")
     ax.legend()
     fig.suptitle(f"sspinn drop landing: {body.height} m, {body.mass} kg")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
 
 
 def main(out: Path, body: BodyParameters | None = None) -> dict[str, float]:

@@ -50,7 +50,7 @@ from predictive.ocp.gait_analysis import load_winter
 from sspinn import dynamics
 from sspinn.body import BodyParameters
 from sspinn.evaluation import angle_jitter
-from sspinn.plotting import draw_stick_figure
+from sspinn.plotting import draw_stick_figure, save_figure
 from sspinn.yaml_config import construct, read_section
 
 #: Vertical force (BW) above which a foot counts as loaded (heel strike detection).
@@ -405,9 +405,7 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
         ax.set(xscale="log", xlabel="wall time to obtain the controller (min, log scale)", ylabel="distance in 10 s (m)",
                title=f"{speed} m/s")
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out / "learning_curves.png", dpi=110)
-    plt.close(fig)
+    save_figure(fig, out / "learning_curves.png", dpi=110)
     # gait-cycle curves
     for speed in config.speeds:
         fig, axes = plt.subplots(1, 4, figsize=(16, 3.5))
@@ -424,9 +422,7 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
             ax.set(xlabel="% gait cycle (right heel strike)", title=key)
         axes[0].legend(fontsize=7)
         fig.suptitle(f"mean executed gait cycle at {speed} m/s (right leg)")
-        fig.tight_layout()
-        fig.savefig(out / f"cycles_{speed}.png", dpi=110)
-        plt.close(fig)
+        save_figure(fig, out / f"cycles_{speed}.png", dpi=110)
     # stick figures
     body = BodyParameters.from_anthropometry(config.height, config.mass)
     with_sticks = [c for c in cells if c.stick_q]
@@ -440,9 +436,7 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
             ax.set_aspect("equal")
             ax.set_title(f"{c.method} at {c.speed} m/s", fontsize=9)
             ax.axhline(0, color="k", lw=0.5)
-        fig.tight_layout()
-        fig.savefig(out / "stick_figures.png", dpi=100)
-        plt.close(fig)
+        save_figure(fig, out / "stick_figures.png", dpi=100)
     # markdown
     cols = [("success_rate", "success", "{:.0%}"), ("mean_distance_m", "distance (m)", "{:.2f}"),
             ("abs_speed_error_m_s", "|speed err| (m/s)", "{:.3f}"), ("cost_of_transport", "CoT", "{:.2f}"),

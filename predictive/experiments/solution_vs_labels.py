@@ -31,6 +31,7 @@ from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS
 from sspinn.dataset import Recording
 from sspinn.evaluation import compute_metrics
 from sspinn.inference import GaitEstimate
+from sspinn.plotting import save_figure
 
 #: Optimal-control baseline (IMU tracking, Dorschky et al. 2019, J Biomech 95:109278) as quoted in
 #: the SSPINNpose paper for the averaged strides: joint angles RMSD (deg), joint moments RMSD
@@ -278,12 +279,7 @@ def plot_against_labels(
         ax.grid(alpha=0.3)
     axes[0, 0].legend(fontsize=8)
     fig.suptitle(title or f"{rec.name}: speed {sol.speed:.2f} m/s (recorded {_speed(rec):.2f}), {sol.status}")
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100)
 
 
 def _speed(rec: Recording) -> float:

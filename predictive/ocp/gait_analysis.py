@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from predictive.ocp.solution import CONTACT_THRESHOLD_BW, GaitSolution
+from sspinn.plotting import save_figure
 
 #: Default location of the shared real data, relative to the repository root.
 DEFAULT_DATA_DIR = Path(__file__).resolve().parents[2].parent / "shared" / "data"
@@ -135,9 +136,4 @@ def plot_gait(
     axes.flat[0].legend(fontsize=8)
     axes.flat[3].legend(fontsize=8)
     fig.suptitle(title or f"predictive gait, {sol.speed:.2f} m/s, stride {sol.duration:.3f} s, {sol.status}")
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
