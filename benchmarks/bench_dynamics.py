@@ -64,6 +64,7 @@ from sspinn.body import BodyParameters
 from sspinn.contact import ContactParameters
 from sspinn.derivation import SymbolicModel, derive
 from sspinn.kinematics import point_index, point_kinematics
+from sspinn.testing import random_inputs
 
 TORCH_THREADS = 2
 TARGET_RATIO = 3.0  # Kane residual forward + backward: ours ≥ 3× the naive lambdify baseline
@@ -150,20 +151,6 @@ def time_loop(fn: Callable[[], Any], settings: Settings) -> tuple[int, Timing]:
 # ------------------------------------------------------------------------------------------------ inputs
 def body_vector() -> np.ndarray:
     return BodyParameters.from_anthropometry(1.75, 70.0).vector()
-
-
-def random_inputs(rng: np.random.Generator, batch: tuple[int, ...]) -> dict[str, np.ndarray]:
-    """Random but plausible model inputs (SI units): hip near standing height, moderate speeds."""
-    q = rng.normal(scale=0.5, size=batch + (9,))
-    q[..., 1] = rng.uniform(0.85, 1.0, size=batch)
-    return {
-        "q": q,
-        "u": rng.normal(scale=2.0, size=batch + (9,)),
-        "qdd": rng.normal(scale=10.0, size=batch + (9,)),
-        "tau": rng.normal(scale=50.0, size=batch + (6,)),
-        "grf": rng.normal(scale=300.0, size=batch + (4,)),
-        "w": rng.uniform(size=batch + (2,)),
-    }
 
 
 def standing_state(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

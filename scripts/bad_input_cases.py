@@ -31,14 +31,12 @@ from pathlib import Path
 
 import numpy as np
 import torch
-import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from sspinn.conventions import SEGMENTS  # noqa: E402
 from sspinn.dataset import Dataset, Recording  # noqa: E402
-from tests.test_dataset import make_recording  # noqa: E402
+from sspinn.testing import edit_column, tiny_run, walking_recording  # noqa: E402
 
 
 @dataclass
@@ -87,20 +85,9 @@ def main() -> None:
     from predictive import __main__ as predictive_cli
     from sspinn.cli import main as sspinn_main
     from sspinn.run_folder import RunLock
-    from sspinn.training import TrainConfig, Trainer
 
     tmp = Path(tempfile.mkdtemp(prefix="bad_input_"))
-    rng = np.random.default_rng(3)
-    data = tmp / "data"
-    Dataset.write(data, {"train": [make_recording("a", "s1", 150, rng), make_recording("b", "s2", 150, rng)],
-                         "test": [make_recording("c", "s3", 120, rng)]})
-    cfg = tmp / "tiny.yaml"
-    cfg.write_text(yaml.safe_dump({"train": {
-        "network": {"hidden": 8, "layers": 1, "dropout": 0.0, "dense": 8}, "steps": 4, "batch_size": 2,
-        "window": 32, "log_every": 1, "checkpoint_every": 2, "device": "cpu"}}))
-    run = tmp / "run"
-    with contextlib.redirect_stderr(io.StringIO()):
-        Trainer(TrainConfig.from_yaml(cfg), run).fit(Dataset.open(data).load("train"))
+    data, cfg, run = tiny_run(tmp)
     model = run / "model.pt"
     train = ["train", "--config", str(cfg), "--data", str(data)]
 
@@ -121,10 +108,7 @@ def main() -> None:
     def recording(edit_csv: Callable[[list[str]], list[str]] | None = None, edit_meta: Callable[[dict], object] | None = None,
                   raw: Callable[[bytes], bytes] | None = None) -> Path:
         folder = tmp / f"rec{len(list(tmp.glob('rec*')))}"
-        rec = make_recording("walk", "s1", 300, np.random.default_rng(0))
-        t = np.arange(300) / 100.0
-        for i, s in enumerate(SEGMENTS):
-            rec.imu[:, i, 2] = {"pelvis": 1.0, "femur": 3.0, "tibia": 5.0, "foot": 8.0}[s.split("_")[0]] * np.sin(2 * np.pi * t / 1.1 + i)
+        rec = walking_recording()
         csv = Recording(name=rec.name, imu=rec.imu, segments=rec.segments, height=1.75, mass=70.0).save(folder)
         if edit_csv:
             csv.write_text("\n".join(edit_csv(csv.read_text().splitlines())) + "\n")
@@ -137,15 +121,7 @@ def main() -> None:
         return csv
 
     def column(name: str, fn: Callable[[float], float]) -> Callable[[list[str]], list[str]]:
-        def edit(lines: list[str]) -> list[str]:
-            k = lines[0].split(",").index(name)
-            out = [lines[0]]
-            for line in lines[1:]:
-                v = line.split(",")
-                v[k] = repr(float(fn(float(v[k]))))
-                out.append(",".join(v))
-            return out
-        return edit
+        return lambda lines: edit_column(lines, name, fn)
 
     def columns(names: list[str], fn: Callable[[float], float]) -> Callable[[list[str]], list[str]]:
         def edit(lines: list[str]) -> list[str]:

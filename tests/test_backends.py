@@ -9,7 +9,7 @@ import torch
 
 from sspinn import dynamics, kinematics, simulation
 from sspinn._generated import model_numba
-from tests.conftest import random_inputs
+from sspinn.testing import random_inputs
 
 
 def _all_outputs(x: dict, p, c, imu):

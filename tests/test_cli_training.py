@@ -12,8 +12,8 @@ from sspinn.cli import main
 from sspinn.dataset import Dataset
 from sspinn.inference import StreamingEstimator, estimate_recording
 from sspinn.model_io import load_model, run_exported
+from sspinn.testing import make_recording
 from sspinn.training import NonFiniteLossError, TrainConfig, Trainer
-from tests.test_dataset import make_recording
 
 
 @pytest.fixture(scope="module")

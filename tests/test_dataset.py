@@ -8,23 +8,10 @@ import numpy as np
 import pytest
 
 from sspinn.conventions import GRAVITY, SEGMENTS
-from sspinn.dataset import DataFormatError, Dataset, Labels, Recording
+from sspinn.dataset import DataFormatError, Dataset, Recording
 from sspinn.readers import read_averaged_stride, read_csv_recording
+from sspinn.testing import make_recording
 from tests.conftest import shared_data
-
-
-def make_recording(name: str = "rec", subject: str = "s01", n: int = 200, rng=None) -> Recording:
-    rng = rng or np.random.default_rng(0)
-    imu = np.zeros((n, len(SEGMENTS), 3))
-    imu[:, :, 1] = GRAVITY
-    imu += rng.normal(scale=0.1, size=imu.shape)
-    q = rng.normal(scale=0.2, size=(n, 9))
-    labels = Labels.from_columns(
-        {**{c: q[:, i] for i, c in enumerate(("pelvis_tx", "pelvis_ty", "pelvis_tilt", "hip_r", "knee_r", "ankle_r", "hip_l", "knee_l", "ankle_l"))},
-         "grf_x_r": np.zeros(n), "grf_y_r": np.full(n, 700.0), "speed": np.full(n, 1.3)},
-        n,
-    )
-    return Recording(name=name, imu=imu, segments=SEGMENTS, height=1.75, mass=70.0, subject=subject, labels=labels)
 
 
 def test_round_trip(tmp_path):

@@ -11,7 +11,7 @@ import torch
 import yaml
 
 from sspinn.dataset import Dataset
-from tests.test_dataset import make_recording
+from sspinn.testing import make_recording
 
 
 def test_torchrun_two_cpu_processes(tmp_path):

@@ -10,7 +10,7 @@ from sspinn import dynamics, kinematics, passive, simulation
 from sspinn.contact import ContactParameters
 from sspinn.conventions import GRAVITY, index
 from sspinn.dynamics import StateError
-from tests.conftest import random_inputs
+from sspinn.testing import random_inputs
 
 
 def standing(body) -> np.ndarray:

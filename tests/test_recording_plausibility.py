@@ -12,17 +12,7 @@ import pytest
 from sspinn.body import IMUPlacement
 from sspinn.conventions import SEGMENTS
 from sspinn.dataset import DataFormatError, Recording
-from tests.test_dataset import make_recording
-
-
-def walking_recording(n: int = 300, seed: int = 0) -> Recording:
-    """A recording whose channels move like walking (gyro ±1–8 rad/s per segment, acc ≈ g)."""
-    rec = make_recording("walk", "s1", n, np.random.default_rng(seed))
-    t = np.arange(n) / 100.0
-    for i, s in enumerate(SEGMENTS):
-        amp = {"pelvis": 1.0, "femur": 3.0, "tibia": 5.0, "foot": 8.0}[s.split("_")[0]]
-        rec.imu[:, i, 2] = amp * np.sin(2 * np.pi * t / 1.1 + i)
-    return rec
+from sspinn.testing import edit_column, walking_recording
 
 
 @pytest.fixture()
@@ -31,14 +21,7 @@ def saved(tmp_path: Path) -> Path:
 
 
 def _edit_csv(csv: Path, column: str, fn) -> None:
-    lines = csv.read_text().splitlines()
-    k = lines[0].split(",").index(column)
-    out = [lines[0]]
-    for line in lines[1:]:
-        v = line.split(",")
-        v[k] = repr(float(fn(float(v[k]))))
-        out.append(",".join(v))
-    csv.write_text("\n".join(out) + "\n")
+    csv.write_text("\n".join(edit_column(csv.read_text().splitlines(), column, fn)) + "\n")
 
 
 def _edit_sidecar(csv: Path, fn) -> None:

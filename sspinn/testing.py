@@ -1,0 +1,94 @@
+"""Test data shared by the tests, the benchmarks and the scripts (as ``numpy.testing`` is for NumPy).
+
+Nothing here is used by the library itself: random but plausible model inputs, small synthetic
+recordings (random, or with walking-like channels), a CSV column edit for corrupting files, and
+a tiny dataset + configuration + finished 4-step training run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from sspinn.conventions import COORDINATES, GRAVITY, SEGMENTS
+from sspinn.dataset import Dataset, Labels, Recording
+
+
+def random_inputs(rng: np.random.Generator, batch: tuple[int, ...] = ()) -> dict[str, np.ndarray]:
+    """Random but plausible model inputs (SI units) with leading ``batch`` dimensions: q (hip
+    near standing height), u, q̈, τ, GRF, w, and the estimator's μ̂ and ankle kinematics."""
+    q = rng.normal(scale=0.5, size=batch + (9,))
+    q[..., 1] = rng.uniform(0.85, 1.0, size=batch)
+    return {
+        "q": q,
+        "u": rng.normal(scale=2.0, size=batch + (9,)),
+        "qdd": rng.normal(scale=10.0, size=batch + (9,)),
+        "tau": rng.normal(scale=50.0, size=batch + (6,)),
+        "grf": rng.normal(scale=300.0, size=batch + (4,)),
+        "w": rng.uniform(size=batch + (2,)),
+        "mu_hat": rng.normal(size=batch + (2,)),
+        "ankle": rng.normal(scale=0.1, size=batch + (8,)),
+    }
+
+
+def make_recording(name: str = "rec", subject: str = "s01", n: int = 200, rng: np.random.Generator | None = None) -> Recording:
+    """A recording of ``n`` samples with all seven IMUs (gravity plus noise) and random labels
+    (coordinates, right-foot GRF, speed 1.3 m/s); 1.75 m, 70 kg."""
+    rng = rng or np.random.default_rng(0)
+    imu = np.zeros((n, len(SEGMENTS), 3))
+    imu[:, :, 1] = GRAVITY
+    imu += rng.normal(scale=0.1, size=imu.shape)
+    q = rng.normal(scale=0.2, size=(n, 9))
+    labels = Labels.from_columns(
+        {**{c: q[:, i] for i, c in enumerate(COORDINATES)},
+         "grf_x_r": np.zeros(n), "grf_y_r": np.full(n, 700.0), "speed": np.full(n, 1.3)},
+        n,
+    )
+    return Recording(name=name, imu=imu, segments=SEGMENTS, height=1.75, mass=70.0, subject=subject, labels=labels)
+
+
+def walking_recording(n: int = 300, seed: int = 0) -> Recording:
+    """A recording whose channels move like walking (gyro ±1–8 rad/s per segment, acc ≈ g)."""
+    rec = make_recording("walk", "s1", n, np.random.default_rng(seed))
+    t = np.arange(n) / 100.0
+    for i, s in enumerate(SEGMENTS):
+        amp = {"pelvis": 1.0, "femur": 3.0, "tibia": 5.0, "foot": 8.0}[s.split("_")[0]]
+        rec.imu[:, i, 2] = amp * np.sin(2 * np.pi * t / 1.1 + i)
+    return rec
+
+
+def edit_column(lines: list[str], column: str, fn: Callable[[float], float]) -> list[str]:
+    """The lines of a CSV file with ``fn`` applied to every value of ``column``."""
+    k = lines[0].split(",").index(column)
+    out = [lines[0]]
+    for line in lines[1:]:
+        v = line.split(",")
+        v[k] = repr(float(fn(float(v[k]))))
+        out.append(",".join(v))
+    return out
+
+
+def tiny_run(root: Path) -> tuple[Path, Path, Path]:
+    """A tiny dataset (train: 2 recordings of 150 samples, test: 1 of 120), a tiny training
+    configuration and a finished 4-step run below ``root``: (data folder, config path, run folder)."""
+    import yaml
+
+    from sspinn.training import TrainConfig, Trainer
+
+    rng = np.random.default_rng(3)
+    data = root / "data"
+    Dataset.write(data, {"train": [make_recording("a", "s1", 150, rng), make_recording("b", "s2", 150, rng)],
+                         "test": [make_recording("c", "s3", 120, rng)]})
+    cfg = root / "tiny.yaml"
+    cfg.write_text(yaml.safe_dump({"train": {
+        "network": {"hidden": 8, "layers": 1, "dropout": 0.0, "dense": 8}, "steps": 4, "batch_size": 2, "window": 32,
+        "log_every": 1, "checkpoint_every": 2, "device": "cpu",
+    }}))
+    run = root / "run"
+    with contextlib.redirect_stderr(io.StringIO()):  # the progress bar
+        Trainer(TrainConfig.from_yaml(cfg), run).fit(Dataset.open(data).load("train"))
+    return data, cfg, run
