@@ -20,27 +20,17 @@ from sspinn.validation.inverse_dynamics import (
     opensim_inverse_dynamics,
 )
 from sspinn.validation.opensim_files import OpenSimFormatError, read_opensim_header, read_opensim_table
-
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
-CSU = DATA / "csu_2d_inverse_dynamics"
-OPENSIM = DATA / "opensim_subject01_walk"
-
-
-def _require(path: Path) -> None:
-    if not path.is_dir():
-        pytest.skip(f"real-data reference not available: {path} is missing (see ../shared/data/README.md)")
+from tests.conftest import shared_data
 
 
 @pytest.fixture(scope="module")
 def csu() -> Comparison:
-    _require(CSU)
-    return csu_inverse_dynamics(CSU)
+    return csu_inverse_dynamics(shared_data("csu_2d_inverse_dynamics"))
 
 
 @pytest.fixture(scope="module")
 def opensim() -> Comparison:
-    _require(OPENSIM)
-    return opensim_inverse_dynamics(OPENSIM)
+    return opensim_inverse_dynamics(shared_data("opensim_subject01_walk"))
 
 
 # ------------------------------------------------------------------------------ CSU (leg2d)
@@ -70,8 +60,7 @@ def test_csu_angle_sign_mapping(csu: Comparison) -> None:
 
 @pytest.fixture(scope="module")
 def csu_replica() -> Comparison:
-    _require(CSU)
-    return csu_reference_replica(CSU)
+    return csu_reference_replica(shared_data("csu_2d_inverse_dynamics"))
 
 
 def test_csu_with_the_references_own_inputs(csu_replica: Comparison) -> None:

@@ -10,7 +10,6 @@ absent); the thresholds are the errors measured by ``scripts/validate_zupt.py`` 
 from __future__ import annotations
 
 from collections.abc import Callable
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,9 +24,8 @@ from sspinn.validation.zupt_gaitmap import (
     sagittal_from_gaitmap_frame,
 )
 from sspinn.zupt import SagittalZuptKalman, detect_stance, foot_speed, stance_phases
+from tests.conftest import shared_data
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
-GAITMAP = DATA / "gaitmap_foot_imu"
 FS = 200.0
 
 
@@ -267,9 +265,7 @@ def test_gaitmap_frame_alignment_undoes_mounting_rotation() -> None:
 # ------------------------------------------------------------------------------ real data
 @pytest.fixture(scope="module")
 def example() -> GaitmapExample:
-    if not (GAITMAP / "imu_sample.csv").is_file():
-        pytest.skip(f"real-data reference not available: {GAITMAP} is missing (see ../shared/data/README.md)")
-    return load_gaitmap_example(GAITMAP)
+    return load_gaitmap_example(shared_data("gaitmap_foot_imu"))
 
 
 @pytest.fixture(scope="module")
