@@ -7,22 +7,29 @@ import sys
 from collections.abc import Sequence
 
 from sspinn.errors import ArgumentParser
+from sspinn.yaml_config import add_config_flags, flag_overrides
+
+#: Fields of :class:`agents.config.AgentConfig` that ``train`` takes as flags (dotted) → flag name
+#: where it is not the field's; ``--target-speed`` sets ``env.kwargs.target_speed`` too.
+TRAIN_FLAGS: dict[str, str] = {"algo": "--algo", "total_timesteps": "--total-timesteps", "seed": "--seed",
+                               "env.eval_target_speed": "--target-speed"}
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
+    from agents.config import AgentConfig
+
     parser = ArgumentParser(prog="python -m agents", description="SB3 agents for sspinn/SagittalWalker-v0")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("train", help="train an agent from a YAML config")
     p.add_argument("--config", required=True, help="YAML file (configs/agents/*.yaml)")
-    p.add_argument("--algo", choices=("ppo", "sac", "td3"), help="must match the config's algo if given")
     p.add_argument("--out", required=True, help="run directory (checkpoints, logs, best model)")
     p.add_argument("--resume", action="store_true", help="continue from the latest checkpoint in --out")
-    p.add_argument("--total-timesteps", type=int, help="override total_timesteps")
-    p.add_argument("--seed", type=int, help="override seed")
-    p.add_argument("--target-speed", type=float,
-                   help="override the training and evaluation target speed, m/s (env.kwargs.target_speed)")
+    add_config_flags(p, AgentConfig, TRAIN_FLAGS, flags=TRAIN_FLAGS, helps={
+        "algo": "must match the config's algo if given",
+        "env.eval_target_speed": "override the training and evaluation target speed, m/s (env.kwargs.target_speed)",
+    })
 
     for name, text in (("evaluate", "deterministic evaluation: JSON, plot, animation"),
                        ("record", "render one deterministic episode to a GIF or MP4")):
@@ -56,18 +63,13 @@ def _main(argv: list[str]) -> int:
     if args.command == "train":
         from agents.train import train
 
-        config = load_config(args.config)
-        if args.algo is not None and args.algo != config.algo:
-            raise ConfigError(f"--algo {args.algo} but {args.config} has algo: {config.algo}")
-        overrides = {k: v for k, v in (("total_timesteps", args.total_timesteps), ("seed", args.seed))
-                     if v is not None}
-        if args.target_speed is not None:
-            env = config.to_dict()["env"]
-            env["kwargs"] = {**env["kwargs"], "target_speed": args.target_speed}
-            env["eval_target_speed"] = args.target_speed
-            overrides["env"] = env
-        if overrides:
-            config = config.with_overrides(**overrides)
+        overrides = flag_overrides(args)
+        algo = overrides.pop("algo", None)
+        if "env.eval_target_speed" in overrides:
+            overrides["env.kwargs.target_speed"] = overrides["env.eval_target_speed"]
+        config = load_config(args.config, overrides)
+        if algo is not None and algo != config.algo:
+            raise ConfigError(f"--algo {algo} but {args.config} has algo: {config.algo}")
         train(config, args.out, resume=args.resume)
     elif args.command == "evaluate":
         from agents.evaluate import evaluate

@@ -21,11 +21,13 @@ A configuration file has five sections; every key is optional except ``algo``::
     logging:                       # LoggingConfig (callbacks, threads)
       checkpoint_freq: 200_000
 
-:func:`load_config` validates everything it can without building an environment: unknown keys,
-types and ranges, the hyperparameter names against the signature of the SB3 class and the
-environment arguments against the fields of :class:`envs.config.WalkerConfig` and the keywords of
-:class:`envs.sagittal_walker.SagittalWalkerEnv`.
-Errors are :class:`ConfigError` (a ``ValueError``) naming the file and the key.
+:func:`load_config` validates everything it can without building an environment. Unknown keys,
+types, choices and ranges are checked by the project's one configuration loader
+(:mod:`sspinn.yaml_config`, from the dataclasses below); this module adds what is agent-specific:
+the hyperparameter names against the signature of the SB3 class, the environment arguments as a
+:class:`envs.config.WalkerConfig` (plus the keywords of :class:`envs.sagittal_walker.SagittalWalkerEnv`)
+and the combinations (PPO batch size, policy options per algorithm).
+Errors are :class:`ConfigError` (a :class:`sspinn.errors.UserError`) naming the file and the key.
 """
 
 from __future__ import annotations
@@ -33,13 +35,15 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import math
-import re
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import yaml
+
+from sspinn import yaml_config
+from sspinn.yaml_config import ConfigError, option
 
 #: Algorithms supported by :mod:`agents.train` (lower-case name → SB3 class name).
 ALGORITHMS: dict[str, str] = {"ppo": "PPO", "sac": "SAC", "td3": "TD3"}
@@ -51,10 +55,6 @@ ACTIVATIONS: dict[str, str] = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "le
 RESERVED_HYPERPARAMETERS: frozenset[str] = frozenset(
     {"policy", "env", "seed", "device", "tensorboard_log", "policy_kwargs", "verbose", "_init_setup_model"}
 )
-
-
-class ConfigError(ValueError):
-    """An invalid agent configuration (the message names the source and the key)."""
 
 
 @dataclass(frozen=True)
@@ -73,10 +73,10 @@ class EnvConfig:
     """
 
     id: str = "sspinn/SagittalWalker-v0"
-    n_envs: int = 8
-    vec_env: str = "dummy"
+    n_envs: int = option(8, ge=1, le=256)
+    vec_env: str = option("dummy", choices=VEC_ENVS)
     kwargs: dict[str, Any] = field(default_factory=dict)
-    eval_target_speed: float | None = None
+    eval_target_speed: float | None = option(None, ge=0, le=12, unit="m/s")
 
     @property
     def make_id(self) -> str:
@@ -107,8 +107,8 @@ class NormalizeConfig:
 
     obs: bool = True
     reward: bool = True
-    clip_obs: float = 10.0
-    clip_reward: float = 10.0
+    clip_obs: float = option(10.0, gt=0)
+    clip_reward: float = option(10.0, gt=0)
 
 
 @dataclass(frozen=True)
@@ -123,7 +123,7 @@ class PolicyConfig:
     """
 
     net_arch: tuple[int, ...] = (256, 256)
-    activation: str = "tanh"
+    activation: str = option("tanh", choices=ACTIVATIONS)
     log_std_init: float | None = None
     ortho_init: bool | None = None
 
@@ -143,24 +143,30 @@ class LoggingConfig:
         verbose: SB3 verbosity (0 silent, 1 progress tables).
     """
 
-    checkpoint_freq: int = 200_000
+    checkpoint_freq: int = option(200_000, gt=0)
     keep_replay_buffer: bool = False
-    eval_freq: int = 100_000
-    eval_episodes: int = 5
-    eval_seed: int = 10_000
+    eval_freq: int = option(100_000, ge=0)
+    eval_episodes: int = option(5, gt=0)
+    eval_seed: int = option(10_000, ge=0)
     tensorboard: bool = True
-    torch_threads: int = 1
-    verbose: int = 0
+    torch_threads: int = option(1, gt=0)
+    verbose: int = option(0, ge=0)
 
 
 @dataclass(frozen=True)
 class AgentConfig:
     """A complete agent run: algorithm, seed, budget, environment, normalisation, network,
-    SB3 hyperparameters and logging (see the module docstring for the YAML layout)."""
+    SB3 hyperparameters and logging (see the module docstring for the YAML layout).
 
-    algo: str
-    seed: int = 0
-    total_timesteps: int = 1_000_000
+    Attributes:
+        algo: the SB3 algorithm, one of :data:`ALGORITHMS`.
+        seed: seeds SB3 (torch, numpy, random) and the environments.
+        total_timesteps: environment steps summed over all parallel environments.
+    """
+
+    algo: str = option(choices=ALGORITHMS)
+    seed: int = option(0, ge=0)
+    total_timesteps: int = option(1_000_000, gt=0)
     env: EnvConfig = field(default_factory=EnvConfig)
     normalize: NormalizeConfig = field(default_factory=NormalizeConfig)
     policy: PolicyConfig = field(default_factory=PolicyConfig)
@@ -192,68 +198,19 @@ class AgentConfig:
 # --------------------------------------------------------------------------------------------
 # Loading and validation
 # --------------------------------------------------------------------------------------------
-class _Loader(yaml.SafeLoader):
-    """SafeLoader that also reads ``3e-4`` as a float (YAML 1.1 insists on ``3.0e-4``)."""
-
-
-_Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
-    list("-+0123456789"),
-)
-
-
-def load_config(path: str | Path) -> AgentConfig:
-    """Read and validate a YAML configuration file."""
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"config file {path} does not exist")
-    with path.open() as fh:
-        try:
-            data = yaml.load(fh, Loader=_Loader)  # noqa: S506 (a SafeLoader subclass)
-        except yaml.YAMLError as exc:
-            raise ConfigError(f"{path}: not valid YAML: {exc}") from exc
-    return config_from_dict(data, source=str(path))
+def load_config(path: str | Path, overrides: Mapping[str, Any] | None = None, settings: Iterable[str] = ()) -> AgentConfig:
+    """Read and validate a YAML configuration file; ``overrides`` (dotted keys, None = keep) and
+    ``settings`` (``"a.b=value"``) change it first (see :func:`sspinn.yaml_config.load_config`)."""
+    config = yaml_config.load_config(AgentConfig, path, overrides=overrides, settings=settings, what="key")
+    validate(config, str(path))
+    return config
 
 
 def config_from_dict(data: Any, source: str = "config") -> AgentConfig:
     """Build and validate an :class:`AgentConfig` from plain data (the parsed YAML)."""
-    if not isinstance(data, Mapping):
-        raise ConfigError(f"{source}: the top level must be a mapping, got {type(data).__name__}")
-    top = _split(data, AgentConfig, source, "")
-    if "algo" not in top:
-        raise ConfigError(f"{source}: 'algo' is required (one of {', '.join(ALGORITHMS)})")
-    sections = {
-        "env": EnvConfig,
-        "normalize": NormalizeConfig,
-        "policy": PolicyConfig,
-        "logging": LoggingConfig,
-    }
-    for name, cls in sections.items():
-        if name in top:
-            value = top[name] if top[name] is not None else {}
-            if not isinstance(value, Mapping):
-                raise ConfigError(f"{source}: '{name}' must be a mapping, got {type(value).__name__}")
-            top[name] = cls(**_split(value, cls, source, f"{name}."))
-    if "policy" in top and isinstance(top["policy"].net_arch, list):
-        top["policy"] = dataclasses.replace(top["policy"], net_arch=tuple(top["policy"].net_arch))
-    if top.get("hyperparameters") is None:
-        top.pop("hyperparameters", None)
-    if top.get("env") is not None and top["env"].kwargs is None:
-        top["env"] = dataclasses.replace(top["env"], kwargs={})
-    config = AgentConfig(**top)
+    config = yaml_config.config_from_mapping(AgentConfig, data, source, what="key")
     validate(config, source)
     return config
-
-
-def _split(data: Mapping[str, Any], cls: type, source: str, prefix: str) -> dict[str, Any]:
-    """``data`` as constructor keywords of the dataclass ``cls``; unknown keys are errors."""
-    names = {f.name for f in dataclasses.fields(cls)}
-    unknown = sorted(set(data) - names)
-    if unknown:
-        raise ConfigError(f"{source}: unknown key(s) {', '.join(prefix + k for k in unknown)}; "
-                          f"allowed: {', '.join(sorted(prefix + n for n in names))}")
-    return dict(data)
 
 
 def _check(condition: bool, source: str, key: str, expected: str, value: Any) -> None:
@@ -270,20 +227,10 @@ def _is_number(value: Any) -> bool:
 
 
 def validate(config: AgentConfig, source: str = "config") -> None:
-    """Check types and ranges of every field; raise :class:`ConfigError` naming the key."""
-    c = config
-    _check(c.algo in ALGORITHMS, source, "algo", f"one of {', '.join(ALGORITHMS)}", c.algo)
-    _check(_is_int(c.seed) and c.seed >= 0, source, "seed", "an integer >= 0", c.seed)
-    _check(_is_int(c.total_timesteps) and c.total_timesteps > 0, source, "total_timesteps", "an integer > 0",
-           c.total_timesteps)
-
-    e = c.env
-    _check(isinstance(e.id, str) and bool(e.id), source, "env.id", "a Gymnasium id", e.id)
-    _check(_is_int(e.n_envs) and 1 <= e.n_envs <= 256, source, "env.n_envs", "an integer in [1, 256]", e.n_envs)
-    _check(e.vec_env in VEC_ENVS, source, "env.vec_env", f"one of {', '.join(VEC_ENVS)}", e.vec_env)
-    _check(isinstance(e.kwargs, Mapping), source, "env.kwargs", "a mapping of constructor arguments", e.kwargs)
-    _check(e.eval_target_speed is None or (_is_number(e.eval_target_speed) and 0 <= e.eval_target_speed <= 12),
-           source, "env.eval_target_speed", "null or a speed in [0, 12] m/s", e.eval_target_speed)
+    """The agent-specific checks (types, choices and ranges of single fields are the loader's):
+    the environment arguments, the hyperparameters and the combinations of fields."""
+    c, e, p = config, config.env, config.policy
+    _check(bool(e.id), source, "env.id", "a Gymnasium id", e.id)
     if e.id == "sspinn/SagittalWalker-v0":
         from envs.config import WalkerConfig
         from envs.sagittal_walker import SagittalWalkerEnv
@@ -291,32 +238,15 @@ def validate(config: AgentConfig, source: str = "config") -> None:
         # the WalkerConfig fields plus the env's own keywords (image size; not the config object)
         params = inspect.signature(SagittalWalkerEnv.__init__).parameters.values()
         own = {p.name for p in params if p.kind is p.KEYWORD_ONLY} - {"config", "render_mode"}
-        allowed = set(WalkerConfig.field_names()) | own
-        unknown = sorted(set(e.kwargs) - allowed)
-        _check(not unknown, source, "env.kwargs", f"arguments of SagittalWalkerEnv ({', '.join(sorted(allowed))})",
-               unknown)
+        WalkerConfig.from_mapping(e.kwargs, source, prefix="env.kwargs", other_keys=own)
         try:
             e.target_speed  # noqa: B018 (property raises on a range without eval_target_speed)
         except ConfigError as exc:
             raise ConfigError(f"{source}: {exc}") from None
 
-    n = c.normalize
-    for key in ("obs", "reward"):
-        _check(isinstance(getattr(n, key), bool), source, f"normalize.{key}", "true or false", getattr(n, key))
-    for key in ("clip_obs", "clip_reward"):
-        value = getattr(n, key)
-        _check(_is_number(value) and value > 0, source, f"normalize.{key}", "a number > 0", value)
+    _check(len(p.net_arch) > 0 and all(h > 0 for h in p.net_arch), source, "policy.net_arch",
+           "a non-empty list of positive layer sizes", p.net_arch)
 
-    p = c.policy
-    _check(isinstance(p.net_arch, tuple) and len(p.net_arch) > 0 and all(_is_int(h) and h > 0 for h in p.net_arch),
-           source, "policy.net_arch", "a non-empty list of positive layer sizes", p.net_arch)
-    _check(p.activation in ACTIVATIONS, source, "policy.activation", f"one of {', '.join(ACTIVATIONS)}", p.activation)
-    _check(p.log_std_init is None or _is_number(p.log_std_init), source, "policy.log_std_init", "null or a number",
-           p.log_std_init)
-    _check(p.ortho_init is None or isinstance(p.ortho_init, bool), source, "policy.ortho_init", "null or a bool",
-           p.ortho_init)
-
-    _check(isinstance(c.hyperparameters, Mapping), source, "hyperparameters", "a mapping", c.hyperparameters)
     reserved = sorted(set(c.hyperparameters) & RESERVED_HYPERPARAMETERS)
     _check(not reserved, source, "hyperparameters", "free of keys set by agents.train "
            f"({', '.join(sorted(RESERVED_HYPERPARAMETERS))}; use seed/env/policy/logging)", reserved)
@@ -348,16 +278,6 @@ def validate(config: AgentConfig, source: str = "config") -> None:
     noise = c.hyperparameters.get("action_noise")
     _check(noise is None or (_is_number(noise) and noise >= 0), source, "hyperparameters.action_noise",
            "null or a standard deviation >= 0 (normalised action units)", noise)
-
-    lg = c.logging
-    for key in ("checkpoint_freq", "eval_episodes", "torch_threads"):
-        value = getattr(lg, key)
-        _check(_is_int(value) and value > 0, source, f"logging.{key}", "an integer > 0", value)
-    for key in ("eval_freq", "eval_seed", "verbose"):
-        value = getattr(lg, key)
-        _check(_is_int(value) and value >= 0, source, f"logging.{key}", "an integer >= 0", value)
-    for key in ("keep_replay_buffer", "tensorboard"):
-        _check(isinstance(getattr(lg, key), bool), source, f"logging.{key}", "true or false", getattr(lg, key))
 
 
 def algorithm_parameters(algo: str) -> set[str]:

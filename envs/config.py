@@ -16,7 +16,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import operator
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Final
 
@@ -27,6 +27,7 @@ from sspinn.body import BodyParameters
 from sspinn.contact import ContactParameters
 from sspinn.passive import is_real
 from sspinn.simulation import METHODS
+from sspinn.yaml_config import config_from_mapping
 
 #: Control interval, s (fixed: 100 Hz). The physics defaults below are justified in the docstring
 #: of :class:`~envs.sagittal_walker.SagittalWalkerEnv` ("Physics step").
@@ -166,6 +167,17 @@ class WalkerConfig:
     def field_names(cls) -> tuple[str, ...]:
         """Names of the fields, i.e. of the keyword arguments the environments accept for them."""
         return tuple(f.name for f in dataclasses.fields(cls))
+
+    @classmethod
+    def from_mapping(
+        cls, data: Mapping[str, Any], source: str = "<mapping>", prefix: str = "", other_keys: Collection[str] = ()
+    ) -> WalkerConfig:
+        """A configuration from plain data (e.g. the ``env.kwargs`` of an agent's YAML file) through
+        the project's configuration loader (:func:`sspinn.yaml_config.config_from_mapping`): unknown
+        keys, types (``3e-4``, lists for tuples), then this class's validation; errors are
+        ``ConfigError`` naming ``source`` and the option (dotted below ``prefix``). ``other_keys``
+        are accepted and ignored (an environment's own keywords)."""
+        return config_from_mapping(cls, data, source, what="key", prefix=prefix, other_keys=other_keys)
 
     @classmethod
     def resolve(cls, config: WalkerConfig | None = None, **overrides: Any) -> WalkerConfig:

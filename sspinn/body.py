@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Final
@@ -23,6 +24,7 @@ import numpy as np
 import yaml
 
 from sspinn.conventions import GRAVITY, JOINTS, SEGMENTS, SIDES
+from sspinn.yaml_config import check_keys, config_from_mapping, read_yaml
 
 # --------------------------------------------------------------------------------------------
 # Flat parameter vector layout (the symbols of the derivation carry the same names)
@@ -213,41 +215,28 @@ class BodyParameters:
         return dataclasses.asdict(self)
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> BodyParameters:
-        """Build from a dict: either ``{height, mass}`` (Winter scaling) plus optional segment
-        overrides, or a complete dict as written by :meth:`to_dict`."""
-        if not isinstance(data, dict):
+    def from_dict(cls, data: Mapping[str, Any], source: str = "<dict>") -> BodyParameters:
+        """Build from a mapping: either ``{height, mass}`` (Winter scaling) plus optional segment
+        overrides (partial: ``femur_r: {mass: 9}``), or a complete dict as written by
+        :meth:`to_dict`. Keys, types and values are checked by the configuration loader
+        (:func:`sspinn.yaml_config.config_from_mapping`); errors are :class:`ParameterError`
+        naming ``source`` and the (dotted) parameter."""
+        if not isinstance(data, Mapping):
             raise ParameterError(f"{source}: body parameters must be a mapping, got {type(data).__name__}")
-        allowed = {f.name for f in dataclasses.fields(cls)}
-        unknown = set(data) - allowed
-        if unknown:
-            raise ParameterError(f"{source}: unknown body parameter(s) {sorted(unknown)}; allowed: {sorted(allowed)}")
+        check_keys(cls, data, source, what="body parameter", error=ParameterError)
         for key in ("height", "mass"):
             if key not in data:
                 raise ParameterError(f"{source}: missing body parameter {key!r}")
         try:
-            base = cls.from_anthropometry(float(data["height"]), float(data["mass"]), float(data.get("gravity", GRAVITY)))
-            overrides: dict[str, Segment] = {}
-            for seg_name in SEGMENTS:
-                if seg_name in data:
-                    seg_cls = Foot if seg_name.startswith("foot") else Segment
-                    merged = {**dataclasses.asdict(getattr(base, seg_name)), **data[seg_name]}
-                    merged = {k: tuple(v) if isinstance(v, list) else v for k, v in merged.items()}
-                    overrides[seg_name] = seg_cls(**merged)
+            base = cls.from_anthropometry(data["height"], data["mass"], data.get("gravity", GRAVITY))
         except ParameterError as exc:
             raise ParameterError(f"{source}: {exc}") from None
-        except TypeError as exc:
-            raise ParameterError(f"{source}: {exc}") from None
-        return base.replace(**overrides)
+        return config_from_mapping(cls, data, source, what="body parameter", base=base, error=ParameterError)
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> BodyParameters:
-        path = Path(path)
-        with path.open() as fh:
-            data = yaml.safe_load(fh)
-        if isinstance(data, dict) and "body" in data:
-            data = data["body"]
-        return cls.from_dict(data, source=str(path))
+        """Read a YAML file of :meth:`from_dict`'s mapping (under a top-level ``body`` key or not)."""
+        return cls.from_dict(read_yaml(path, "body"), source=str(path))
 
     def to_yaml(self, path: str | Path) -> None:
         Path(path).write_text(yaml.safe_dump({"body": _plain(self.to_dict())}, sort_keys=False))

@@ -18,6 +18,10 @@ from typing import TYPE_CHECKING
 
 from sspinn.dataset import DataFormatError, Dataset, Recording
 from sspinn.errors import ArgumentParser, run_cli
+from sspinn.yaml_config import add_config_flags, flag_overrides
+
+#: Fields of :class:`~sspinn.training.TrainConfig` that ``train`` and ``finetune`` take as flags.
+TRAIN_FLAGS = ("steps", "seed", "device", "time_limit_s")
 
 if TYPE_CHECKING:
     from sspinn.inference import GaitEstimate
@@ -62,11 +66,9 @@ def _data_args(p: argparse.ArgumentParser) -> None:
 def _train(args: argparse.Namespace, finetune: bool) -> int:
     from sspinn.training import TrainConfig, Trainer
 
-    overrides = {"steps": args.steps, "seed": args.seed, "device": args.device, "time_limit_s": args.time_limit}
-    config = TrainConfig.from_yaml(args.config, settings=args.set, **overrides)
+    config = TrainConfig.from_yaml(args.config, settings=args.set, **flag_overrides(args))
     if finetune:
         config.finetune = True
-        config.learn_placement = args.learn_placement or config.learn_placement
     train = load_recordings(args.data, "train", args.periods, args.height, args.mass)
     trainer = Trainer(config, args.out)
     resume = args.resume or (args.auto_resume and (args.out / "checkpoint.pt").exists())
@@ -165,6 +167,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _main(argv: list[str]) -> int:
+    from sspinn.training import TrainConfig  # its fields define the train/finetune flags
+
     parser = ArgumentParser(prog="sspinn", description="Sagittal gait dynamics from IMUs, self-supervised.",
                                      epilog="--debug anywhere shows the traceback of an error")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -180,17 +184,15 @@ def _main(argv: list[str]) -> int:
         p.add_argument("--out", type=Path, required=True, help="run folder (checkpoints, TensorBoard, model.pt)")
         p.add_argument("--resume", action="store_true", help="continue from <out>/checkpoint.pt")
         p.add_argument("--auto-resume", action="store_true", help="continue from <out>/checkpoint.pt if it exists, else start")
-        p.add_argument("--steps", type=int, default=None)
-        p.add_argument("--seed", type=int, default=None)
-        p.add_argument("--device", default=None, help="cpu, cuda or auto")
-        p.add_argument("--time-limit", type=float, default=None, help="stop after this many seconds (with a checkpoint)")
+        # flags that override config fields: typed, checked and documented by TrainConfig itself
+        add_config_flags(p, TrainConfig, TRAIN_FLAGS, flags={"time_limit_s": "--time-limit"})
         p.add_argument(
             "--set", action="append", default=[], metavar="KEY=VALUE",
             help="override a config entry, dotted for sections (repeatable), e.g. --set weights.kane=0",
         )
         if name == "finetune":
             p.add_argument("--model", type=Path, required=True, help="trained model.pt to start from")
-            p.add_argument("--learn-placement", action="store_true", help="also optimise the IMU placement")
+            add_config_flags(p, TrainConfig, ["learn_placement"])
 
     ev = sub.add_parser("evaluate", help="metrics and a report against labels")
     ev.add_argument("--model", type=Path, required=True)

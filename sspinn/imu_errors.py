@@ -95,6 +95,7 @@ import scipy.signal
 from sspinn.body import IMUPlacement, ParameterError
 from sspinn.conventions import N_Q, N_SEGMENTS, SEGMENTS
 from sspinn.kinematics import segment_kinematics, virtual_imu
+from sspinn.yaml_config import config_from_mapping
 
 _DEG = math.pi / 180.0
 _G0 = 9.80665  # standard gravity for µg → m/s² conversions of data-sheet values
@@ -231,19 +232,17 @@ class IMUErrorModel:
             return cls()
         if not isinstance(data, Mapping):
             raise ParameterError(f"{source}: IMU error model must be a mapping, got {type(data).__name__}")
-        allowed = {f.name for f in dataclasses.fields(cls)}
-        unknown = set(data) - allowed
-        if unknown:
-            raise ParameterError(
-                f"{source}: unknown IMU error parameter(s) {sorted(unknown)}; allowed: {sorted(allowed)}"
-            )
-        kwargs = dict(data)
-        if "bias_correlation_time" in kwargs:
-            tau = kwargs["bias_correlation_time"]
-            if tau is None or (isinstance(tau, str) and tau.strip().lower() in ("inf", ".inf", "infinity")):
-                kwargs["bias_correlation_time"] = math.inf
+        kwargs = {k: 0.0 if v is False else v for k, v in data.items()}  # False: the term is off
+        later: dict[str, Any] = {}  # values the loader's types do not cover, set (and checked) afterwards
+        tau = kwargs.get("bias_correlation_time", 0.0)
+        if tau is None or str(tau).strip().lower() in ("inf", ".inf", "infinity"):
+            kwargs.pop("bias_correlation_time", None)
+            later["bias_correlation_time"] = math.inf  # a random walk (the loader takes finite numbers)
+        if isinstance(kwargs.get("soft_tissue_segment_scale"), Mapping):
+            later["soft_tissue_segment_scale"] = kwargs.pop("soft_tissue_segment_scale")
+        model = config_from_mapping(cls, kwargs, source, what="IMU error parameter", error=ParameterError)
         try:
-            return cls(**kwargs)
+            return model.replace(**later) if later else model
         except ParameterError as exc:
             raise ParameterError(f"{source}: {exc}") from None
 

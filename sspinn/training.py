@@ -36,7 +36,7 @@ from sspinn.model_file import CHECKPOINT, MODEL, ModelFileError, check_finite_we
 from sspinn.model_io import MODEL_ENTRIES, MODEL_HINT, load_weights, save_model
 from sspinn.network import NetworkConfig, SSPINNposeNet, decode, input_features, output_affine
 from sspinn.run_folder import RunLock, atomic_write_text
-from sspinn.yaml_config import apply_setting, construct, read_section
+from sspinn.yaml_config import load_config
 
 #: Named IMU configurations of the paper (sparse sets keep λ_IMU's relative weight; see losses).
 IMU_CONFIGURATIONS: dict[str, tuple[str, ...]] = {
@@ -50,7 +50,29 @@ IMU_CONFIGURATIONS: dict[str, tuple[str, ...]] = {
 
 @dataclass
 class TrainConfig:
-    """Everything that defines a training run (see ``configs/sspinn/*.yaml``)."""
+    """Everything that defines a training run (see ``configs/sspinn/*.yaml``).
+
+    Attributes:
+        imus: IMU configuration, a key of :data:`IMU_CONFIGURATIONS`.
+        network: LSTM size (:class:`~sspinn.network.NetworkConfig`).
+        weights: loss weights λ (:class:`~sspinn.losses.LossWeights`).
+        finetune: use the fine-tuning weights (kane, temporal and contact × 10).
+        learn_placement: also optimise the IMU placement.
+        steps: optimiser steps.
+        batch_size: windows per step.
+        window: samples per window (>= 8).
+        lr: Adam learning rate.
+        input_noise: η, input noise std as a fraction of each channel's std.
+        grad_clip: gradient-norm clipping threshold.
+        seed: seed of the window draws, the noise and the initial weights.
+        device: cpu, cuda or auto.
+        threads: torch intra-op threads on CPU; 0 = torch's default.
+        log_every: steps between TensorBoard/progress logs.
+        checkpoint_every: steps between checkpoints.
+        time_limit_s: safety net: stop (with a checkpoint and a loud TimeLimitWarning) after
+            this wall time, s; 0 = none.
+        amp: bfloat16 autocast of the network on CUDA (the physics stays float32).
+    """
 
     imus: str = "all"
     network: NetworkConfig = field(default_factory=NetworkConfig)
@@ -61,15 +83,15 @@ class TrainConfig:
     batch_size: int = 32
     window: int = 256
     lr: float = 1e-3
-    input_noise: float = 0.25  # η: noise std as a fraction of each channel's std
+    input_noise: float = 0.25
     grad_clip: float = 1.0
     seed: int = 0
     device: str = "auto"
-    threads: int = 0  # torch intra-op threads on CPU; 0 = torch's default
+    threads: int = 0
     log_every: int = 20
     checkpoint_every: int = 200
-    time_limit_s: float = 0.0  # safety net: stop (with a checkpoint and a loud TimeLimitWarning) after this wall time, s; 0 = none
-    amp: bool = True  # bfloat16 autocast of the network on CUDA (the physics stays float32)
+    time_limit_s: float = 0.0
+    amp: bool = True
 
     def __post_init__(self) -> None:
         if isinstance(self.network, dict):
@@ -95,11 +117,7 @@ class TrainConfig:
     def from_yaml(cls, path: str | Path, settings: list[str] | None = None, **overrides: Any) -> TrainConfig:
         """Load ``path``; ``overrides`` replace top-level options (None = keep), ``settings`` are
         ``"dotted.key=value"`` strings (YAML values), e.g. ``["weights.kane=0", "network.hidden=64"]``."""
-        data = read_section(path, "train", cls)
-        data.update({k: v for k, v in overrides.items() if v is not None})
-        for assignment in settings or ():
-            apply_setting(data, assignment, path)
-        return construct(cls, data, path)
+        return load_config(cls, path, "train", overrides, settings or ())
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

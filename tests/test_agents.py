@@ -97,7 +97,7 @@ def test_config_errors_name_the_file(tmp_path: Path) -> None:
     path.write_text("algo: ppo\n  bad: [indent\n")
     with pytest.raises(ConfigError, match="not valid YAML"):
         load_config(path)
-    with pytest.raises(ConfigError, match="does not exist"):
+    with pytest.raises(ConfigError, match="missing.yaml: no such configuration file"):
         load_config(tmp_path / "missing.yaml")
     td3 = yaml.safe_load((CONFIGS / "td3.yaml").read_text())
     td3["policy"]["log_std_init"] = -1.0
