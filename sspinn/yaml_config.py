@@ -542,19 +542,3 @@ def flag_overrides(args: argparse.Namespace) -> dict[str, Any]:
     ``overrides`` of :func:`load_config`)."""
     n = len(FLAG_DEST_PREFIX)
     return {k[n:]: v for k, v in vars(args).items() if k.startswith(FLAG_DEST_PREFIX) and v is not None}
-
-
-# --------------------------------------------------------------------------------------------
-# The former API (predictive/ still uses it; each is one call of the above)
-# --------------------------------------------------------------------------------------------
-def read_section(path: str | Path, section: str, cls: type) -> dict[str, Any]:
-    """The mapping under ``section`` of the YAML file (or the whole file without that key),
-    rejecting keys that are not fields of ``cls``. Prefer :func:`load_config`."""
-    data = _read_mapping(path, section)
-    check_keys(cls, data, str(path), what=f"{section} option")
-    return data
-
-
-def construct(cls: type[T], data: Mapping[str, Any], path: str | Path) -> T:
-    """``cls`` from ``data`` with the checks of :func:`config_from_mapping`, errors naming ``path``."""
-    return config_from_mapping(cls, data, str(path))

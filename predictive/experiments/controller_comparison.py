@@ -51,7 +51,7 @@ from sspinn import dynamics
 from sspinn.body import BodyParameters
 from sspinn.evaluation import angle_jitter
 from sspinn.plotting import draw_stick_figure, save_figure
-from sspinn.yaml_config import construct, read_section
+from sspinn.yaml_config import load_config
 
 #: Vertical force (BW) above which a foot counts as loaded (heel strike detection).
 CONTACT_THRESHOLD_BW = 0.1
@@ -114,7 +114,7 @@ class ComparisonConfig:
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> ComparisonConfig:
-        return construct(cls, read_section(path, "compare", cls), path)
+        return load_config(cls, path, "compare")
 
 
 @dataclass

@@ -60,7 +60,7 @@ from sspinn.conventions import GRAVITY, N_TAU
 from sspinn.model_file import load_torch_file, save_torch_file
 from sspinn.passive import passive_parameters, passive_torque
 from sspinn.run_folder import RunLock, atomic_write_text
-from sspinn.yaml_config import apply_setting, construct, read_section
+from sspinn.yaml_config import config_from_mapping, load_config
 
 #: Kinds of file (see :mod:`sspinn.model_file`): a trained generator and a training checkpoint.
 GENERATOR = "gait-generator"
@@ -136,10 +136,7 @@ class GeneratorConfig:
     @classmethod
     def from_yaml(cls, path: str | Path, settings: list[str] | None = None) -> GeneratorConfig:
         """Load ``path``; ``settings``: ``"dotted.key=value"`` overrides, e.g. ``["steps=30000"]``."""
-        data = read_section(path, "generator", cls)
-        for assignment in settings or ():
-            apply_setting(data, assignment, path)
-        return construct(cls, data, path)
+        return load_config(cls, path, "generator", settings=settings or ())
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -461,7 +458,7 @@ def load_generator(path: str | Path) -> tuple[GaitGenerator, GeneratorConfig]:
     if not path.exists():
         raise FileNotFoundError(f"{path}: no gait generator here (train one with `python -m predictive generator`)")
     data = load_torch_file(path, (GENERATOR,), ("state", "config"), "train one with `python -m predictive train-generator`")
-    cfg = construct(GeneratorConfig, dict(data["config"]), path)
+    cfg = config_from_mapping(GeneratorConfig, dict(data["config"]), str(path))
     model = GaitGenerator(cfg.harmonics, cfg.hidden, cfg.layers).double()
     model.load_state_dict(data["state"])
     model.training_wall_s_ = float(data.get("wall_s", float("nan")))

@@ -17,13 +17,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from predictive.ocp.stride_nlp import StrideSettings
 from predictive.synth.cache import CODE_VERSION, jsonable, stable_hash
 from predictive.synth.periodic_reference import DEFAULT_BOUNDARY
 from sspinn.dataset import SPLITS
 from sspinn.imu_errors import IMUErrorModel
+from sspinn.yaml_config import config_from_mapping, load_config
 
 
 @dataclass(frozen=True)
@@ -147,45 +147,14 @@ class SynthConfig:
     # ------------------------------------------------------------------ (de)serialisation
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str = "<dict>") -> SynthConfig:
-        """Build from a (partial) mapping as in ``configs/synth/*.yaml``; unknown keys are errors."""
-        nested = {
-            "subjects": SubjectDistribution,
-            "body_variation": BodyVariation,
-            "variability": Variability,
-            "stride": StrideSettings,
-        }
-        allowed = {f.name for f in dataclasses.fields(cls)}
-        unknown = set(data) - allowed
-        if unknown:
-            raise ValueError(f"{source}: unknown setting(s) {sorted(unknown)}; allowed: {sorted(allowed)}")
-        kwargs: dict[str, Any] = {}
-        for key, value in data.items():
-            if key in nested:
-                sub_allowed = {f.name for f in dataclasses.fields(nested[key])}
-                bad = set(value or {}) - sub_allowed
-                if bad:
-                    raise ValueError(
-                        f"{source}: unknown {key} setting(s) {sorted(bad)}; allowed: {sorted(sub_allowed)}"
-                    )
-                kwargs[key] = nested[key](**{k: _tuples(v) for k, v in (value or {}).items()})
-            elif key in ("programs", "program_names"):
-                kwargs[key] = _tuples(value)
-            else:
-                kwargs[key] = value
-        try:
-            return cls(**kwargs)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{source}: {exc}") from None
+        """Build from a (partial) mapping as in ``configs/synth/*.yaml`` (:mod:`sspinn.yaml_config`:
+        unknown keys at any level, wrong types and bad values are one-line errors naming ``source``)."""
+        return config_from_mapping(cls, dict(data), source, what="setting")
 
     @classmethod
     def from_yaml(cls, path: str | Path, **overrides: Any) -> SynthConfig:
-        """Read ``path`` (a mapping of the fields); ``overrides`` replace top-level fields."""
-        path = Path(path)
-        data = yaml.safe_load(path.read_text()) or {}
-        if not isinstance(data, dict):
-            raise ValueError(f"{path}: expected a mapping of settings, got {type(data).__name__}")
-        data.update({k: v for k, v in overrides.items() if v is not None})
-        return cls.from_dict(data, source=str(path))
+        """Read ``path`` (a mapping of the fields); ``overrides`` (not None) replace top-level fields."""
+        return load_config(cls, path, overrides=overrides, what="setting")
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-native dict (tuples as lists)."""
@@ -216,9 +185,3 @@ def imu_model(config: SynthConfig) -> IMUErrorModel:
         return IMUErrorModel.from_dict(spec, source="imu_errors")
     raise ValueError(f"imu_errors must be 'default', 'none' or a mapping of IMUErrorModel fields, got {spec!r}")
 
-
-def _tuples(obj: Any) -> Any:
-    """Lists → tuples (recursively), for frozen dataclass fields read from YAML."""
-    if isinstance(obj, list):
-        return tuple(_tuples(v) for v in obj)
-    return obj
