@@ -74,10 +74,13 @@ MIN_WALKING_S: Final = 4.0
 SIGN_MARGIN_WARN: Final = 0.5
 VOTE_SCALE: Final = 0.3
 #: Angle (deg) of the mean specific force while walking from the segment's y axis towards its x
-#: axis (atan2(mean acc_x, mean acc_y) of a segment-aligned sensor), typical of level walking:
-#: means of the averaged real stride of Dorschky et al. 2019 (1.37 m/s) and the six
-#: standing-calibrated CMU treadmill baseline trials (0.77 m/s); see docs/imu_import.md.
-WALKING_MEAN_FORCE_ANGLE_DEG: Final[dict[str, float]] = {"pelvis": 2.0, "femur": 9.5, "tibia": -5.0, "foot": -12.0}
+#: axis (atan2(mean acc_x, mean acc_y) of a segment-aligned sensor) in level walking, rounded
+#: means of two real data sets: the averaged stride of Dorschky et al. 2019 (1.37 m/s; pelvis
+#: 2.9, thigh 11.2, shank −4.1, instep −16.3) and the standing-calibrated CMU treadmill baseline
+#: trials (0.77 m/s, 5 subjects; pelvis −1.2, thigh 7.8, shank −5.4, forefoot −10.2, SD between
+#: subjects 1–4). A predicted 1.3 m/s gait of the model gives 1.0, 3.4, −11.7, −5.0: expect
+#: errors of several degrees from this fallback (docs/imu_import.md).
+WALKING_MEAN_FORCE_ANGLE_DEG: Final[dict[str, float]] = {"pelvis": 1.0, "femur": 9.5, "tibia": -5.0, "foot": -13.0}
 _AXIS_NAMES: Final = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
 
 
@@ -419,33 +422,48 @@ def _choose_signs(raw: dict[str, _Raw], mask: np.ndarray, runs: list[tuple[int, 
     how: dict[str, str] = {}
     for group in (g for g in groups if g):
         fixed = {s: int(np.sign(raw[s].a.right_axis @ raw[s].axis) or 1) for s in group if raw[s].a.right_axis is not None}
+        pairs = _pairs(group)
 
-        def score(combo: dict[str, int], group: list[str] = group) -> float:
-            total = sum(combo[s] * sum(votes[s].values()) for s in group)
-            femur, tibia, foot = (next((s for s in group if s.startswith(k)), None) for k in ("femur", "tibia", "foot"))
-            if tibia and foot:
-                total += combo[tibia] * combo[foot] * _vote(float(np.corrcoef(omega[tibia][mask], omega[foot][mask])[0, 1]))
-            if femur and tibia:
-                knee = _high_passed_integral(combo[tibia] * omega[tibia] - combo[femur] * omega[femur], runs, rate_hz)
-                total -= _vote(float(skew(knee)))
-            return total
+        def score(combo: dict[str, int], group: list[str] = group, pairs: dict = pairs) -> float:
+            own = sum(combo[s] * sum(votes[s].values()) for s in group)
+            return own + sum(_pair_votes(combo, pairs, omega, mask, runs, rate_hz).values())
 
         combos = [dict(zip(group, c)) for c in product((1, -1), repeat=len(group))]
+        scores = {tuple(c.values()): score(c) for c in combos}
         allowed = [c for c in combos if all(c[s] == v for s, v in fixed.items())]
-        scores = [score(c) for c in allowed]
-        best = allowed[int(np.argmax(scores))]
-        all_scores = {tuple(c[s] for s in group): score(c) for c in combos}
+        best = max(allowed, key=lambda c: scores[tuple(c.values())])
+        data_best = max(combos, key=lambda c: scores[tuple(c.values())])
+        best_score = scores[tuple(best.values())]
         for s in group:
             signs[s] = best[s]
-            flipped = [sc for c, sc in zip(allowed, scores) if c[s] != best[s]]
-            margins[s] = float(max(scores) - max(flipped)) if flipped else float("inf")
-            free_best = max(all_scores, key=all_scores.get)
-            data_sign = free_best[group.index(s)]
+            flipped = [scores[tuple(c.values())] for c in allowed if c[s] != best[s]]
+            margins[s] = float(best_score - max(flipped)) if flipped else float("inf")
             if s in fixed:
-                agree = "agrees" if data_sign == best[s] else "DISAGREES"
-                how[s] = f"right_axis hint of the sensor map (the gait votes {agree})"
+                how[s] = f"right_axis hint of the sensor map (the gait votes {'agree' if data_best[s] == best[s] else 'DISAGREE'})"
             else:
                 how[s] = "gait votes" + (f" with {', '.join(o for o in group if o != s)}" if len(group) > 1 else "")
-            if best[s] < 0:
-                votes[s] = {k: -val for k, val in votes[s].items()}
+            votes[s] = {k: best[s] * val for k, val in votes[s].items()}
+        for (a, b, name), value in _pair_votes(best, pairs, omega, mask, runs, rate_hz).items():
+            votes[a][name] = votes[b][name] = value
     return signs, votes, margins, how
+
+
+def _pairs(group: list[str]) -> dict[str, str]:
+    """The femur, tibia and foot of one leg's group that are present (kind → segment)."""
+    return {k: s for k in ("femur", "tibia", "foot") for s in group if s.startswith(k)}
+
+
+def _pair_votes(combo: dict[str, int], leg: dict[str, str], omega: dict[str, np.ndarray], mask: np.ndarray,
+                runs: list[tuple[int, int]], rate_hz: float) -> dict[tuple[str, str, str], float]:
+    """Votes of sensor pairs of one leg for the signs ``combo``: shank and foot rates correlate
+    positively; the knee angle (∫ shank − thigh rate, high-passed) is skewed negative."""
+    out = {}
+    if "tibia" in leg and "foot" in leg:
+        t, f = leg["tibia"], leg["foot"]
+        corr = float(np.corrcoef(omega[t][mask], omega[f][mask])[0, 1])
+        out[(t, f, "shank-foot rate correlation")] = combo[t] * combo[f] * _vote(corr)
+    if "femur" in leg and "tibia" in leg:
+        t, th = leg["tibia"], leg["femur"]
+        knee = _high_passed_integral(combo[t] * omega[t] - combo[th] * omega[th], runs, rate_hz)
+        out[(th, t, "knee angle skewness")] = -_vote(float(skew(knee)))
+    return out
