@@ -1,7 +1,7 @@
 """Validate the sagittal sensor calibration (:mod:`sspinn.sensor_calibration`) on synthetic 3D
 sensors with random mountings (:mod:`sspinn.validation.sensor_mounting`).
 
-The gait is one predicted stride at 1.3 m/s (``tests/data/predicted_walk_1.3.csv``); ``--solve``
+The gait is one predicted stride at 1.3 m/s (``tests/fixtures/predicted_walk_1.3.csv``); ``--solve``
 recomputes it with :func:`predictive.solve_predictive` (about 30 s) and rewrites that file. For
 each of ``--trials`` random mountings of all seven sensors, the script calibrates with a 2 s
 quiet-standing phase and without one (walking only, in-plane angle from the typical walking
@@ -22,16 +22,17 @@ from pathlib import Path
 
 import numpy as np
 
-from sspinn.validation.sensor_mounting import OutOfPlane, mounting_trials, read_gait_csv, summary, write_gait_csv
+from sspinn.plotting import save_figure
+from sspinn.validation.sensor_mounting import Gait, OutOfPlane, mounting_trials, read_gait_csv, summary, write_gait_csv
 
-GAIT = Path(__file__).resolve().parents[1] / "tests" / "data" / "predicted_walk_1.3.csv"
+GAIT = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "predicted_walk_1.3.csv"
 
 
 def solve_gait(path: Path) -> None:
-    from predictive.collocation import solve_predictive
+    from predictive import solve_predictive
 
     sol = solve_predictive(1.3, rate_hz=100)
-    write_gait_csv(path, sol.q, sol.u, sol.qdd)
+    write_gait_csv(path, Gait(sol.q, sol.u, sol.qdd, sol.grf))
     print(f"solved 1.3 m/s ({sol.status}, stride {sol.duration:.2f} s, {len(sol.q)} samples) → {path}")
 
 
@@ -39,14 +40,14 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--trials", type=int, default=50)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--strides", type=int, default=30, help="strides of walking per synthetic recording (30 ≈ 34 s)")
+    parser.add_argument("--strides", type=int, default=50, help="strides of walking per synthetic recording (50 ≈ 57 s, a CMU trial)")
     parser.add_argument("--gait", type=Path, default=GAIT)
     parser.add_argument("--solve", action="store_true", help="recompute the gait with predictive.solve_predictive")
     parser.add_argument("--out", type=Path, default=None, help="figure of the error distributions (.png)")
     args = parser.parse_args(argv)
     if args.solve or not args.gait.exists():
         solve_gait(args.gait)
-    q, u, qdd = read_gait_csv(args.gait)
+    q, u, qdd, _ = read_gait_csv(args.gait)
     oop = OutOfPlane()
     print(f"gait {args.gait} ({len(q)} samples per stride, {args.strides} strides); {args.trials} random mountings × 7 sensors; "
           f"out-of-plane: {oop}")
@@ -77,9 +78,7 @@ def main(argv: list[str] | None = None) -> int:
             ax.legend(fontsize=8)
         axes[1].axvline(-2.0, color="k", lw=0.8, ls="--")
         fig.suptitle(f"sensor calibration on {args.trials} random mountings × 7 sensors (synthetic 1.3 m/s gait)")
-        fig.tight_layout()
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(args.out, dpi=120)
+        save_figure(fig, args.out, dpi=120)
         print(f"\nfigure → {args.out}")
     return 0
 

@@ -4,8 +4,8 @@
 Recipe (:func:`mounting_trials`):
 
 1. A walking gait of the sagittal model — q, u, q̈ of one periodic stride on the 100 Hz grid
-   (``tests/data/predicted_walk_1.3.csv``: :func:`predictive.solve_predictive` at 1.3 m/s for the
-   1.75 m, 70 kg Winter body, written by ``scripts/validate_sensor_calibration.py``) — repeated
+   (``tests/fixtures/predicted_walk_1.3.csv``, with its GRF: :func:`predictive.solve_predictive` at
+   1.3 m/s for the 1.75 m, 70 kg Winter body, written by ``scripts/validate_sensor_calibration.py``) — repeated
    for ``strides`` strides, after ``standing_s`` of quiet standing in the zero pose (or none);
    the 2D virtual IMUs (:func:`sspinn.kinematics.virtual_imu`, default placement, angle 0) give
    each segment's ``acc_x, acc_y, gyr_z``.
@@ -25,12 +25,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from sspinn.body import BodyParameters, IMUPlacement
-from sspinn.conventions import COORDINATES, SEGMENTS
+from sspinn.conventions import COORDINATES, GRF, SEGMENTS
 from sspinn.dataset import read_csv_table
 from sspinn.imu_errors import band_limited_process
 from sspinn.kinematics import virtual_imu
@@ -38,7 +39,7 @@ from sspinn.sensor_calibration import Calibration, calibrate
 from sspinn.sensor_map import SensorAssignment
 
 RATE_HZ = 100.0
-GAIT_COLUMNS = ("time", *COORDINATES, *(f"d_{c}" for c in COORDINATES), *(f"dd_{c}" for c in COORDINATES))
+GAIT_COLUMNS = ("time", *COORDINATES, *(f"d_{c}" for c in COORDINATES), *(f"dd_{c}" for c in COORDINATES), *GRF)
 
 
 @dataclass(frozen=True)
@@ -52,20 +53,31 @@ class OutOfPlane:
     gyro_noise: float = 0.01
 
 
-def write_gait_csv(path: str | Path, q: np.ndarray, u: np.ndarray, qdd: np.ndarray) -> Path:
-    """One stride's q, u, q̈ (n, 9) at 100 Hz as CSV (columns :data:`GAIT_COLUMNS`)."""
+class Gait(NamedTuple):
+    """One stride at 100 Hz: q, u, q̈ (n, 9) and the GRF (n, 4) N (:data:`sspinn.conventions.GRF` order)."""
+
+    q: np.ndarray
+    u: np.ndarray
+    qdd: np.ndarray
+    grf: np.ndarray
+
+
+def write_gait_csv(path: str | Path, gait: Gait) -> Path:
+    """One stride as CSV (columns :data:`GAIT_COLUMNS`)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    t = np.arange(len(q)) / RATE_HZ
-    np.savetxt(path, np.column_stack([t, q, u, qdd]), delimiter=",", header=",".join(GAIT_COLUMNS), comments="", fmt="%.9g")
+    t = np.arange(len(gait.q)) / RATE_HZ
+    np.savetxt(path, np.column_stack([t, gait.q, gait.u, gait.qdd, gait.grf]), delimiter=",", header=",".join(GAIT_COLUMNS),
+               comments="", fmt="%.9g")
     return path
 
 
-def read_gait_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(q, u, q̈) of a stride written by :func:`write_gait_csv`."""
+def read_gait_csv(path: str | Path) -> Gait:
+    """The stride written by :func:`write_gait_csv`."""
     names, table = read_csv_table(Path(path))
     col = {n: i for i, n in enumerate(names)}
-    return tuple(table[:, [col[f"{p}{c}"] for c in COORDINATES]] for p in ("", "d_", "dd_"))  # type: ignore[return-value]
+    q, u, qdd = (table[:, [col[f"{p}{c}"] for c in COORDINATES]] for p in ("", "d_", "dd_"))
+    return Gait(q, u, qdd, table[:, [col[g] for g in GRF]])
 
 
 def synthetic_walk(q: np.ndarray, u: np.ndarray, qdd: np.ndarray, strides: int = 12, standing_s: float = 2.0,
