@@ -57,13 +57,14 @@ def calibration_markdown(title: str, calibration: Calibration, alignment: Alignm
     lines += ["Methods: " + "; ".join(sorted({f"axis — {c.axis_method}" for c in cal.sensors.values()}
                                             | {f"angle — {c.angle_method}" for c in cal.sensors.values()})), ""]
     if alignment is not None:
-        lines += ["## Time alignment with the GRF", "", f"{alignment.describe()}", "",
-                  "| stage | lag (s) | correlation | runner-up (s) | runner-up r | ratio | pair | searched |",
-                  "|---|---:|---:|---:|---:|---:|---|---|"]
-        for s in alignment.stages:
-            lines.append(f"| {s.name} | {s.lag_s:+.2f} | {s.correlation:.3f} | {s.runner_up_lag_s:+.2f} | "
-                         f"{s.runner_up_correlation:.3f} | {s.ratio:.3f} | {_cell(s.pair)} | {s.searched} |")
-        lines += [""] + [f"- {n}" for n in alignment.notes] + ([""] if alignment.notes else [])
+        lines += ["## Time alignment with the GRF", "", alignment.describe(), "",
+                  "Candidates (peaks of the loading correlation, refined to the impact peak; the score sums the correlations):", "",
+                  "| lag (s) | activity | loading | impact | score |", "|---:|---:|---:|---:|---:|"]
+        for c in alignment.candidates[:4]:
+            activity = f"{c.activity:.3f}" + ("" if c.use_activity else " (not scored)")
+            lines.append(f"| {c.lag_s:+.2f} | {activity} | {c.loading:.3f} | {c.impact:.3f} | {c.score:.3f} |")
+        lines += ["", "Pairs: " + "; ".join(f"{k}: {_cell(v)}" for k, v in alignment.pairs.items()), ""]
+        lines += [f"- {n}" for n in alignment.notes] + ([""] if alignment.notes else [])
     all_notes = list(cal.notes) + list(notes or [])
     if all_notes:
         lines += ["## Notes", ""] + [f"- {n}" for n in all_notes] + [""]

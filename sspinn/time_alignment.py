@@ -2,25 +2,27 @@
 cross-correlating physically linked signals (both on one 100 Hz grid, times counted from the
 start of each stream).
 
-Three physically linked pairs, from coarse to fine (:func:`align_to_grf`):
+Three physically linked pairs, correlated over all lags (:func:`align_to_grf`):
 
-1. **activity** (which stride): the IMU's summed rate norms against the GRF's left–right load
-   difference |F_r − F_l|, both averaged over two strides; one clear peak when the recording
-   holds a change of activity (quiet standing, the start or end of walking). Trusted when its
-   correlation is at least :data:`COARSE_MIN_CORRELATION` and its ratio to the runner-up at
-   least :data:`COARSE_MIN_RATIO`; otherwise the next stage searches all lags.
-2. **loading** (within the stride): each foot's vertical GRF against the stillness of that
-   side's foot (or shank) sensor, ``−|ω|`` smoothed over 0.09 s (a foot in stance hardly turns),
-   both sides averaged; searched within half a stride of stage 1. Walking is periodic, so this
-   correlation has nearly equal peaks one stride apart (ratio ≈ 1.02); and it is biased by the
-   shapes (the foot still turns just after heel strike): tens of ms.
-3. **impact** (to the sample): the norm of the shank's (or foot's) specific-force change per
-   sample (3D jerk, sharp at heel strike) against the positive rate of rise of that foot's
-   vertical force, searched within :data:`IMPACT_WINDOW_S` of stage 2.
+* **activity**: the IMU's summed rate norms against the GRF's left–right load difference
+  |F_r − F_l|, both averaged over two strides — one broad peak where the recordings' changes of
+  activity (quiet standing, the start or end of walking) coincide;
+* **loading**: each foot's vertical GRF against the stillness of that side's foot (or shank)
+  sensor, ``−|ω|`` smoothed over 0.09 s (a foot in stance hardly turns), both sides averaged —
+  peaks one stride apart (walking is periodic), biased by the shapes by tens of ms (the foot
+  still turns just after heel strike);
+* **impact**: the norm of the shank's (or foot's) specific-force change per sample (3D jerk,
+  sharp at heel strike) against the positive rate of rise of that foot's vertical force — sharp,
+  but weaker and also one stride periodic.
 
-Returned (:class:`Alignment`): the lag ``lag_s`` of the last stage with
-**t_reference = t_imu + lag_s**, and per stage the lag, the peak correlation and the best
-correlation at a lag more than a quarter stride away (the runner-up) with their ratio.
+Every local maximum of the loading correlation is a **candidate**; each is refined to the
+impact peak within :data:`IMPACT_WINDOW_S` and scored by the sum of the three correlations at
+the refined lag (the activity correlation only when it peaks above
+:data:`ACTIVITY_MIN_CORRELATION` somewhere: otherwise the recording holds no change of activity
+and it is noise). The best candidate gives ``lag_s``, with **t_reference = t_imu + lag_s**.
+Confidence (:class:`Alignment`): the three correlations at the chosen lag, and the runner-up
+candidate (usually one stride away) with the ratio of the scores — close to 1 means the
+alignment may be off by whole strides (no change of activity in the recording).
 """
 
 from __future__ import annotations
@@ -35,10 +37,9 @@ from sspinn.errors import UserError
 
 #: Smallest overlap of the two signals for a lag to count, s.
 MIN_OVERLAP_S: Final = 5.0
-#: The activity stage is trusted from this correlation and this ratio to its runner-up.
-COARSE_MIN_CORRELATION: Final = 0.7
-COARSE_MIN_RATIO: Final = 2.0
-#: Half-width of the impact stage's search around the loading stage's lag, s.
+#: The activity correlation enters the score only if it peaks at least this high somewhere.
+ACTIVITY_MIN_CORRELATION: Final = 0.7
+#: Half-width of the impact refinement around each loading candidate, s.
 IMPACT_WINDOW_S: Final = 0.15
 
 
@@ -47,50 +48,56 @@ class AlignmentError(UserError):
 
 
 @dataclass(frozen=True)
-class Stage:
-    """One stage of :func:`align_to_grf`: its best lag (s), peak correlation, runner-up (a lag
-    more than a quarter stride away, NaN if none in the searched range) and what it compared."""
+class Candidate:
+    """One candidate lag (s) with the correlations of the three pairs there and their sum."""
 
-    name: str
     lag_s: float
-    correlation: float
-    runner_up_lag_s: float
-    runner_up_correlation: float
-    pair: str
-    searched: str
+    activity: float
+    loading: float
+    impact: float
+    use_activity: bool = True
 
     @property
-    def ratio(self) -> float:
-        """Peak / runner-up correlation (NaN without a runner-up)."""
-        r = self.runner_up_correlation
-        return self.correlation / r if np.isfinite(r) and r > 0 else float("nan")
+    def score(self) -> float:
+        """Sum of the correlations (the activity one only when it is informative)."""
+        return (self.activity if self.use_activity else 0.0) + self.loading + self.impact
 
 
 @dataclass(frozen=True)
 class Alignment:
-    """The result of :func:`align_to_grf`: ``lag_s`` (t_reference = t_imu + lag_s) and the stages."""
+    """The result of :func:`align_to_grf`: ``lag_s`` (t_reference = t_imu + lag_s), the chosen
+    candidate, the runner-up (None if there is none), the candidates by score, and the pairs."""
 
     lag_s: float
-    stages: tuple[Stage, ...]
+    best: Candidate
+    runner_up: Candidate | None
+    candidates: tuple[Candidate, ...]
+    pairs: dict[str, str]
     notes: tuple[str, ...] = ()
 
-    def stage(self, name: str) -> Stage:
-        return next(s for s in self.stages if s.name == name)
+    @property
+    def ratio(self) -> float:
+        """Score of the best candidate / score of the runner-up (inf without a positive runner-up)."""
+        r = self.runner_up.score if self.runner_up is not None else 0.0
+        return self.best.score / r if r > 0 else float("inf")
 
     def describe(self) -> str:
-        parts = [f"{s.name} {s.lag_s:+.2f} s (r = {s.correlation:.3f}"
-                 + (f", runner-up {s.runner_up_correlation:.3f} at {s.runner_up_lag_s:+.2f} s, ratio {s.ratio:.3f})"
-                    if np.isfinite(s.runner_up_correlation) else ")") for s in self.stages]
-        return f"lag {self.lag_s:+.2f} s (t_GRF = t_IMU + lag); " + "; ".join(parts)
+        b, r = self.best, self.runner_up
+        text = (f"lag {self.lag_s:+.2f} s (t_GRF = t_IMU + lag): correlations activity {b.activity:.3f}, loading "
+                f"{b.loading:.3f}, impact {b.impact:.3f} (score {b.score:.3f})")
+        if r is not None:
+            text += f"; runner-up {r.lag_s:+.2f} s (score {r.score:.3f}, ratio {self.ratio:.3f})"
+        return text
 
     def to_dict(self) -> dict:
-        def num(v: float) -> float | None:
-            return round(float(v), 4) if np.isfinite(v) else None
+        def cand(c: Candidate) -> dict:
+            return {"lag_s": round(c.lag_s, 4), "activity": round(c.activity, 4), "loading": round(c.loading, 4),
+                    "impact": round(c.impact, 4), "activity_in_score": c.use_activity, "score": round(c.score, 4)}
 
-        return {"lag_s": num(self.lag_s), "convention": "t_reference = t_imu + lag_s", "notes": list(self.notes),
-                "stages": [{"name": s.name, "lag_s": num(s.lag_s), "correlation": num(s.correlation),
-                            "runner_up_lag_s": num(s.runner_up_lag_s), "runner_up_correlation": num(s.runner_up_correlation),
-                            "ratio": num(s.ratio), "pair": s.pair, "searched": s.searched} for s in self.stages]}
+        return {"lag_s": round(self.lag_s, 4), "convention": "t_reference = t_imu + lag_s", "best": cand(self.best),
+                "runner_up": cand(self.runner_up) if self.runner_up else None,
+                "ratio": round(self.ratio, 4) if np.isfinite(self.ratio) else None,
+                "candidates": [cand(c) for c in self.candidates[:5]], "pairs": self.pairs, "notes": list(self.notes)}
 
 
 def normalized_xcorr(reference: np.ndarray, signal: np.ndarray, max_lag: int, min_overlap: int) -> tuple[np.ndarray, np.ndarray]:
@@ -117,21 +124,6 @@ def normalized_xcorr(reference: np.ndarray, signal: np.ndarray, max_lag: int, mi
     var = (sx2 - sx**2 / c) * (sy2 - sy**2 / c)
     out[ok] = np.where(var > 1e-12 * np.maximum(sx2 * sy2, 1e-300), cov / np.sqrt(np.maximum(var, 1e-300)), np.nan)
     return lags, out
-
-
-def _stage(name: str, lags: np.ndarray, c: np.ndarray, allowed: np.ndarray, exclusion: int, rate_hz: float, pair: str,
-           searched: str) -> Stage:
-    """The best lag of ``c`` among ``allowed`` lags and the best local maximum (of all lags) more
-    than ``exclusion`` samples from it."""
-    values = np.where(allowed, np.nan_to_num(c, nan=-np.inf), -np.inf)
-    if not np.isfinite(values).any():
-        raise AlignmentError(f"{name} stage: the signals do not overlap by {MIN_OVERLAP_S:g} s at any lag searched")
-    k = int(np.argmax(values))
-    peaks, _ = find_peaks(np.nan_to_num(c, nan=-2.0))
-    others = [p for p in peaks if abs(int(lags[p]) - int(lags[k])) > exclusion and np.isfinite(c[p])]
-    j = max(others, key=lambda p: c[p]) if others else None
-    return Stage(name, lags[k] / rate_hz, float(c[k]), lags[j] / rate_hz if j is not None else float("nan"),
-                 float(c[j]) if j is not None else float("nan"), pair, searched)
 
 
 def _smooth(x: np.ndarray, n: int) -> np.ndarray:
@@ -172,36 +164,48 @@ def align_to_grf(
     if not sides:
         raise AlignmentError("no side with both an IMU and a vertical GRF")
     max_lag, overlap = int(max_lag_s * rate_hz), int(MIN_OVERLAP_S * rate_hz)
-    stride = max(int(round(stride_period_s * rate_hz)), 2)
-    notes = []
+    stride = max(int(round(stride_period_s * rate_hz)), 4)
     load = grf_vertical[sides[0]] if len(sides) == 1 else np.abs(grf_vertical["r"] - grf_vertical["l"])
-    lags, c = normalized_xcorr(_zscore(_smooth(load, 2 * stride), "the GRF activity envelope"),
-                               _zscore(_smooth(activity, 2 * stride), "the IMU activity envelope"), max_lag, overlap)
-    everywhere = np.ones(len(lags), dtype=bool)
-    coarse = _stage("activity", lags, c, everywhere, stride // 2, rate_hz, "summed IMU rate norms vs |F_r − F_l| (2-stride means)",
-                    f"±{max_lag_s:g} s")
-    trusted = coarse.correlation >= COARSE_MIN_CORRELATION and not coarse.ratio < COARSE_MIN_RATIO
-    if not trusted:
-        notes.append(f"activity stage not trusted (r = {coarse.correlation:.2f}, ratio {coarse.ratio:.2f}): the loading stage "
-                     "searched all lags, so the lag may be off by whole strides")
-    fine = sum(normalized_xcorr(_zscore(grf_vertical[s], f"the vertical GRF of side {s}"),
-                                _zscore(-_smooth(stillness[s], round(0.09 * rate_hz)), f"the {names[0]}_{s} rate"),
-                                max_lag, overlap)[1] for s in sides) / len(sides)
-    centre = int(round(coarse.lag_s * rate_hz))
-    window = np.abs(lags - centre) <= stride // 2 if trusted else everywhere
-    loading = _stage("loading", lags, fine, window, stride // 4, rate_hz, f"vertical GRF vs {names[0]} stillness −|ω|",
-                     f"±{stride / 2 / rate_hz:.2f} s around the activity lag" if trusted else f"±{max_lag_s:g} s")
-    stages = [coarse, loading]
-    impact_sides = [s for s in sides if s in impact]
-    if impact_sides:
-        jerk = sum(normalized_xcorr(_zscore(_smooth(np.maximum(np.diff(grf_vertical[s], prepend=grf_vertical[s][0]), 0), 3),
-                                            f"the vertical GRF rise of side {s}"),
-                                    _zscore(_smooth(np.linalg.norm(np.diff(impact[s], axis=0, prepend=impact[s][:1]), axis=1), 3),
-                                            f"the {names[1]}_{s} jerk"), max_lag, overlap)[1] for s in impact_sides) / len(impact_sides)
-        near = np.abs(lags - int(round(loading.lag_s * rate_hz))) <= int(IMPACT_WINDOW_S * rate_hz)
-        stages.append(_stage("impact", lags, jerk, near, stride // 4, rate_hz,
-                             f"{names[1]} jerk |Δacc| vs rise of the vertical GRF", f"±{IMPACT_WINDOW_S:g} s around the loading lag"))
-    return Alignment(stages[-1].lag_s, tuple(stages), tuple(notes))
+    lags, c_activity = normalized_xcorr(_zscore(_smooth(load, 2 * stride), "the GRF activity envelope"),
+                                        _zscore(_smooth(activity, 2 * stride), "the IMU activity envelope"), max_lag, overlap)
+    c_loading = sum(normalized_xcorr(_zscore(grf_vertical[s], f"the vertical GRF of side {s}"),
+                                     _zscore(-_smooth(stillness[s], round(0.09 * rate_hz)), f"the {names[0]}_{s} rate"),
+                                     max_lag, overlap)[1] for s in sides) / len(sides)
+    hit = [s for s in sides if s in impact]
+    c_impact = np.zeros(len(lags))
+    if hit:
+        c_impact = sum(normalized_xcorr(
+            _zscore(_smooth(np.maximum(np.diff(grf_vertical[s], prepend=grf_vertical[s][0]), 0), 3), f"the vertical GRF rise of side {s}"),
+            _zscore(_smooth(np.linalg.norm(np.diff(impact[s], axis=0, prepend=impact[s][:1]), axis=1), 3), f"the {names[1]}_{s} jerk"),
+            max_lag, overlap)[1] for s in hit) / len(hit)
+    valid = np.isfinite(c_activity) & np.isfinite(c_loading) & np.isfinite(c_impact)
+    if not valid.any():
+        raise AlignmentError(f"the IMU and GRF signals overlap by less than {MIN_OVERLAP_S:g} s at every lag searched")
+    notes = []
+    informative = bool(np.nanmax(np.where(valid, c_activity, np.nan)) >= ACTIVITY_MIN_CORRELATION)
+    if not informative:
+        notes.append(f"the activity envelopes correlate at most {np.nanmax(np.where(valid, c_activity, np.nan)):.2f} (no clear "
+                     "change of activity in the recording): not used in the score")
+    peaks, _ = find_peaks(np.where(valid, c_loading, -2.0), distance=max(1, stride // 4))
+    if len(peaks) == 0:
+        peaks = np.array([int(np.argmax(np.where(valid, c_loading, -2.0)))])
+    window = int(IMPACT_WINDOW_S * rate_hz)
+    candidates = []
+    for p in peaks:
+        lo, hi = max(0, p - window), min(len(lags), p + window + 1)
+        near = np.where(valid[lo:hi], c_impact[lo:hi], -np.inf)
+        k = lo + int(np.argmax(near)) if hit and np.isfinite(near).any() else p
+        candidates.append(Candidate(lags[k] / rate_hz, float(c_activity[k]), float(c_loading[p]), float(c_impact[k]), informative))
+    candidates.sort(key=lambda c: c.score, reverse=True)
+    best = candidates[0]
+    runner = next((c for c in candidates[1:] if abs(c.lag_s - best.lag_s) > stride / 4 / rate_hz), None)
+    if runner is not None and runner.score > 0 and best.score / runner.score < 1.05:
+        notes.append(f"the runner-up {runner.lag_s:+.2f} s scores within 5 % of the chosen lag: the alignment may be off by "
+                     "whole strides (no change of activity in the recording?)")
+    pairs = {"activity": "summed IMU rate norms vs |F_r − F_l| (2-stride means)",
+             "loading": f"vertical GRF vs {names[0]} stillness −|ω|",
+             "impact": f"{names[1]} jerk |Δacc| vs rise of the vertical GRF" if hit else "none"}
+    return Alignment(best.lag_s, best, runner, tuple(candidates), pairs, tuple(notes))
 
 
 def walking_direction_sign(fx: np.ndarray, fy: np.ndarray, rate_hz: float = 100.0) -> int:
