@@ -15,9 +15,9 @@ import yaml
 from sspinn.cli import load_recordings, main
 from sspinn.conventions import SEGMENTS
 from sspinn.dataset import Dataset, Recording
+from sspinn.testing import walking_like_3d, write_xsens_txt
 from sspinn.validation.sensor_mounting import OutOfPlane, embed_in_3d, random_mounting, read_gait_csv, synthetic_walk
 from tests.conftest import shared_data
-from tests.test_vendor_formats import walking_like, write_xsens_txt
 
 GAIT = Path(__file__).resolve().parent / "fixtures" / "predicted_walk_1.3.csv"
 REPO = Path(__file__).resolve().parents[1]
@@ -36,7 +36,7 @@ def xsens_trial(tmp_path_factory):
     for i, s in enumerate(SEGMENTS):
         acc, gyr = embed_in_3d(truth[:, i], mountings[s], rng, OutOfPlane(), still=200)
         files.append(write_xsens_txt(folder / f"MT_01200627_000-000_{IDS[s]}.txt", acc, gyr, counter0=100 * i))
-    files.append(write_xsens_txt(folder / "MT_01200627_000-000_00B4FFFF.txt", *walking_like(len(truth), rng)))
+    files.append(write_xsens_txt(folder / "MT_01200627_000-000_00B4FFFF.txt", *walking_like_3d(len(truth), rng)))
     names = {"pelvis": "pelvis", "femur_r": "thigh_r", "tibia_r": "shank_r", "femur_l": "thigh_l", "tibia_l": "shank_l"}
     sensors = {IDS[s]: names.get(s, {"segment": s, "position": "forefoot"}) for s in SEGMENTS}
     smap = folder / "map.yaml"
