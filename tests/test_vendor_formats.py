@@ -108,3 +108,14 @@ def test_cmu_opensense_files_and_grf() -> None:
     t, forces = read_treadmill_grf(folder / "OpenSim_Sub01_CSBaseline_GRF.mot.gz")
     assert t.shape == (5950,) and forces["r"].shape == (5950, 2)
     assert 0.8 < (forces["r"][:, 1] + forces["l"][:, 1]).mean() / (66.7 * 9.81) < 1.2  # ≈ body weight
+
+
+def test_other_rates_are_filtered_and_resampled(tmp_path, rng) -> None:
+    acc, gyr = walking_like_3d(1200, rng, rate=120.0)
+    s = read_xsens_txt(write_xsens_txt(tmp_path / "fast.txt", acc, gyr, rate=120.0))
+    assert s.sample_rate_hz == pytest.approx(120.0, rel=1e-3)
+    grid, out = resample(IMUStream({"fast": s}, "fast.txt"))
+    assert np.allclose(np.diff(grid), 0.01) and any("low-pass filtered at 40 Hz" in n for n in out.notes)
+    t = grid - s.time[0]
+    expected = 3 * np.sin(2 * np.pi * t + 1)  # the 1 Hz part of gyr Z survives the 40 Hz filter
+    assert np.sqrt(np.mean((out.sensors["fast"].gyr[:, 2] - expected) ** 2)) < 0.03
