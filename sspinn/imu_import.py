@@ -12,7 +12,8 @@ Pipeline (:func:`import_imu`):
    (:func:`sspinn.sensor_calibration.calibrate`) and project: ``acc_x, acc_y, gyr_z`` in the
    segment frame (placement angle 0; positions: the project's default, the map's forefoot or
    explicit ones);
-3. optionally read the GRF (``.mot``; :func:`sspinn.vendor_formats.read_treadmill_grf`), align it
+3. optionally read the GRF (``.mot``; :func:`sspinn.vendor_formats.read_treadmill_grf`; above
+   100 Hz low-pass filtered at 40 Hz first), align it
    (:func:`sspinn.time_alignment.align_to_grf`), orient its horizontal axis along the walking
    direction (:func:`sspinn.time_alignment.walking_direction_sign`), resample it onto the IMU
    samples (linear) and store ``grf_x_r, grf_y_r, grf_x_l, grf_y_l`` (N) as labels — the
@@ -36,11 +37,12 @@ from pathlib import Path
 from typing import Any, Final
 
 import numpy as np
+from scipy.signal import butter, sosfiltfilt
 
 from sspinn.calibration_report import calibration_markdown, plot_calibration
 from sspinn.conventions import GRF
 from sspinn.dataset import FORMAT, SPLITS, VERSION, DataFormatError, Labels, Recording
-from sspinn.imu_stream import DEFAULT_MAX_GAP_S, RATE_HZ, IMUImportError, resample
+from sspinn.imu_stream import ANTI_ALIAS_HZ, DEFAULT_MAX_GAP_S, RATE_HZ, IMUImportError, resample
 from sspinn.sensor_calibration import Calibration, calibrate
 from sspinn.sensor_map import SensorMap
 from sspinn.time_alignment import Alignment, align_to_grf, walking_direction_sign
@@ -161,6 +163,12 @@ def _grf_labels(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], c
     """(alignment, GRF label columns on the IMU samples, mask of the samples the GRF covers, notes)."""
     t_grf, forces = read_treadmill_grf(path)
     t_grf = t_grf - t_grf[0]
+    rate = 1.0 / float(np.median(np.diff(t_grf)))
+    notes = []
+    if rate > 1.01 * RATE_HZ:  # force plates often run at 1 kHz: anti-alias before going to 100 Hz
+        sos = butter(4, ANTI_ALIAS_HZ, fs=rate, output="sos")
+        forces = {s: sosfiltfilt(sos, f, axis=0) for s, f in forces.items()}
+        notes.append(f"GRF {path.name}: {rate:.4g} Hz low-pass filtered at {ANTI_ALIAS_HZ:g} Hz before resampling to 100 Hz")
     grid = np.arange(int(np.floor(t_grf[-1] * RATE_HZ + 1e-9)) + 1) / RATE_HZ
     on_grid = {s: np.column_stack([np.interp(grid, t_grf, f[:, k]) for k in range(2)]) for s, f in forces.items()}
     feet = {s[-1]: s for s in signals if s.startswith("foot")}
@@ -178,8 +186,8 @@ def _grf_labels(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], c
     t_on_grf = times - times[0] + alignment.lag_s
     file_lag = alignment.lag_s - float(times[0])
     keep = (t_on_grf >= 0) & (t_on_grf <= grid[-1])
-    notes = [f"GRF {path.name}: lag {file_lag:+.3f} s between the files' starts (t_GRF = t_IMU + lag); "
-             f"{int((~keep).sum())} IMU samples outside the GRF dropped"]
+    notes.append(f"GRF {path.name}: lag {file_lag:+.3f} s between the files' starts (t_GRF = t_IMU + lag); "
+                 f"{int((~keep).sum())} IMU samples outside the GRF dropped")
     labels = {}
     for side in ("r", "l"):
         sign = walking_direction_sign(on_grid[side][:, 0], on_grid[side][:, 1], RATE_HZ)
