@@ -62,25 +62,34 @@ class TrivialPredictor:
     def fit(cls, recordings: Sequence[Recording], source: str) -> TrivialPredictor:
         """Means of the labels of ``recordings`` per program (and over all, key :data:`ALL`).
 
+        A recording needs at least one of the labels q, GRF and speed (e.g. an imported real
+        recording with GRF and treadmill speed but no angles); a group no recording has gets a
+        zero mean, which no metric uses (a metric needs the label it compares with).
+
         Raises:
-            ValueError: no recording has the labels q, GRF and speed.
+            ValueError: no recording has any of the labels q, GRF and speed.
         """
         groups: dict[str, list[Recording]] = {}
         for rec in recordings:
             lab = rec.labels
-            if lab is None or lab.q is None or lab.grf is None or lab.speed is None:
+            if lab is None or (lab.q is None and lab.grf is None and lab.speed is None):
                 continue
             groups.setdefault(program_of(rec), []).append(rec)
             if program_of(rec) != ALL:
                 groups.setdefault(ALL, []).append(rec)
         if not groups:
-            raise ValueError(f"{source}: no recording with the labels q, grf and speed to fit a trivial predictor on")
+            raise ValueError(f"{source}: no recording with the labels q, grf or speed to fit a trivial predictor on")
         means = {}
         for program, recs in groups.items():
-            q = np.concatenate([r.labels.q for r in recs])
-            grf = np.concatenate([r.labels.grf / (r.mass * GRAVITY) for r in recs])
-            speed = np.concatenate([r.labels.speed for r in recs])
-            means[program] = ProgramMeans(q.mean(0), grf.mean(0), float(speed.mean()), len(q))
+            q = [r.labels.q for r in recs if r.labels.q is not None]
+            grf = [r.labels.grf / (r.mass * GRAVITY) for r in recs if r.labels.grf is not None]
+            speed = [r.labels.speed for r in recs if r.labels.speed is not None]
+            means[program] = ProgramMeans(
+                np.concatenate(q).mean(0) if q else np.zeros(N_Q),
+                np.concatenate(grf).mean(0) if grf else np.zeros(len(GRF)),
+                float(np.concatenate(speed).mean()) if speed else 0.0,
+                sum(r.n_samples for r in recs),
+            )
         return cls(means, source)
 
     def means_for(self, rec: Recording) -> ProgramMeans:

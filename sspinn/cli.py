@@ -211,6 +211,10 @@ def _main(argv: list[str]) -> int:
     ex.add_argument("--model", type=Path, required=True)
     ex.add_argument("--out", type=Path, required=True)
 
+    from sspinn import imu_import  # sspinn import: vendor IMU files + sensor map → calibrated recording
+
+    imu_import.add_parser(sub, _bounded)
+
     args = parser.parse_args(argv)
     if args.command == "showcase":
         from sspinn import showcase as demo_mod
@@ -227,6 +231,8 @@ def _main(argv: list[str]) -> int:
         return _infer(args)
     if args.command == "export":
         return _export(args)
+    if args.command == "import":
+        return imu_import.run(args)
     raise AssertionError(args.command)  # argparse enforces the sub-commands
 
 

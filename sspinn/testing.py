@@ -1,13 +1,15 @@
 """Test data shared by the tests, the benchmarks and the scripts (as ``numpy.testing`` is for NumPy).
 
 Nothing here is used by the library itself: random but plausible model inputs, small synthetic
-recordings (random, or with walking-like channels), a CSV column edit for corrupting files, and
-a tiny dataset + configuration + finished 4-step training run.
+recordings (random, or with walking-like channels), a CSV column edit for corrupting files, a
+tiny dataset + configuration + finished 4-step training run, and vendor IMU files (Xsens MT
+Manager text exports, OpenSense ``.trc``) written from given signals.
 """
 
 from __future__ import annotations
 
 import contextlib
+import gzip
 import io
 from collections.abc import Callable
 from pathlib import Path
@@ -92,3 +94,58 @@ def tiny_run(root: Path) -> tuple[Path, Path, Path]:
     with contextlib.redirect_stderr(io.StringIO()):  # the progress bar
         Trainer(TrainConfig.from_yaml(cfg), run).fit(Dataset.open(data).load("train"))
     return data, cfg, run
+
+
+# ---------------------------------------------------------------------------------- vendor IMU files
+def walking_like_3d(n: int, rng: np.random.Generator, rate: float = 100.0) -> tuple[np.ndarray, np.ndarray]:
+    """(acc, gyr) (n, 3) that pass the unit checks: gravity on X plus 1 Hz motion and noise."""
+    t = np.arange(n) / rate
+    acc = np.column_stack([9.81 + 2 * np.sin(2 * np.pi * t), np.cos(2 * np.pi * t), 0.5 * np.sin(4 * np.pi * t)])
+    gyr = np.column_stack([0.3 * np.sin(2 * np.pi * t), 0.2 * np.cos(2 * np.pi * t), 3 * np.sin(2 * np.pi * t + 1)])
+    return acc + rng.normal(scale=0.05, size=(n, 3)), gyr + rng.normal(scale=0.01, size=(n, 3))
+
+
+def write_xsens_txt(path: Path, acc: np.ndarray, gyr: np.ndarray, rate: float = 100.0, counter0: int = 0, tick0: int = 0,
+                    drop: tuple[int, ...] = (), sep: str = "\t", columns: tuple[str, ...] | None = None) -> Path:
+    """An MT Manager text export: '//' header, PacketCounter (16 bit), SampleTimeFine (1e-4 s
+    ticks, 32 bit), Acc, Gyr, Mag, Quat; rows listed in ``drop`` are left out (dropped packets)."""
+    n = len(acc)
+    header = columns or ("PacketCounter", "SampleTimeFine", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z",
+                         "Mag_X", "Mag_Y", "Mag_Z", "Quat_q0", "Quat_q1", "Quat_q2", "Quat_q3")
+    lines = ["// Start Time: Unknown", f"// Update Rate: {rate:.1f}Hz", "// Filter Profile: human (46.1)",
+             "// Option Flags: AHS Disabled ICC Disabled", "// Firmware Version: 4.0.2", sep.join(header)]
+    for k in range(n):
+        if k in drop:
+            continue
+        values = {"PacketCounter": f"{(counter0 + k) % 65536:05d}", "SampleTimeFine": str((tick0 + round(k * 1e4 / rate)) % 2**32)}
+        values.update({f"Acc_{a}": f"{acc[k, i]:.6f}" for i, a in enumerate("XYZ")})
+        values.update({f"Gyr_{a}": f"{gyr[k, i]:.6f}" for i, a in enumerate("XYZ")})
+        values.update({f"FreeAcc_{a}": f"{acc[k, i] - (9.81 if a == 'X' else 0):.6f}" for i, a in enumerate("XYZ")})
+        values.update({f"Mag_{a}": "0.5" for a in "XYZ"})
+        values.update({"Quat_q0": "1", "Quat_q1": "0", "Quat_q2": "0", "Quat_q3": "0"})
+        lines.append(sep.join(values[c] for c in header))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def write_opensense(folder: Path, stem: str, sensors: dict[str, tuple[np.ndarray, np.ndarray]], compress: bool = False) -> Path:
+    """``<stem>_Accel.trc`` and ``_Gyro.trc`` as OpenSense writes them (the CMU files' header
+    layout, including the stray tab on line 5), optionally gzip-compressed; returns the accel file."""
+    names = list(sensors)
+    n = len(next(iter(sensors.values()))[0])
+    out, stray = None, "\t"  # the CMU files have a stray tab before the last sensor's Y label
+    for kind, index in (("Accel", 0), ("Gyro", 1)):
+        lines = [f"PathFileType\t4\t(X/Y/Z)\t{stem}_{kind}.trc",
+                 "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames",
+                 f"100\t100\t{n}\t{len(names)}\tm\t100\t1\t{n}",
+                 "Frame#\tTime\t" + "\t".join(names),
+                 "\t\t" + "\t".join(f"X{i + 1}\t{stray if i == len(names) - 1 else ''}Y{i + 1}\tZ{i + 1}" for i in range(len(names))) + "\t",
+                 ""]
+        for k in range(n):
+            row = [str(k + 1), f"{k / 100:.8f}"] + [f"{v:.8f}" for s in names for v in sensors[s][index][k]]
+            lines.append("\t".join(row))
+        text = "\n".join(lines) + "\n"
+        path = folder / f"{stem}_{kind}.trc{'.gz' if compress else ''}"
+        path.write_bytes(gzip.compress(text.encode()) if compress else text.encode())
+        out = out or path
+    return out

@@ -1,6 +1,6 @@
 """Small, dependency-free readers for OpenSim files (storage tables ``.mot``/``.sto``).
 
-An OpenSim storage file is a text file made of
+An OpenSim storage file is a text file (plain, or gzip-compressed ``.gz``) made of
 
 * a free-form header (a title line and ``key=value`` lines such as ``nRows=151`` or
   ``inDegrees=yes``) that ends with a line reading ``endheader``,
@@ -24,6 +24,7 @@ It also reads the few parts of an OpenSim model (``.osim``) and of an external-l
 
 from __future__ import annotations
 
+import gzip
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -53,10 +54,17 @@ class OpenSimFormatError(ValueError):
 
 
 def _lines(path: Path) -> list[str]:
+    """The lines of a plain or gzip-compressed (``.gz``) text file."""
     try:
-        return path.read_text(encoding="utf-8", errors="replace").splitlines()
+        raw = path.read_bytes()
     except FileNotFoundError:
         raise FileNotFoundError(f"OpenSim table not found: {path}") from None
+    if raw[:2] == b"\x1f\x8b":
+        try:
+            raw = gzip.decompress(raw)
+        except (OSError, EOFError) as exc:
+            raise OpenSimFormatError(f"{path}: a damaged gzip file ({exc})") from None
+    return raw.decode("utf-8", errors="replace").splitlines()
 
 
 def _endheader_index(path: Path, lines: list[str]) -> int:

@@ -1,0 +1,122 @@
+"""Sensor maps and the sagittal sensor calibration: random 3D mountings of synthetic sensors on a
+predicted walking gait are recovered (axis, sign, in-plane angle), hints and errors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sspinn.conventions import SEGMENTS
+from sspinn.sensor_calibration import SensorCalibrationError, calibrate
+from sspinn.sensor_map import SensorAssignment, SensorMap, SensorMapError
+from sspinn.validation.sensor_mounting import (
+    OutOfPlane,
+    calibration_errors,
+    embed_in_3d,
+    mounting_trials,
+    random_mounting,
+    read_gait_csv,
+    synthetic_walk,
+)
+
+GAIT = Path(__file__).resolve().parent / "fixtures" / "predicted_walk_1.3.csv"
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def gait():
+    return read_gait_csv(GAIT)
+
+
+def test_sensor_map_parsing_and_errors(tmp_path) -> None:
+    smap = SensorMap.from_yaml(REPO / "configs" / "sensor_maps" / "cmu_treadmill.yaml")
+    assert smap.segments == SEGMENTS and smap.ignore == ("torso_imu_offset_imu",)
+    assert smap.assignments["femur_r_imu_offset_imu"].segment == "femur_r"  # thigh_r alias
+    placement = smap.placement(1.75)
+    assert placement.positions["foot_r"] == pytest.approx((0.14, -0.03))
+    assert placement.positions["femur_r"] == pytest.approx((0.0, -0.285))
+    hinted = SensorMap.from_dict({"sensors": {"a": {"segment": "shank_l", "right_axis": "-Z", "up_axis": [1, 0, 0],
+                                                    "position_m": [0.01, -0.2]}}}, "m.yaml")
+    a = hinted.assignments["a"]
+    assert a.segment == "tibia_l" and np.allclose(a.right_axis, [0, 0, -1]) and a.position == (0.01, -0.2)
+    bad = [
+        ({"sensors": {"a": "knee_r"}}, r"m\.yaml: sensor 'a': unknown segment 'knee_r'"),
+        ({"sensors": {"a": "femur_r", "b": "thigh_r"}}, r"sensors 'a' and 'b' both on segment 'femur_r'"),
+        ({"sensors": {"a": {"segment": "femur_r", "side": "r"}}}, r"sensor 'a': unknown key\(s\) \['side'\]"),
+        ({"sensors": {"a": {"segment": "femur_r", "right_axis": "+W"}}}, r"sensor 'a': right_axis must be"),
+        ({"sensors": {"a": {"segment": "femur_r", "position": "forefoot"}}}, r"'forefoot' needs a foot segment"),
+        ({"sensors": {"a": {"segment": "foot_r", "position_m": [14, 3]}}}, r"not cm"),
+        ({"sensors": {}}, r"non-empty 'sensors:'"),
+    ]
+    for data, message in bad:
+        with pytest.raises(SensorMapError, match=message):
+            SensorMap.from_dict(data, "m.yaml")
+    with pytest.raises(SensorMapError, match=r"sensor 'torso_imu_offset_imu' of files.csv is not in the map"):
+        SensorMap.from_dict({"sensors": {"pelvis_imu_offset_imu": "pelvis"}}, "m.yaml").check_sensors(
+            ["pelvis_imu_offset_imu", "torso_imu_offset_imu"], "files.csv")
+    with pytest.raises(SensorMapError, match=r"sensor 'shoe' \(mapped to foot_r\) is not in files.csv"):
+        SensorMap.from_dict({"sensors": {"shoe": "foot_r"}}, "m.yaml").check_sensors(["pelvis"], "files.csv")
+    (tmp_path / "broken.yaml").write_text("sensors: [a\n")
+    with pytest.raises(SensorMapError, match="not valid YAML"):
+        SensorMap.from_yaml(tmp_path / "broken.yaml")
+
+
+def test_random_mountings_are_recovered_with_standing(gait) -> None:
+    """Five random mountings of all seven sensors (35 sensors) with out-of-plane motion, bias and
+    noise: every sign right, axes within 3° (median < 1°), in-plane angles within 0.5° (standing calibrates them).
+    The full distribution (50 mountings): scripts/validate_sensor_calibration.py."""
+    res = mounting_trials(gait.q, gait.u, gait.qdd, trials=5, seed=3, standing_s=2.0, strides=30)
+    assert res["sign_ok"].all()
+    assert np.median(res["axis"]) < 1.0 and res["axis"].max() < 3.0  # 30 strides; 50 (a CMU trial): max 2°
+    assert np.abs(res["angle"]).max() < 0.5
+
+
+def test_walking_only_calibration_keeps_signs_and_axes(gait) -> None:
+    """Without standing the axes and signs come out as well; the in-plane angle then rests on the
+    typical walking orientation of each segment (a few degrees off for this predicted gait)."""
+    res = mounting_trials(gait.q, gait.u, gait.qdd, trials=3, seed=4, standing_s=0.0, strides=30)
+    assert res["sign_ok"].all() and res["axis"].max() < 2.5
+    assert np.abs(res["angle"]).max() < 10.0
+
+
+def _signals(gait, seed: int, mounting=None):
+    rng = np.random.default_rng(seed)
+    imu2d = synthetic_walk(gait.q, gait.u, gait.qdd, strides=20, standing_s=2.0)
+    mountings = {s: (mounting if mounting is not None else random_mounting(rng)) for s in SEGMENTS}
+    signals = {s: embed_in_3d(imu2d[:, i], mountings[s], rng, OutOfPlane(), still=200) for i, s in enumerate(SEGMENTS)}
+    return imu2d, mountings, signals
+
+
+def test_projection_reproduces_the_sagittal_signals(gait) -> None:
+    imu2d, mountings, signals = _signals(gait, 5)
+    cal = calibrate(signals, {s: SensorAssignment(f"s_{s}", s) for s in SEGMENTS})
+    assert cal.standing is not None and abs(cal.stride_period_s - len(gait.q) / 100) < 0.02
+    for i, s in enumerate(SEGMENTS):
+        projected = cal.sensors[s].project(*signals[s])
+        rms = np.sqrt(np.mean((projected - imu2d[:, i]) ** 2, axis=0))
+        assert rms[2] < 0.1 and rms[:2].max() < 1.0, (s, rms)  # out-of-plane motion and noise remain
+        assert cal.sensors[s].sign_margin > 0.5
+
+
+def test_hints_fix_the_sign_and_catch_an_upside_down_sensor(gait) -> None:
+    _, mountings, signals = _signals(gait, 6, mounting=np.eye(3))
+    wrong = {s: SensorAssignment(f"s_{s}", s, right_axis=np.array([0.0, 0.0, -1.0])) for s in SEGMENTS}
+    cal = calibrate(signals, wrong)
+    for s in SEGMENTS:
+        assert calibration_errors(cal.sensors[s].rotation, mountings[s])[0] > 170  # the hint wins...
+        assert "DISAGREE" in cal.sensors[s].sign_method  # ...and the report says the gait disagrees
+    upside = {s: SensorAssignment(f"s_{s}", s, up_axis=np.array([0.0, 1.0, 0.0])) for s in SEGMENTS}
+    calibrate(signals, upside)  # +Y is up the segment: fine
+    upside["tibia_l"] = SensorAssignment("s_tibia_l", "tibia_l", up_axis=np.array([0.0, -1.0, 0.0]))
+    with pytest.raises(SensorCalibrationError, match=r"sensor 's_tibia_l' \(tibia_l\): mounted upside down"):
+        calibrate(signals, upside, source="x.txt")
+
+
+def test_no_walking_is_an_error() -> None:
+    rng = np.random.default_rng(0)
+    still = {"femur_r": (np.tile([0.0, 9.81, 0.0], (1000, 1)) + rng.normal(scale=0.01, size=(1000, 3)),
+                         rng.normal(scale=0.01, size=(1000, 3)))}
+    with pytest.raises(SensorCalibrationError, match=r"x\.txt: 0\.0 s of walking found"):
+        calibrate(still, {"femur_r": SensorAssignment("a", "femur_r")}, source="x.txt")
