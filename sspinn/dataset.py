@@ -38,24 +38,17 @@ from typing import Any, Final
 import numpy as np
 
 from sspinn.body import IMUPlacement, ParameterError
-from sspinn.conventions import COORDINATES, GRAVITY, GRF, IMU_CHANNELS, JOINTS, SEGMENTS
+from sspinn.conventions import GRAVITY, IMU_CHANNELS, SEGMENTS
 from sspinn.errors import DataFormatError
 from sspinn.plausibility import check_imu_plausibility
+from sspinn.trajectory import COLUMNS, Trajectory
 
 FORMAT: Final = "sspinn-recording"
 VERSION: Final = 1
 SAMPLE_RATE_HZ: Final = 100.0
 
-#: Label groups: name → column names (in order).
-LABEL_COLUMNS: Final[dict[str, tuple[str, ...]]] = {
-    "q": COORDINATES,
-    "u": tuple(f"d_{c}" for c in COORDINATES),
-    "qdd": tuple(f"dd_{c}" for c in COORDINATES),
-    "tau": tuple(f"tau_{j}" for j in JOINTS),
-    "grf": GRF,
-    "w": ("w_r", "w_l"),
-    "speed": ("speed",),
-}
+#: Label groups: name → column names (in order): the trajectory's (:data:`sspinn.trajectory.COLUMNS`) and the speed.
+LABEL_COLUMNS: Final[dict[str, tuple[str, ...]]] = {**COLUMNS, "speed": ("speed",)}
 UNITS: Final[dict[str, str]] = {
     "time": "s",
     "acc": "m/s^2 (specific force, sensor frame)",
@@ -125,6 +118,27 @@ class Labels:
             **{n: (None if getattr(self, n) is None else getattr(self, n)[sl]) for n in LABEL_COLUMNS},
             missing=self.missing,
         )
+
+    @classmethod
+    def from_trajectory(cls, trajectory: Trajectory, speed: np.ndarray | None = None) -> Labels:
+        """Complete labels from a trajectory (copies of q, u, q̈, τ, GRF, w) and optionally the
+        per-sample ``speed`` (m/s)."""
+        groups = {g: np.array(getattr(trajectory, g), dtype=np.float64) for g in COLUMNS}
+        if speed is not None:
+            groups["speed"] = np.array(speed, dtype=np.float64).reshape(-1)
+        return cls(**groups)
+
+    def trajectory(self, time: np.ndarray | None = None) -> Trajectory:
+        """The labels as a :class:`~sspinn.trajectory.Trajectory` at ``time`` (s; default
+        k / SAMPLE_RATE_HZ). Needs every group of it (q, u, q̈, τ, GRF, w) with no column
+        missing, else :class:`DataFormatError` naming what is absent."""
+        absent = [g for g in COLUMNS if getattr(self, g) is None]
+        partial = sorted(c for g in COLUMNS for c in COLUMNS[g] if c in self.missing and g not in absent)
+        if absent or partial:
+            what = ", ".join([f"no {g} labels" for g in absent] + ([f"no column(s) {partial}"] if partial else []))
+            raise DataFormatError(f"a trajectory needs the labels q, u, qdd, tau, grf and w complete: {what}")
+        n = len(self.q)
+        return Trajectory(time=np.arange(n) / SAMPLE_RATE_HZ if time is None else time, **{g: getattr(self, g) for g in COLUMNS})
 
 
 @dataclass

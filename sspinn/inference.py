@@ -19,11 +19,12 @@ from sspinn import dynamics
 from sspinn._generated import model_numba
 from sspinn.body import BodyParameters, IMUPlacement
 from sspinn.contact import ContactParameters
-from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS
+from sspinn.conventions import GRAVITY
 from sspinn.dataset import SAMPLE_RATE_HZ, DataFormatError, Recording
 from sspinn.errors import UserError
 from sspinn.network import N_OUTPUTS, SSPINNposeNet, decode, input_features, output_affine
 from sspinn.run_folder import atomic_path
+from sspinn.trajectory import Trajectory
 
 
 class NonFiniteEstimateError(UserError):
@@ -43,37 +44,31 @@ PHYSICAL_LIMITS: dict[str, float] = {
 }
 
 
-@dataclass
-class GaitEstimate:
-    """Estimated gait of one recording; arrays over T samples at 100 Hz, SI units.
-
-    q, u, qdd (T, 9); tau (T, 6) N·m; grf (T, 4) N; w (T, 2); ankle (T, 2, 6); mu_hat (T, 2).
+@dataclass(kw_only=True)
+class GaitEstimate(Trajectory):
+    """Estimated gait of one recording: a :class:`~sspinn.trajectory.Trajectory` over T samples
+    at 100 Hz (time, q, u, qdd (T, 9); tau (T, 6) N·m; grf (T, 4) N; w (T, 2); SI units; built
+    with keywords) with the recording's ``name`` and the estimator's ankle kinematics
+    ``ankle`` (T, 2, 6) and friction factors ``mu_hat`` (T, 2).
     """
 
     name: str
-    time: np.ndarray
-    q: np.ndarray
-    u: np.ndarray
-    qdd: np.ndarray
-    tau: np.ndarray
-    grf: np.ndarray
-    w: np.ndarray
     ankle: np.ndarray
     mu_hat: np.ndarray
+
+    SAMPLE_SHAPES = {**Trajectory.SAMPLE_SHAPES, "ankle": (2, 6), "mu_hat": (2,)}
 
     def check_finite(self) -> GaitEstimate:
         """``self`` if every estimated value is finite, else :class:`NonFiniteEstimateError`
         naming the quantity and the first sample."""
-        for name in ("q", "u", "qdd", "tau", "grf", "w", "ankle", "mu_hat"):
-            values = np.asarray(getattr(self, name))
-            bad = ~np.isfinite(values.reshape(len(values), -1))
-            if bad.any():
-                k = int(np.argmax(bad.any(axis=1)))
-                raise NonFiniteEstimateError(
-                    f"{self.name}: the estimate's {name} is not finite from sample {k} on ({int(bad.sum())} values); "
-                    "nothing written: the model may be damaged or diverged (retrain it), or the recording is far "
-                    "outside what it was trained on"
-                )
+        bad = self.non_finite()
+        if bad is not None:
+            name, k, count = bad
+            raise NonFiniteEstimateError(
+                f"{self.name}: the estimate's {name} is not finite from sample {k} on ({count} values); "
+                "nothing written: the model may be damaged or diverged (retrain it), or the recording is far "
+                "outside what it was trained on"
+            )
         return self
 
     def check_physical(self, height: float, mass: float) -> GaitEstimate:
@@ -99,18 +94,9 @@ class GaitEstimate:
                 )
         return self
 
-    def columns(self) -> dict[str, np.ndarray]:
-        cols = {"time": self.time}
-        cols |= {c: self.q[:, i] for i, c in enumerate(COORDINATES)}
-        cols |= {f"d_{c}": self.u[:, i] for i, c in enumerate(COORDINATES)}
-        cols |= {f"dd_{c}": self.qdd[:, i] for i, c in enumerate(COORDINATES)}
-        cols |= {f"tau_{j}": self.tau[:, i] for i, j in enumerate(JOINTS)}
-        cols |= {g: self.grf[:, i] for i, g in enumerate(GRF)}
-        cols |= {"w_r": self.w[:, 0], "w_l": self.w[:, 1]}
-        return cols
-
     def to_csv(self, path: str | Path) -> Path:
-        """Write the estimate as CSV (atomically; refused if any value is not finite)."""
+        """Write the estimate as CSV (time and the trajectory's :meth:`~sspinn.trajectory.Trajectory.columns`;
+        atomically; refused if any value is not finite)."""
         path = Path(path)
         self.check_finite()
         cols = self.columns()

@@ -273,7 +273,7 @@ def test_a_failed_stride_goes_down_the_ladder(running_chain_setup, monkeypatch: 
     assert chain.strides[1].speed == pytest.approx(0.5 * (3.57 + 3.5))  # half the planned change
     assert not chain.ended_early
     # the labels stay exact: Kane residual at every sample, speeds as solved
-    assert np.abs(chain.residual(body)).max() < 1e-6
+    assert np.abs(chain.kane_residual(body)).max() < 1e-6
     start = chain.strides[0].n_nodes
     x_prev = chain.q[start - 1, 0]
     n1 = chain.strides[1].n_nodes

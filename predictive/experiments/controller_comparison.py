@@ -47,10 +47,10 @@ from predictive.generator.closed_loop import GaitTracker, LQRWeights, resample_c
 from predictive.generator.gait_generator import generate, load_generator
 from predictive.ocp.collocation import OCPError, solve_predictive
 from predictive.ocp.gait_analysis import load_winter
-from sspinn import dynamics
 from sspinn.body import BodyParameters
 from sspinn.evaluation import angle_jitter
 from sspinn.plotting import draw_stick_figure, save_figure
+from sspinn.trajectory import Trajectory
 from sspinn.yaml_config import load_config
 
 #: Vertical force (BW) above which a foot counts as loaded (heel strike detection).
@@ -206,21 +206,31 @@ BUILDERS = {"generator": generator_controller, "ocp": ocp_controller, "sb3": sb3
 
 
 # ------------------------------------------------------------------------------------------ metrics
-def executed_kane_residual(traces: dict[str, np.ndarray], env: Any) -> float:
-    """Mean |Kane residual| (BW) of the pelvis translation rows over the episode (module docstring)."""
+def executed_trajectory(traces: dict[str, np.ndarray], env: Any) -> Trajectory | None:
+    """The executed motion of an episode's ``traces`` (q, u, actuator torques after each step) as
+    a :class:`~sspinn.trajectory.Trajectory` at its interior samples 1 … n−2: q̈ by central
+    differences of u, τ the actuator torque averaged over the two intervals around the sample
+    plus the passive joint moments, GRF and w of the environment's contact model. None with
+    fewer than three samples."""
     e = env.unwrapped
     q, u, tau = traces["q"], traces["u"], traces["torques"]
     if len(q) < 3:
-        return float("nan")
+        return None
     dt = float(e.dt)
     qdd = (u[2:] - u[:-2]) / (2 * dt)
     qm, um = q[1:-1], u[1:-1]
     tau_m = 0.5 * (tau[1:-1] + tau[2:])
     tau_total = tau_m + e.passive_torque(qm[:, 3:], um[:, 3:])
-    p = e.body_vector
-    grf, w = dynamics.contact_forces(qm, um, p, e.contact_vector)
-    r = dynamics.kane_residual(qm, um, qdd, tau_total, grf, w, p)
-    return float(np.mean(np.abs(r[:, :2]))) / e.body.body_weight
+    return Trajectory.from_contact_model(dt * np.arange(1, len(q) - 1), qm, um, qdd, tau_total, e.body, e.contact)
+
+
+def executed_kane_residual(traces: dict[str, np.ndarray], env: Any) -> float:
+    """Mean |Kane residual| (BW) of the pelvis translation rows over the episode (module
+    docstring): :meth:`~sspinn.trajectory.Trajectory.kane_residual` of :func:`executed_trajectory`."""
+    executed = executed_trajectory(traces, env)
+    if executed is None:
+        return float("nan")
+    return float(np.mean(np.abs(executed.kane_residual(env.unwrapped.body)[:, :2])))
 
 
 def normalised_cycle(traces: dict[str, np.ndarray], body_weight: float, dt: float) -> dict[str, np.ndarray] | None:
@@ -498,5 +508,5 @@ def _json_default(obj: Any) -> Any:
 
 __all__ = [
     "CellResult", "ComparisonConfig", "Controller", "MethodSpec", "evaluate_controller", "executed_kane_residual",
-    "learning_curves", "normalised_cycle", "run_comparison", "winter_rmsd", "write_report",
+    "executed_trajectory", "learning_curves", "normalised_cycle", "run_comparison", "winter_rmsd", "write_report",
 ]

@@ -117,21 +117,10 @@ def solution_at_times(sol: GaitSolution, times: np.ndarray, shift: float = 0.0, 
     """The solution as a :class:`~sspinn.inference.GaitEstimate` at ``times`` (s), by periodic
     linear interpolation of the node values; the sample at time t is the solution at t + shift
     (s). pelvis_tx continues by v·t."""
-    t_nodes = sol.time
-    t = np.asarray(times, dtype=float) + shift
-    q_per = sol.q.copy()
-    q_per[:, 0] -= sol.speed * sol.time
-
-    def interp(values: np.ndarray) -> np.ndarray:
-        return np.stack([np.interp(t, t_nodes, values[:, i], period=sol.duration) for i in range(values.shape[1])], -1)
-
-    q = interp(q_per)
-    q[:, 0] += sol.speed * t
-    n = len(t)
-    return GaitEstimate(
-        name=name, time=np.asarray(times, dtype=float), q=q, u=interp(sol.u), qdd=interp(sol.qdd), tau=interp(sol.tau),
-        grf=interp(sol.grf), w=interp(sol.w), ankle=np.zeros((n, 2, 6)), mu_hat=np.zeros((n, 2)),
-    )
+    times = np.asarray(times, dtype=float)
+    at = sol.resample(times + shift, period=sol.duration, speed=sol.speed)
+    n = len(times)
+    return GaitEstimate(**{**at.arrays(), "time": times}, name=name, ankle=np.zeros((n, 2, 6)), mu_hat=np.zeros((n, 2)))
 
 
 def _heel_strike_pct(fy_bw: np.ndarray) -> float:

@@ -23,6 +23,7 @@ import numpy as np
 from predictive.ocp import perturbation
 from sspinn.body import BodyParameters, JointLimits
 from sspinn.conventions import JOINTS, N_Q, N_TAU
+from sspinn.trajectory import residual_scale
 
 #: Scale of the accelerations q̈ in the NLPs' decision variables (physical = scale · scaled).
 ACC_SCALE = 10.0
@@ -137,7 +138,7 @@ def nlp_scales(settings: ProblemSettings, body: BodyParameters, speed: float) ->
     5 rad/s for the joints)."""
     bw, H = body.body_weight, body.height
     return {
-        "res_scale": np.array([bw, bw] + [bw * H] * (N_Q - 2)),
+        "res_scale": residual_scale(body),
         "tau_max": joint_type_values(settings.tau_max) * bw * H,
         "u_scale": np.array([max(speed, 1.0), 1.0, 2.0] + [5.0] * N_TAU),
     }

@@ -1,10 +1,9 @@
 """The result of a predictive gait simulation, its persistence and its physical checks.
 
-Arrays are sampled at the collocation nodes of one whole gait cycle, ``time[k] = k·T/n``
-(``k = 0 … n−1``; node ``n`` would be node 0 of the next cycle). Units and signs are those of
-:mod:`sspinn.conventions`: q in m / rad (hip flexion +, knee flexion −, ankle dorsiflexion +),
-u in m/s / rad/s, q̈ in m/s² / rad/s², τ in N·m (positive τ_j increases coordinate j),
-GRF in N as [Fx_r, Fy_r, Fx_l, Fy_l], w the contact-point fraction (toe 0 … heel 1).
+A :class:`GaitSolution` is a :class:`sspinn.trajectory.Trajectory` (time, q, u, q̈, τ, GRF, w;
+units and signs of :mod:`sspinn.conventions`) sampled at the collocation nodes of one whole gait
+cycle, ``time[k] = k·T/n`` (``k = 0 … n−1``; node ``n`` would be node 0 of the next cycle), with
+the problem's speed, duration, body and solver statistics.
 """
 
 from __future__ import annotations
@@ -16,11 +15,12 @@ from typing import Any
 
 import numpy as np
 
-from sspinn import dynamics as dyn
 from sspinn.body import BodyParameters
 from sspinn.contact import ContactParameters
 from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS, N_Q
 from sspinn.errors import UserError
+from sspinn.run_folder import atomic_write_text
+from sspinn.trajectory import FIELDS, Trajectory, TrajectoryError, save_npz
 
 #: Permutation that swaps the right and left leg in q (and u, q̈).
 MIRROR_Q = np.array([0, 1, 2, 6, 7, 8, 3, 4, 5])
@@ -33,7 +33,8 @@ MIRROR_GRF = np.array([2, 3, 0, 1])
 #: a small force a few millimetres above the ground).
 CONTACT_THRESHOLD_BW = 0.1
 
-_ARRAYS = ("time", "q", "u", "qdd", "tau", "grf", "w", "tau_max")
+#: The arrays of the npz file: the trajectory's fields and the normalising torques.
+_ARRAYS = (*FIELDS, "tau_max")
 
 
 def mirror_states(x: Any) -> Any:
@@ -48,16 +49,13 @@ def mirror_states(x: Any) -> Any:
     return ca.vertcat(*[x[int(i)] for i in perm])
 
 
-@dataclass
-class GaitSolution:
-    """One periodic gait cycle predicted by :func:`predictive.solve_predictive`.
+@dataclass(kw_only=True)
+class GaitSolution(Trajectory):
+    """One periodic gait cycle predicted by :func:`predictive.solve_predictive`: a
+    :class:`~sspinn.trajectory.Trajectory` at the nodes (time from 0, q, u, q̈, τ, GRF, w; built
+    with keywords) and
 
     Attributes:
-        time: (n,) node times, s, starting at 0.
-        q, u, qdd: (n, 9) coordinates, speeds, accelerations at the nodes.
-        tau: (n, 6) joint torques, N·m.
-        grf: (n, 4) ground reaction forces, N ([Fx_r, Fy_r, Fx_l, Fy_l]).
-        w: (n, 2) contact-point fractions (toe 0 … heel 1), right and left.
         speed: average forward speed, m/s.
         duration: stride (cycle) duration T, s.
         body_parameters: the body used, as :meth:`BodyParameters.to_dict` (see :attr:`body`).
@@ -74,13 +72,6 @@ class GaitSolution:
             chosen); empty for a single IPOPT run.
     """
 
-    time: np.ndarray
-    q: np.ndarray
-    u: np.ndarray
-    qdd: np.ndarray
-    tau: np.ndarray
-    grf: np.ndarray
-    w: np.ndarray
     speed: float
     duration: float
     body_parameters: dict[str, Any]
@@ -106,7 +97,7 @@ class GaitSolution:
 
     @property
     def n_nodes(self) -> int:
-        return len(self.time)
+        return self.n_samples
 
     @property
     def body(self) -> BodyParameters:
@@ -145,44 +136,24 @@ class GaitSolution:
 
     # ------------------------------------------------------------------ residual checks
     def node_residual(self) -> np.ndarray:
-        """(n, 9) Kane residual M q̈ − f at the nodes, evaluated with the **NumPy backend**, with
+        """(n, 9) Kane residual at the nodes (:meth:`~sspinn.trajectory.Trajectory.kane_residual`:
+        NumPy backend, BW for the two translational rows and BW·H for the rotational rows) with
         q̈ recomputed from the stored speeds as the backward difference (u_k − u_{k−1})/h that the
-        collocation uses, and GRF recomputed from the contact model. Scaled to BW for the two
-        translational rows and BW·H for the rotational rows (dimensionless)."""
+        collocation uses, and GRF recomputed from the contact model."""
         h = self.duration / self.n_nodes
         qdd = (self.u - np.roll(self.u, 1, axis=0)) / h
-        body = self.body
-        grf, w = dyn.contact_forces(self.q, self.u, body, self.contact_parameters)
-        r = dyn.kane_residual(self.q, self.u, qdd, self.tau, grf, w, body)
-        bw = body.body_weight
-        return r / np.array([bw, bw] + [bw * body.height] * (N_Q - 2))
+        return self.as_trajectory(qdd=qdd).kane_residual(self.body, self.contact_parameters)
 
     def resampled_residual(self, rate_hz: float = 100.0) -> tuple[np.ndarray, np.ndarray]:
-        """Kane residual (scaled as in :meth:`node_residual`) of the motion resampled at
-        ``rate_hz``: q by a periodic cubic spline through the nodes, u and q̈ its derivatives,
-        τ linearly interpolated. Returns (times in s, residual (m, 9)). This measures how well a
+        """Kane residual (scaled as in :meth:`node_residual`, GRF from the contact model) of the
+        motion resampled at ``rate_hz``: q by a periodic cubic spline through the nodes, u and q̈
+        its derivatives, τ linearly interpolated (:meth:`~sspinn.trajectory.Trajectory.resample`
+        with ``method="spline"``). Returns (times in s, residual (m, 9)). This measures how well a
         smooth curve through the nodes obeys the dynamics between the nodes (discretisation
         error of the first-order collocation), not the constraint satisfaction."""
-        from scipy.interpolate import CubicSpline
-
-        t_nodes = np.append(self.time, self.duration)
-        q_per = self.q.copy()
-        q_per[:, 0] -= self.speed * self.time
-        spline = CubicSpline(t_nodes, np.vstack([q_per, q_per[:1]]), bc_type="periodic", axis=0)
         t = np.arange(0.0, self.duration, 1.0 / rate_hz)
-        q = spline(t)
-        u = spline(t, 1)
-        qdd = spline(t, 2)
-        q[:, 0] += self.speed * t
-        u[:, 0] += self.speed
-        tau = np.stack(
-            [np.interp(t, t_nodes, np.append(self.tau[:, j], self.tau[0, j])) for j in range(len(JOINTS))], axis=1
-        )
-        body = self.body
-        grf, w = dyn.contact_forces(q, u, body, self.contact_parameters)
-        r = dyn.kane_residual(q, u, qdd, tau, grf, w, body)
-        bw = body.body_weight
-        return t, r / np.array([bw, bw] + [bw * body.height] * (N_Q - 2))
+        smooth = self.resample(t, period=self.duration, speed=self.speed, method="spline")
+        return t, smooth.kane_residual(self.body, self.contact_parameters)
 
     def summary(self) -> dict[str, Any]:
         """Key numbers: status, iterations, times, duration, stride length, residuals, stance."""
@@ -210,11 +181,8 @@ class GaitSolution:
         """Write ``<path>.npz`` (arrays) and ``<path>.json`` (scalars, settings, summary of
         names and units). ``path`` may carry either suffix or none. Returns the npz path."""
         base = _base(path)
-        bad = [k for k in _ARRAYS if not np.isfinite(np.asarray(getattr(self, k), dtype=float)).all()]
-        if bad:
-            raise UserError(f"{base}: refusing to write a gait solution with non-finite {bad}")
-        base.parent.mkdir(parents=True, exist_ok=True)
-        np.savez(_with_ext(base, ".npz"), **{k: getattr(self, k) for k in _ARRAYS})
+        arrays = {k: getattr(self, k) for k in _ARRAYS}
+        save_npz(_with_ext(base, ".npz"), arrays, finite=_ARRAYS, what="a gait solution", label=base)
         meta = {
             "speed": self.speed,
             "duration": self.duration,
@@ -247,7 +215,7 @@ class GaitSolution:
                 "gravity": GRAVITY,
             },
         }
-        _with_ext(base, ".json").write_text(json.dumps(meta, indent=2, default=_json_default))
+        atomic_write_text(_with_ext(base, ".json"), json.dumps(meta, indent=2, default=_json_default))
         return _with_ext(base, ".npz")
 
     @classmethod
@@ -279,7 +247,10 @@ class GaitSolution:
             "settings",
             "contact",
         )
-        return cls(**arrays, **{k: meta[k] for k in fields}, starts=meta.get("starts", []))
+        try:
+            return cls(**arrays, **{k: meta[k] for k in fields}, starts=meta.get("starts", []))
+        except TrajectoryError as exc:  # arrays of the wrong shapes
+            raise TrajectoryError(f"{base}: not a readable gait solution: {exc}") from None
 
 
 def _base(path: str | Path) -> Path:

@@ -72,6 +72,7 @@ from sspinn import dynamics as dyn
 from sspinn.body import N_PARAMETERS, BodyParameters, JointLimits
 from sspinn.contact import ContactParameters
 from sspinn.conventions import N_Q, N_TAU
+from sspinn.trajectory import Trajectory
 
 #: Maximal nodes per stride of the compiled NLPs (h = 0.01 s: 0.24 … 1.6 s strides).
 DEFAULT_BUCKETS: Final[tuple[int, ...]] = (24, 28, 32, 37, 43, 50, 58, 67, 78, 90, 104, 120, 139, 160)
@@ -422,7 +423,7 @@ class StrideProblem:
             objective=float(out["f"]),
         )
         if np.all(np.isfinite(nodes)):
-            result.max_residual = float(np.abs(node_residual(q, u, qdd, tau, body, self.contact)).max())
+            result.max_residual = float(np.abs(stride_trajectory(q, u, qdd, tau, s.h, body, self.contact).kane_residual(body)).max())
             result.max_kinematic = float(np.abs(np.diff(np.vstack([q_prev, q]), axis=0) / s.h - u).max())
         return result
 
@@ -455,25 +456,19 @@ class StrideProblem:
         return nodes.ravel()
 
 
-def node_residual(
+def stride_trajectory(
     q: np.ndarray,
     u: np.ndarray,
     qdd: np.ndarray,
     tau: np.ndarray,
+    h: float,
     body: BodyParameters,
     contact: ContactParameters | None = None,
-    grf: np.ndarray | None = None,
-    w: np.ndarray | None = None,
-) -> np.ndarray:
-    """(T, 9) Kane residual at the samples (NumPy backend), scaled to BW (pelvis_tx, pelvis_ty
-    rows) and BW·H (rotational rows). GRF and w default to the contact model's values."""
-    if grf is None or w is None:
-        grf_c, w_c = dyn.contact_forces(q, u, body, contact if contact is not None else ContactParameters())
-        grf = grf_c if grf is None else grf
-        w = w_c if w is None else w
-    r = dyn.kane_residual(q, u, qdd, tau, grf, w, body)
-    bw = body.body_weight
-    return np.asarray(r) / np.array([bw, bw] + [bw * body.height] * (N_Q - 2))
+) -> Trajectory:
+    """Samples of the backward-Euler grid (a stride, a horizon or a whole chain) as a
+    :class:`~sspinn.trajectory.Trajectory` at times k·h (s), with the contact model's GRF and w
+    (default contact parameters if None); its Kane residual is what the NLP constrains."""
+    return Trajectory.from_contact_model(np.arange(len(q)) * h, q, u, qdd, tau, body, contact)
 
 
 class StrideSolverCache:

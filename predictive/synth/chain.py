@@ -8,7 +8,7 @@ constraints, objective, buckets and IPOPT's warm start are described there):
 
 * **Chaining.** Each stride starts from the *fixed* last sample of the previous one, so the
   recording is one backward-Euler trajectory whose Kane residual is zero to IPOPT's constraint
-  tolerance at every sample (:class:`ChainResult`).
+  tolerance at every sample (:class:`ChainResult`, a :class:`~sspinn.trajectory.Trajectory`).
 * **Horizon.** ``1 + lookahead`` strides; only the first is kept, the next horizon starts from
   its last node, and a solved lookahead stride is the next horizon's initial guess.
 * **Guesses and targets.** Otherwise the initial guess is the periodic reference
@@ -30,10 +30,10 @@ from typing import Final
 
 import numpy as np
 
-from predictive.ocp.stride_nlp import StridePlan, StrideResult, StrideSolverCache, node_residual
+from predictive.ocp.stride_nlp import StridePlan, StrideResult, StrideSolverCache, stride_trajectory
 from predictive.synth.periodic_reference import PeriodicReference, ReferenceStride, blend_into
-from sspinn import dynamics as dyn
 from sspinn.body import BodyParameters
+from sspinn.trajectory import Trajectory, save_npz
 
 #: IPOPT statuses accepted for a stride (the node residual is checked separately).
 ACCEPTED_STATUSES: Final = ("Solve_Succeeded",)
@@ -63,11 +63,13 @@ class StrideRecord:
     planned_speed: float = float("nan")
 
 
-@dataclass
-class ChainResult:
-    """A solved chain: the ground truth at every sample (units of :mod:`sspinn.conventions`).
+@dataclass(kw_only=True)
+class ChainResult(Trajectory):
+    """A solved chain: the ground truth at every sample, a :class:`~sspinn.trajectory.Trajectory`
+    (units of :mod:`sspinn.conventions`; built with keywords) with its chain's statistics.
 
     Attributes:
+        time: (T,) sample times k·h, s (the state before the first sample is at −h).
         q, u, qdd: (T, 9) coordinates, speeds (the collocation u) and accelerations (backward
             differences of u; the first uses ``u_prev``).
         tau: (T, 6) joint torques, N·m.
@@ -79,14 +81,10 @@ class ChainResult:
         h: time step, s.
         ended_early: empty, or why the chain ended before its last planned stride (every rung of
             the fallback ladder failed; see :func:`simulate_chain`).
+
+    The Kane residual of the stored labels is :meth:`~sspinn.trajectory.Trajectory.kane_residual`.
     """
 
-    q: np.ndarray
-    u: np.ndarray
-    qdd: np.ndarray
-    tau: np.ndarray
-    grf: np.ndarray
-    w: np.ndarray
     speed: np.ndarray
     stride: np.ndarray
     q_prev: np.ndarray
@@ -95,31 +93,18 @@ class ChainResult:
     h: float
     ended_early: str = ""
 
+    SAMPLE_SHAPES = {**Trajectory.SAMPLE_SHAPES, "speed": (), "stride": ()}
+    #: The arrays of the npz file (the cache's format: ``time`` is not stored, it is k·h).
     _ARRAYS = ("q", "u", "qdd", "tau", "grf", "w", "speed", "stride", "q_prev", "u_prev")
 
-    @property
-    def n_samples(self) -> int:
-        return self.q.shape[0]
-
-    def residual(self, body: BodyParameters) -> np.ndarray:
-        """(T, 9) Kane residual of the stored labels (q, u, q̈, τ, GRF, w), BW and BW·H."""
-        return node_residual(self.q, self.u, self.qdd, self.tau, body, grf=self.grf, w=self.w)
-
     def save(self, path: str | Path) -> Path:
-        """Write ``<path>.npz`` (arrays and the per-stride statistics as a structured array)."""
+        """Write ``<path>.npz`` (arrays and the per-stride statistics as a structured array),
+        atomically; refused if a sample value is not finite."""
         path = Path(path).with_suffix(".npz")
-        path.parent.mkdir(parents=True, exist_ok=True)
         stats = np.array([tuple(asdict(r).values()) for r in self.strides], dtype=_STRIDE_DTYPE)
-        tmp = path.with_name(path.stem + ".tmp.npz")
-        np.savez(
-            tmp,
-            h=self.h,
-            strides=stats,
-            ended_early=np.array(self.ended_early),
-            **{k: getattr(self, k) for k in self._ARRAYS},
-        )
-        tmp.replace(path)
-        return path
+        arrays = {"h": self.h, "strides": stats, "ended_early": np.array(self.ended_early)}
+        arrays |= {k: getattr(self, k) for k in self._ARRAYS}
+        return save_npz(path, arrays, finite=self._ARRAYS, what="a stride chain")
 
     @classmethod
     def load(cls, path: str | Path) -> ChainResult:
@@ -128,7 +113,10 @@ class ChainResult:
             strides = [
                 StrideRecord(**{name: row[name].item() for name in _STRIDE_DTYPE.names}) for row in data["strides"]
             ]
-            return cls(**arrays, strides=strides, h=float(data["h"]), ended_early=str(data["ended_early"]))
+            h = float(data["h"])
+            return cls(
+                time=np.arange(len(arrays["q"])) * h, **arrays, strides=strides, h=h, ended_early=str(data["ended_early"])
+            )
 
 
 _STRIDE_DTYPE = np.dtype(
@@ -279,7 +267,7 @@ def simulate_chain(
             solve_time=total_time,
             attempts=n_try,
             objective=result.objective,
-            max_residual=float(np.abs(node_residual(q, u, qdd, tau, body, solvers.contact)).max()),
+            max_residual=float(np.abs(stride_trajectory(q, u, qdd, tau, h, body, solvers.contact).kane_residual(body)).max()),
             fallback=rung,
             planned_speed=planned.speed,
         )
@@ -287,14 +275,8 @@ def simulate_chain(
         if on_stride is not None:
             on_stride(record)
     q, u, qdd, tau, speed, stride = (np.concatenate(parts) for parts in zip(*chunks))
-    grf, w = dyn.contact_forces(q, u, body, solvers.contact)
     return ChainResult(
-        q=q,
-        u=u,
-        qdd=qdd,
-        tau=tau,
-        grf=np.asarray(grf),
-        w=np.asarray(w),
+        **stride_trajectory(q, u, qdd, tau, h, body, solvers.contact).arrays(),
         speed=speed,
         stride=stride.astype(np.int64),
         q_prev=q0_prev,

@@ -13,9 +13,10 @@ it is dropped. Which rung solved each stride is in the recording's provenance
 * **IMUs**: :func:`sspinn.imu_errors.measure_imu` on the ground truth with the true body (noise,
   biases, drift, misplacement, soft-tissue artefact; the nominal placement
   ``IMUPlacement.default(height)`` is what the recording tells the estimator).
-* **Labels** (:func:`label_columns`): q, u (the collocation u), q̈ (backward differences of u),
-  τ, GRF and w (the contact model at the samples), speed (the stride's average pelvis speed,
-  exact by construction). :func:`residual_stats` is the Kane residual of the labels as stored.
+* **Labels** (:meth:`~sspinn.dataset.Labels.from_trajectory` of the chain): q, u (the
+  collocation u), q̈ (backward differences of u), τ, GRF and w (the contact model at the
+  samples), speed (the stride's average pelvis speed, exact by construction).
+  :func:`residual_stats` is the Kane residual of the labels as stored.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from typing import Final
 import numpy as np
 
 from predictive.ocp.solution import GaitSolution
-from predictive.ocp.stride_nlp import StridePlan, StrideSolverCache, node_residual
+from predictive.ocp.stride_nlp import StridePlan, StrideSolverCache
 from predictive.synth.cache import CODE_VERSION, GENERATOR_NAME, SynthCache, jsonable, stable_hash
 from predictive.synth.chain import FALLBACKS, ChainError, ChainResult, StrideRecord, simulate_chain
 from predictive.synth.config import SynthConfig
@@ -35,8 +36,9 @@ from predictive.synth.periodic_reference import PeriodicReference
 from predictive.synth.planning import plan_strides
 from predictive.synth.subjects import VirtualSubject
 from sspinn.body import BodyParameters, IMUPlacement
-from sspinn.conventions import COORDINATES, GRF, JOINTS, SEGMENTS
+from sspinn.conventions import SEGMENTS
 from sspinn.dataset import Labels, Recording
+from sspinn.errors import DataFormatError
 from sspinn.imu_errors import IMUErrorModel, measure_imu
 
 #: Stride plans tried per recording before giving up.
@@ -121,7 +123,7 @@ def cached_recording(
 ) -> Recording:
     """The (cached) recording of ``subject``'s program ``j`` from its solved ``chain`` (cache key
     ``chain_key``, stride plan ``attempt``): IMU data measured on the ground truth with the true
-    body and IMU error ``model``, the labels of :func:`label_columns`, the provenance (program,
+    body and IMU error ``model``, the chain's labels, the provenance (program,
     strides and their fallback rungs, gait statistics, ground truth) and the Kane residual of the
     labels as stored (:func:`residual_stats`)."""
     name = f"{subject.id}_{config.program_names[j]}"
@@ -152,7 +154,7 @@ def cached_recording(
             mass=subject.mass,
             subject=subject.id,
             placement=nominal_placement,
-            labels=Labels.from_columns(label_columns(chain), chain.n_samples),
+            labels=Labels.from_trajectory(chain, speed=chain.speed),
             provenance={
                 "generator": GENERATOR_NAME,
                 "code_version": CODE_VERSION,
@@ -195,29 +197,16 @@ def fallback_counts(strides: Sequence[StrideRecord]) -> dict[str, int]:
     return {rung: sum(r.fallback == rung for r in strides) for rung in FALLBACKS}
 
 
-def label_columns(chain: ChainResult) -> dict[str, np.ndarray]:
-    """The label columns (sspinn dataset names) of a chain."""
-    cols: dict[str, np.ndarray] = {}
-    for i, c in enumerate(COORDINATES):
-        cols[c] = chain.q[:, i]
-        cols[f"d_{c}"] = chain.u[:, i]
-        cols[f"dd_{c}"] = chain.qdd[:, i]
-    for j, name in enumerate(JOINTS):
-        cols[f"tau_{name}"] = chain.tau[:, j]
-    for i, name in enumerate(GRF):
-        cols[name] = chain.grf[:, i]
-    cols["w_r"], cols["w_l"] = chain.w[:, 0], chain.w[:, 1]
-    cols["speed"] = chain.speed
-    return cols
-
-
 def residual_stats(rec: Recording, body: BodyParameters) -> dict[str, float]:
     """Kane residual of a recording's labels with the true body: max and RMS of the translational
     rows (BW) and of the rotational rows (BW·H), and the sample count."""
-    lab = rec.labels
-    if lab is None or any(getattr(lab, g) is None for g in ("q", "u", "qdd", "tau", "grf", "w")):
-        raise ValueError(f"{rec.name}: the Kane residual needs the labels q, u, qdd, tau, grf and w")
-    r = node_residual(lab.q, lab.u, lab.qdd, lab.tau, body, grf=lab.grf, w=lab.w)
+    if rec.labels is None:
+        raise DataFormatError(f"{rec.name}: no labels (the Kane residual needs q, u, qdd, tau, grf and w)")
+    try:
+        trajectory = rec.labels.trajectory(rec.time)
+    except DataFormatError as exc:
+        raise DataFormatError(f"{rec.name}: {exc}") from None
+    r = trajectory.kane_residual(body)
     return {
         "max_trans_bw": float(np.abs(r[:, :2]).max()),
         "rms_trans_bw": float(np.sqrt(np.mean(r[:, :2] ** 2))),
