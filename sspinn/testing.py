@@ -13,6 +13,7 @@ import gzip
 import io
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -61,6 +62,17 @@ def walking_recording(n: int = 300, seed: int = 0) -> Recording:
         amp = {"pelvis": 1.0, "femur": 3.0, "tibia": 5.0, "foot": 8.0}[s.split("_")[0]]
         rec.imu[:, i, 2] = amp * np.sin(2 * np.pi * t / 1.1 + i)
     return rec
+
+
+def on_ground(q: np.ndarray, body: Any, clearance: float) -> np.ndarray:
+    """q shifted vertically so that the lowest heel/toe point is ``clearance`` m above ground."""
+    from sspinn import kinematics
+
+    pk = kinematics.point_kinematics(q, np.zeros(9), np.zeros(9), np.zeros(2), body)
+    rows = [kinematics.point_index(f"{pt}_{s}") for pt in ("heel", "toe") for s in "rl"]
+    q = q.copy()
+    q[1] += clearance - pk[rows, 1].min()
+    return q
 
 
 def edit_column(lines: list[str], column: str, fn: Callable[[float], float]) -> list[str]:

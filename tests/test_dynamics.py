@@ -10,22 +10,13 @@ from sspinn import dynamics, kinematics, passive, simulation
 from sspinn.contact import ContactParameters
 from sspinn.conventions import GRAVITY, index
 from sspinn.dynamics import StateError
-from sspinn.testing import random_inputs
+from sspinn.testing import on_ground, random_inputs
 
 
 def standing(body) -> np.ndarray:
     """Upright pose with the soles 1 mm above the ground."""
     q = np.zeros(9)
     q[1] = body.femur_r.length + body.tibia_r.length - body.foot_r.heel[1] + 1e-3
-    return q
-
-
-def on_ground(q: np.ndarray, body, clearance: float) -> np.ndarray:
-    """q shifted vertically so that the lowest heel/toe point is ``clearance`` m above ground."""
-    pk = kinematics.point_kinematics(q, np.zeros(9), np.zeros(9), np.zeros(2), body)
-    rows = [kinematics.point_index(f"{pt}_{s}") for pt in ("heel", "toe") for s in "rl"]
-    q = q.copy()
-    q[1] += clearance - pk[rows, 1].min()
     return q
 
 

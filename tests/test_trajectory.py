@@ -9,25 +9,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sspinn import dynamics, kinematics, simulation
+from sspinn import dynamics, simulation
 from sspinn.conventions import COORDINATES
 from sspinn.dataset import DataFormatError, Labels
-from sspinn.testing import random_inputs
+from sspinn.testing import on_ground, random_inputs
 from sspinn.trajectory import COLUMNS, FIELDS, Trajectory, TrajectoryError, residual_scale
 
 
 def random_trajectory(n: int = 12, seed: int = 0, dt: float = 0.01) -> Trajectory:
     x = random_inputs(np.random.default_rng(seed), (n,))
     return Trajectory(time=np.arange(n) * dt, **{k: x[k] for k in ("q", "u", "qdd", "tau", "grf", "w")})
-
-
-def on_ground(q: np.ndarray, body, clearance: float) -> np.ndarray:
-    """q shifted vertically so that the lowest heel/toe point is ``clearance`` m above ground."""
-    pk = kinematics.point_kinematics(q, np.zeros(9), np.zeros(9), np.zeros(2), body)
-    rows = [kinematics.point_index(f"{pt}_{s}") for pt in ("heel", "toe") for s in "rl"]
-    q = q.copy()
-    q[1] += clearance - pk[rows, 1].min()
-    return q
 
 
 @pytest.fixture(scope="module")

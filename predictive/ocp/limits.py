@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Final
 import numpy as np
 
 from sspinn.errors import UserError
+from sspinn.trajectory import first_non_finite
 
 if TYPE_CHECKING:
     from predictive.ocp.solution import GaitSolution
@@ -70,10 +71,9 @@ def check_body(height: float, mass: float) -> None:
 def solution_problems(sol: GaitSolution) -> list[str]:
     """Why ``sol`` is not an acceptable gait (empty if it is): non-finite values, a node residual
     above NODE_RESIDUAL_TOL, or a peak GRF above MAX_PEAK_GRF_BW."""
-    for name in ("q", "u", "tau", "grf"):
-        values = np.asarray(getattr(sol, name))
-        if not np.isfinite(values).all():
-            return [f"{name} has {int((~np.isfinite(values)).sum())} non-finite value(s)"]
+    bad = first_non_finite({name: getattr(sol, name) for name in ("q", "u", "tau", "grf")})
+    if bad is not None:
+        return [f"{bad[0]} has {bad[2]} non-finite value(s)"]
     problems = []
     residual = float(np.abs(sol.node_residual()).max())
     if not residual <= NODE_RESIDUAL_TOL:
