@@ -30,7 +30,7 @@ def run_drop_landing(
     sim_dt: float = 1e-4,
     stiffness: float = 8.0,
     damping: float = 0.2,
-) -> simulation.Trajectory:
+) -> simulation.Rollout:
     """Drop the body from ``drop_height`` m with PD joint control (gains in N·m/rad and
     N·m·s/rad per kg body mass) holding the initial crouch; returns the sampled trajectory.
     The PD torque is held over each ``control_dt``; with these gains that interval must stay
@@ -59,10 +59,10 @@ def run_drop_landing(
         G.append(grf)
         T.append(tau)
     T.append(np.zeros(6))
-    return simulation.Trajectory(t=np.arange(n + 1) * control_dt, q=np.array(Q), u=np.array(U), grf=np.array(G), tau=np.array(T))
+    return simulation.Rollout(t=np.arange(n + 1) * control_dt, q=np.array(Q), u=np.array(U), grf=np.array(G), tau=np.array(T))
 
 
-def plot_trajectory(traj: simulation.Trajectory, body: BodyParameters, path: Path) -> None:
+def plot_trajectory(traj: simulation.Rollout, body: BodyParameters, path: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")

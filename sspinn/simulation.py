@@ -203,8 +203,10 @@ def _rollout(q0, u0, torques, passive, p, c, dt, substeps, method, with_contact)
 
 
 @dataclass(frozen=True)
-class Trajectory:
-    """A simulated motion sampled every ``substeps · dt`` seconds.
+class Rollout:
+    """A simulated motion sampled every ``substeps · dt`` seconds: what the integrator hands
+    back (no q̈ or contact fractions, τ held over intervals), not the analysis type
+    :class:`sspinn.trajectory.Trajectory` (which has them).
 
     Attributes: t (n,) s; q, u (n, 9); grf (n, 4) N (zero without contact); tau (n, 6) N·m
     (the actuator torque held during the interval that starts at each sample, without passive
@@ -242,7 +244,7 @@ def simulate(
     contact: ContactParameters | np.ndarray | None = ContactParameters(),  # noqa: B008 (frozen, immutable)
     method: str = "rk4",
     passive: np.ndarray | None = None,
-) -> Trajectory:
+) -> Rollout:
     """Integrate the model from (q0, u0) for ``duration`` seconds (a compiled loop over :func:`advance`).
 
     Args:
@@ -275,7 +277,7 @@ def simulate(
         sample_dt / substeps, substeps, _method_index(method), with_contact,
     )
     tau = np.vstack([torques, np.zeros((1, N_TAU))])
-    return Trajectory(t=np.arange(n + 1) * sample_dt, q=Q, u=U, grf=G, tau=tau)
+    return Rollout(t=np.arange(n + 1) * sample_dt, q=Q, u=U, grf=G, tau=tau)
 
 
 def step(
