@@ -59,15 +59,8 @@ import casadi as ca
 import numpy as np
 
 from predictive.ocp import perturbation
+from predictive.ocp import settings as ocp
 from predictive.ocp.collocation import OCPSettings
-from predictive.ocp.settings import (
-    ACC_SCALE,
-    ProblemSettings,
-    acceleration_regularisation,
-    default_joint_limits,
-    nlp_scales,
-    strength_scaled,
-)
 from sspinn import dynamics as dyn
 from sspinn.body import N_PARAMETERS, BodyParameters, JointLimits
 from sspinn.contact import ContactParameters
@@ -98,7 +91,7 @@ def bucket_for(n_nodes: int, buckets: Sequence[int] = DEFAULT_BUCKETS) -> int:
 
 
 @dataclass(frozen=True, kw_only=True)
-class StrideSettings(ProblemSettings):
+class StrideSettings(ocp.ProblemSettings):
     """Settings of the stride OCPs (shared by every stride of a dataset; keyword-only): the
     stride problem's own fields below plus the model, bounds, effort and IPOPT fields of
     :class:`~predictive.ocp.settings.ProblemSettings` (``tau_max``, ``tau_bound``, ``w_acc``,
@@ -266,10 +259,10 @@ class StrideProblem:
         self.n = sum(self.buckets)
         self.settings = settings
         self.contact = contact if contact is not None else ContactParameters()
-        self.joint_limits = joint_limits if joint_limits is not None else default_joint_limits()
+        self.joint_limits = joint_limits if joint_limits is not None else ocp.default_joint_limits()
         self.ipopt_options = dict(ipopt_options or {})
         self.params = _ParamLayout(len(self.buckets), self.n)
-        self.a_scale = np.full(N_Q, ACC_SCALE)
+        self.a_scale = np.full(N_Q, ocp.ACC_SCALE)
         t0 = time.perf_counter()
         self._solver = self._build()
         self.build_time = time.perf_counter() - t0
@@ -298,8 +291,8 @@ class StrideProblem:
         res = dyn.kane_residual(q, u, a, tn * tau_max, grf, w, body) / res_scale
         g_active = ca.vertcat(((q_rel - q_prev_rel) / s.h - u) / us, ((u - u_prev) / s.h - a) / as_, res)
         g_copy = ca.vertcat((q_rel - q_prev_rel) / (s.h * us), (u - u_prev) / (s.h * as_), z[2 * N_Q : 3 * N_Q])
-        te = strength_scaled(tn, q, s.ankle_strength_slope)
-        effort = ca.dot(c, te**2) + s.w_acc * acceleration_regularisation(a, T)
+        te = ocp.strength_scaled(tn, q, s.ankle_strength_slope)
+        effort = ca.dot(c, te**2) + s.w_acc * ocp.acceleration_regularisation(a, T)
         g = active * g_active + (1 - active) * g_copy
         cost = active * effort * inv_n + (1 - active) * 1e-3 * ca.sumsqr(tn)
         return ca.Function("stride_node", [z, zp, body, res_scale, tau_max, us, x0, npar], [g, cost])
@@ -336,7 +329,7 @@ class StrideProblem:
     def scales(self, body: BodyParameters, speed: float) -> dict[str, np.ndarray]:
         """Residual (N, N·m), torque (N·m) and speed (m/s, rad/s) scales of ``body`` at ``speed``
         (:func:`~predictive.ocp.settings.nlp_scales`)."""
-        return nlp_scales(self.settings, body, speed)
+        return ocp.nlp_scales(self.settings, body, speed)
 
     def solve(
         self,

@@ -17,13 +17,15 @@ import shutil
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Final
+from typing import Any, Final, TypeVar
 
 import numpy as np
 
 from predictive.ocp.solution import GaitSolution
 from predictive.synth.chain import ChainResult
 from sspinn.dataset import Recording
+
+T = TypeVar("T")
 
 #: Bump when the generator's output for the same configuration changes (invalidates the caches).
 CODE_VERSION: Final = 3
@@ -83,23 +85,21 @@ class SynthCache:
 
     def periodic(self, key: str, solve: Callable[[], GaitSolution]) -> GaitSolution:
         path = self.root / "periodic" / key
-        if path.with_name(key + ".npz").exists() and path.with_name(key + ".json").exists():
-            self.stats.periodic_hits += 1
-            return GaitSolution.load(path)
-        sol = solve()
-        sol.save(path)
-        self.stats.periodic_solved += 1
-        return sol
+        present = all(path.with_name(key + ext).exists() for ext in (".npz", ".json"))
+        return self._load_or_solve("periodic", present, lambda: GaitSolution.load(path), solve, lambda s: s.save(path))
 
     def chain(self, key: str, solve: Callable[[], ChainResult]) -> ChainResult:
         path = self.root / "chains" / f"{key}.npz"
-        if path.exists():
-            self.stats.chain_hits += 1
-            return ChainResult.load(path)
-        result = solve()
-        result.save(path)
-        self.stats.chain_solved += 1
-        return result
+        return self._load_or_solve("chain", path.exists(), lambda: ChainResult.load(path), solve, lambda c: c.save(path))
+
+    def _load_or_solve(self, kind: str, present: bool, load: Callable[[], T], solve: Callable[[], T], save: Callable[[T], object]) -> T:
+        """The cached ``kind`` (counted as a hit) or a fresh solution, saved (counted as solved)."""
+        value = load() if present else solve()
+        if not present:
+            save(value)
+        counter = f"{kind}_hits" if present else f"{kind}_solved"
+        setattr(self.stats, counter, getattr(self.stats, counter) + 1)
+        return value
 
     def recording(self, key: str, name: str, make: Callable[[], Recording]) -> Recording:
         folder = self.root / "recordings" / key
