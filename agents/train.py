@@ -23,6 +23,7 @@ import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.logger import configure as configure_logger
 from stable_baselines3.common.noise import NormalActionNoise
 from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv, VecNormalize
@@ -237,6 +238,9 @@ def _train(config: AgentConfig, out: Path, resume: bool) -> BaseAlgorithm:
             policy_kwargs=policy_kwargs(config), verbose=config.logging.verbose,
             **algorithm_kwargs(config, venv.action_space.shape[0]),
         )
+
+    if tensorboard_log is None:  # else SB3 makes an empty SB3-<time> folder in the system's temp dir per run
+        model.set_logger(configure_logger(str(run_dir), ["stdout"] if config.logging.verbose else []))
 
     # 4. callbacks: periodic checkpoints (+ VecNormalize, replay buffer) and evaluations
     callbacks: list[BaseCallback] = [
