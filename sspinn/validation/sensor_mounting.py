@@ -44,13 +44,18 @@ GAIT_COLUMNS = ("time", *COORDINATES, *(f"d_{c}" for c in COORDINATES), *(f"dd_{
 
 @dataclass(frozen=True)
 class OutOfPlane:
-    """Out-of-plane motion and sensor noise of the synthetic sensors (units in the names)."""
+    """Out-of-plane motion and sensor noise of the synthetic sensors."""
 
     angle_rms_deg: float = 2.0
+    """RMS of the out-of-plane roll and twist of each sensor, degrees."""
     acc_rms: float = 0.5
+    """RMS of the band-limited out-of-plane acceleration (0.5–10 Hz, along the sensor z), m/s²."""
     gyro_bias_rad_s: float = 0.02
+    """Standard deviation of the constant gyroscope bias drawn per axis, rad/s."""
     acc_noise: float = 0.05
+    """White accelerometer noise, m/s² RMS."""
     gyro_noise: float = 0.01
+    """White gyroscope noise, rad/s RMS."""
 
 
 class Gait(NamedTuple):
