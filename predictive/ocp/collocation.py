@@ -538,7 +538,7 @@ class PredictiveGaitProblem:
             )
             for start in starts
         ]
-        best = min(range(len(solutions)), key=lambda i: (not solutions[i].success, solutions[i].objective))
+        best = min(range(len(solutions)), key=lambda i: solutions[i].start_rank)
         sol = solutions[best]
         sol.starts = [
             {**start.describe(), "status": s.status, "objective": s.objective, "iterations": s.iterations, "chosen": i == best}

@@ -234,10 +234,11 @@ def heel_strike_offset(sol: GaitSolution) -> float:
 
 
 def _start_rank(sol: GaitSolution, heel_strike_tolerance: float | None) -> tuple[bool, bool, float]:
-    """Sort key of a multi-start: successful first, then (with a tolerance) solutions whose right
-    heel strike lies at the data's first sample, then the lowest objective."""
+    """:attr:`GaitSolution.start_rank` with, between success and objective, (with a tolerance)
+    solutions whose right heel strike lies at the data's first sample first."""
     off_phase = heel_strike_tolerance is not None and heel_strike_offset(sol) > heel_strike_tolerance
-    return (not sol.success, off_phase, sol.objective)
+    failed, objective = sol.start_rank
+    return (failed, off_phase, objective)
 
 
 def _imu_scales(

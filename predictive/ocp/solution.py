@@ -91,6 +91,11 @@ class GaitSolution(Trajectory):
         return self.status == "Solve_Succeeded"
 
     @property
+    def start_rank(self) -> tuple[bool, float]:
+        """Sort key of a multi-start: successful solutions first, then the lowest objective."""
+        return (not self.success, self.objective)
+
+    @property
     def stride_length(self) -> float:
         """Distance travelled per cycle, m (speed × duration)."""
         return self.speed * self.duration

@@ -428,7 +428,7 @@ def solve_tracking(
         else:
             sol = problem.solve(g, **kw)
         results.append(problem.result(sol))
-    best = min(results, key=lambda r: (not r.solution.success, r.solution.objective))
+    best = min(results, key=lambda r: r.solution.start_rank)
     if multi:
         if raise_on_failure and not best.solution.success:
             message = f"no start of the tracking problem succeeded (best status {best.solution.status})"
