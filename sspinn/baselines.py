@@ -118,3 +118,78 @@ class TrivialPredictor:
             ankle=np.zeros((T, 2, 6)),
             mu_hat=np.zeros((T, 2)),
         )
+
+
+@dataclass(frozen=True)
+class GRFProfilePredictor:
+    """The reference recordings' mean GRF **profile** over the gait cycle, placed at a recording's
+    *measured* heel strikes: a template predictor with oracle timing.
+
+    Per foot, every stride of the reference recordings (heel strike to heel strike of that foot,
+    :func:`sspinn.gait_events.detect_events` on the measured vertical GRF; strides of 0.3–3 s) is
+    time-normalised to 101 points and divided by body weight; ``profile`` (2 feet, 101, 2: x, y)
+    is their mean. :meth:`predict_grf` stretches it between the recording's own measured heel
+    strikes — it ignores the IMU data but is told when each stride starts and ends, so its error
+    is what the *shape* of an average stride leaves, a harder baseline than the constant mean GRF
+    (:class:`TrivialPredictor`). Samples outside a complete stride get the constant mean
+    (``mean_bw`` (4,), body weights). Fitted on labelled GRFs only.
+    """
+
+    profile: np.ndarray
+    mean_bw: np.ndarray
+    strides: int
+    source: str
+
+    @classmethod
+    def fit(cls, recordings: Sequence[Recording], source: str) -> GRFProfilePredictor:
+        """Mean stride profile of the recordings' GRF labels.
+
+        Raises:
+            ValueError: no recording has GRF labels with a complete stride on both feet.
+        """
+        cycles: list[list[np.ndarray]] = [[], []]
+        means = []
+        for rec in recordings:
+            if rec.labels is None or rec.labels.grf is None:
+                continue
+            grf_bw = rec.labels.grf / (rec.mass * GRAVITY)
+            means.append(grf_bw)
+            for foot, (a, b) in enumerate(_strides(rec)):
+                cycles[foot] += [_normalise(grf_bw[s : e + 1, 2 * foot : 2 * foot + 2]) for s, e in zip(a, b)]
+        if not cycles[0] or not cycles[1]:
+            raise ValueError(f"{source}: no complete stride on both feet in the GRF labels to fit a GRF profile on")
+        profile = np.stack([np.mean(c, axis=0) for c in cycles])
+        return cls(profile, np.concatenate(means).mean(0), min(len(c) for c in cycles), source)
+
+    def predict_grf(self, rec: Recording) -> np.ndarray:
+        """(T, 4) GRF (N) of ``rec``: the profile between its measured heel strikes."""
+        if rec.labels is None or rec.labels.grf is None:
+            raise ValueError(f"{rec.name}: the GRF profile is placed at the measured heel strikes; the recording has no GRF labels")
+        bw = rec.mass * GRAVITY
+        out = np.tile(self.mean_bw, (rec.n_samples, 1))
+        for foot, (a, b) in enumerate(_strides(rec)):
+            for s, e in zip(a, b):
+                grid = np.linspace(0, 1, e - s + 1)
+                out[s : e + 1, 2 * foot : 2 * foot + 2] = np.column_stack(
+                    [np.interp(grid, np.linspace(0, 1, 101), self.profile[foot, :, k]) for k in range(2)])
+        return out * bw
+
+
+def _strides(rec: Recording) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per foot (right, left): (start, end) sample indices of the strides of the measured GRF."""
+    from sspinn.gait_events import detect_events
+
+    assert rec.labels is not None and rec.labels.grf is not None
+    out = []
+    for foot in range(2):
+        hs = detect_events(rec.labels.grf[:, 2 * foot + 1], rec.mass * GRAVITY, SAMPLE_RATE_HZ).heel_strikes
+        keep = (np.diff(hs) >= 0.3 * SAMPLE_RATE_HZ) & (np.diff(hs) <= 3 * SAMPLE_RATE_HZ)
+        out.append((hs[:-1][keep], hs[1:][keep]))
+    return out
+
+
+def _normalise(signal: np.ndarray, points: int = 101) -> np.ndarray:
+    """(points, n) of a (T, n) signal time-normalised to 0–100 %."""
+    grid = np.linspace(0, 1, points)
+    t = np.linspace(0, 1, len(signal))
+    return np.column_stack([np.interp(grid, t, signal[:, k]) for k in range(signal.shape[1])])

@@ -255,7 +255,7 @@ def write_report(
         result["baseline_source"] = baseline.source
         result["by_program"] = comparison
     # a metric without the labels it needs is NaN: written as null (valid JSON), never as NaN
-    (out / "metrics.json").write_text(json.dumps(_finite_or_null(result), indent=2, allow_nan=False))
+    (out / "metrics.json").write_text(json.dumps(finite_or_null(result), indent=2, allow_nan=False))
     return result
 
 
@@ -263,12 +263,12 @@ def _cell(value: float, fmt: str) -> str:
     return format(value, fmt) if np.isfinite(value) else "n/a"
 
 
-def _finite_or_null(value: Any) -> Any:
+def finite_or_null(value: Any) -> Any:
     """``value`` with every non-finite float replaced by None (JSON null), recursively."""
     if isinstance(value, dict):
-        return {k: _finite_or_null(v) for k, v in value.items()}
+        return {k: finite_or_null(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_finite_or_null(v) for v in value]
+        return [finite_or_null(v) for v in value]
     if isinstance(value, float) and not np.isfinite(value):
         return None
     return value

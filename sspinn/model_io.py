@@ -17,7 +17,7 @@ import torch
 
 from sspinn.conventions import SEGMENTS
 from sspinn.model_file import CHECKPOINT, MODEL, ModelFileError, check_finite_weights, load_torch_file, save_torch_file
-from sspinn.network import NetworkConfig, SSPINNposeNet
+from sspinn.network import NetworkConfig, SSPINNposeNet, feature_std_floor
 
 #: Entries of a model file (a checkpoint has them too, and can be used as a model).
 MODEL_ENTRIES: tuple[str, ...] = ("model", "hyperparameters", "segments", "config", "imu_std")
@@ -80,6 +80,8 @@ def load_model(path: str | Path, device: str | torch.device = "cpu") -> tuple[SS
     unknown = [s for s in segments if s not in SEGMENTS]
     if unknown or not isinstance(state["config"], dict):
         raise ModelFileError(f"{path}: unknown IMU segments {unknown} or a damaged config entry; {MODEL_HINT}")
+    if model.n_inputs == len(feature_std_floor(segments)):  # files from before the floor: apply it (idempotent)
+        model.set_normalisation(model.input_mean.clone(), model.input_std.clone(), feature_std_floor(segments))
     model.to(device).eval()
     return model, segments, state["config"]
 

@@ -81,6 +81,19 @@ def input_features(imu: np.ndarray, height: float, mass: float, placement: np.nd
     return np.concatenate([imu.reshape(T, -1), np.broadcast_to(consts, (T, consts.size))], axis=1)
 
 
+#: Normalisation std of an input feature that was constant in training (see
+#: :meth:`SSPINNposeNet.set_normalisation`).
+UNSEEN_STD: float = 1e9
+
+
+def feature_std_floor(segments: tuple[str, ...]) -> torch.Tensor:
+    """Smallest normalisation std of each :func:`input_features` column: 0.1 for the IMU
+    channels (m/s², rad/s), 0.05 m for the height, 5 kg for the mass, and 0.02 m / 0.05 rad for
+    the placement positions / angles."""
+    n = len(segments)
+    return torch.tensor([0.1] * 3 * n + [0.05, 5.0] + [0.02, 0.02, 0.05] * n, dtype=torch.float32)
+
+
 class SSPINNposeNet(nn.Module):
     """LSTM → dense(128) → 46 outputs per time step (see the module docstring).
 
@@ -106,10 +119,20 @@ class SSPINNposeNet(nn.Module):
         self.register_buffer("input_mean", torch.zeros(n_inputs))
         self.register_buffer("input_std", torch.ones(n_inputs))
 
-    def set_normalisation(self, mean: torch.Tensor, std: torch.Tensor) -> None:
-        """Per-feature statistics of the training inputs (std floored at 1e-6)."""
+    def set_normalisation(self, mean: torch.Tensor, std: torch.Tensor, floor: torch.Tensor | None = None) -> None:
+        """Per-feature statistics of the training inputs, the std at least ``floor``
+        (:func:`feature_std_floor`).
+
+        A feature that did not vary in training at all (std ≤ 1e-6 × max(1, |mean|), e.g. the
+        IMU placement when every training recording has the same) gets std :data:`UNSEEN_STD`:
+        the network sees 0 for it whatever its value, since it cannot have learned what a change
+        of it means. The floor keeps a feature that varied little in training (four synthetic
+        subjects of 1.77 ± 0.01 m) from becoming an input of 13 σ on a 1.90 m subject, which
+        saturated the LSTM on real data."""
         self.input_mean.copy_(mean)
-        self.input_std.copy_(std.clamp_min(1e-6))
+        constant = std <= 1e-6 * mean.abs().clamp_min(1.0)
+        floored = std if floor is None else torch.maximum(std, floor.to(std))
+        self.input_std.copy_(torch.where(constant, torch.full_like(std, UNSEEN_STD), floored))
 
     def forward(
         self, x: torch.Tensor, state: tuple[torch.Tensor, torch.Tensor] | None = None

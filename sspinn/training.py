@@ -34,7 +34,7 @@ from sspinn.interrupt import DeferredInterrupt
 from sspinn.losses import Batch, LossWeights, PhysicsLosses
 from sspinn.model_file import CHECKPOINT, MODEL, ModelFileError, check_finite_weights, load_torch_file, save_torch_file
 from sspinn.model_io import MODEL_ENTRIES, MODEL_HINT, load_weights, save_model
-from sspinn.network import NetworkConfig, SSPINNposeNet, decode, input_features, output_affine
+from sspinn.network import NetworkConfig, SSPINNposeNet, decode, feature_std_floor, input_features, output_affine
 from sspinn.run_folder import RunLock, atomic_write_text
 from sspinn.yaml_config import load_config
 
@@ -285,7 +285,8 @@ class Trainer:
             for d in self.data
         ])
         self.model = SSPINNposeNet(feats.shape[1], cfg.network).to(self.device)
-        self.model.set_normalisation(torch.as_tensor(feats.mean(0), dtype=torch.float32), torch.as_tensor(feats.std(0), dtype=torch.float32))
+        self.model.set_normalisation(torch.as_tensor(feats.mean(0), dtype=torch.float32),
+                                     torch.as_tensor(feats.std(0), dtype=torch.float32), feature_std_floor(self.segments))
         self.noise_std = torch.as_tensor(feats.std(0), dtype=torch.float32, device=self.device)
         self.noise_std[3 * len(self.segments):] = 0.0  # no noise on the constants
         # learnable IMU placement per recording (the paper's placement optimisation)

@@ -1,0 +1,290 @@
+"""SSPINNpose on real continuous IMU recordings: the CMU treadmill benchmark (issue #13, part 5).
+
+Six adults walked ~60 s on an instrumented treadmill at 0.72–0.78 m/s, normally (``CSBaseline``)
+and with a mock stiff knee (``CSStiffKnee``), with 8 Xsens IMUs in unknown mountings
+(``../shared/data/cmu_treadmill_imu_grf``). Top to bottom:
+
+1. **Import** every trial with :func:`sspinn.imu_import.import_imu` (calibration onto the sagittal
+   plane from the data, GRF aligned by cross-correlation, belt speed as the speed label):
+   Sub01–Sub04 into the train split, Sub05–Sub06 into the test split. Cached: a trial already
+   imported by this importer version is reused.
+2. **Three starts**, each evaluated on Sub05–Sub06, which none of them trained on:
+   ``scratch`` (self-supervised training on the real training trials, no labels),
+   ``zero_shot`` (the model ``make demo`` trains on synthetic data only, ``--pretrained``) and
+   ``finetune`` (that model, fine-tuned self-supervised on the real training trials; the CLI's
+   ``sspinn finetune``). Both trainings use the demo configuration with ``--steps`` steps; they
+   stop on the step count, continue from their checkpoint when rerun, and can run as two
+   processes side by side (``--arms scratch`` and ``--arms finetune``, one thread each).
+3. **Metrics** over each aligned test trial after a 1 s warm-up: vertical and horizontal GRF RMSE
+   (%BW, both feet), heel-strike and toe-off timing error (ms; :mod:`sspinn.gait_events`, 5 %BW
+   threshold on estimated and measured force alike), and the speed error against the belt speed.
+   Beside them the baselines, on the same samples: the training subjects' constant mean GRF and
+   mean speed (:class:`sspinn.baselines.TrivialPredictor`), and their mean GRF profile placed at
+   the test trial's measured heel strikes (:class:`sspinn.baselines.GRFProfilePredictor`, oracle
+   timing, per condition). Targets (issue #13): GRF RMSE ≤ 15 %BW, heel-strike timing ≤ 30 ms,
+   speed error ≤ 0.10 m/s.
+4. **Report**: ``<out>/report.md`` (tables per trial and per condition, verdicts), ``metrics.json``,
+   and plots of estimated vs measured GRF over a few strides (``<out>/plots``).
+
+Usage: ``python benchmarks/bench_cmu_continuous.py [--out results/cmu] [--pretrained
+results/demo/run/model.pt] [--steps 6000] [--arms scratch finetune zero_shot] [--threads 1]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from sspinn.baselines import GRFProfilePredictor, TrivialPredictor
+from sspinn.conventions import GRAVITY
+from sspinn.dataset import SAMPLE_RATE_HZ, Dataset, Recording
+from sspinn.evaluation import finite_or_null
+from sspinn.gait_events import detect_events, event_timing
+from sspinn.imu_import import IMPORTER_VERSION, import_imu
+from sspinn.inference import GaitEstimate, estimate_recording
+from sspinn.model_io import load_model
+from sspinn.training import TrainConfig, Trainer
+
+REPO = Path(__file__).resolve().parents[1]
+TRAIN_SUBJECTS = ("Sub01", "Sub02", "Sub03", "Sub04")
+TEST_SUBJECTS = ("Sub05", "Sub06")
+CONDITIONS = {"CSBaseline": "normal walking", "CSStiffKnee": "stiff-knee walking"}
+ARMS = ("scratch", "zero_shot", "finetune")
+WARMUP = 100  # samples (1 s) of LSTM warm-up left out of every metric
+TARGETS = {"grf_rmse": 15.0, "hs_ms": 30.0, "speed": 0.10}
+EVENT_WINDOW_S = 0.3  # an estimated event further than this from the measured one counts as missed
+
+
+# ------------------------------------------------------------------------------------- 1. import
+def import_trials(source: Path, data: Path) -> None:
+    """Import every trial of ``source`` into the dataset folder ``data`` (cached)."""
+    with open(source / "subjects.csv", newline="") as fh:
+        subjects = {row["subject"]: row for row in csv.DictReader(fh)}
+    for subject in (*TRAIN_SUBJECTS, *TEST_SUBJECTS):
+        row = subjects[subject]
+        for condition in CONDITIONS:
+            name = f"{subject}_{condition}"
+            sidecar = data / f"{name}.json"
+            if sidecar.exists() and json.loads(sidecar.read_text()).get("provenance", {}).get("importer_version") == IMPORTER_VERSION:
+                continue
+            folder = source / subject / condition
+            start = time.perf_counter()
+            result = import_imu(
+                [folder / f"OpenSim_{subject}_{condition}_Accel.trc.gz"], REPO / "configs/sensor_maps/cmu_treadmill.yaml",
+                float(row["height_m"]), float(row["mass_kg"]), data, subject=subject, name=name,
+                grf=folder / f"OpenSim_{subject}_{condition}_GRF.mot.gz", speed=float(row["treadmill_speed_mps"]),
+                split="train" if subject in TRAIN_SUBJECTS else "test",
+            )
+            lag = result.alignment.lag_s if result.alignment else float("nan")
+            print(f"imported {name}: {result.recording.duration:.1f} s, GRF lag {lag:+.3f} s "
+                  f"({time.perf_counter() - start:.1f} s)", flush=True)
+
+
+# ------------------------------------------------------------------------------------- 2. train
+def train_arm(arm: str, train: list[Recording], out: Path, steps: int, threads: int, pretrained: Path) -> Path:
+    """Train one arm (``scratch`` or ``finetune``) to ``steps`` steps; returns its model file."""
+    run = out / arm
+    summary = run / "training_summary.json"
+    if summary.exists() and json.loads(summary.read_text())["steps"] >= steps:
+        return run / "model.pt"
+    config = TrainConfig.from_yaml(REPO / "configs/sspinn/demo.yaml", steps=steps, threads=threads, time_limit_s=4 * 3600.0)
+    config.finetune = arm == "finetune"
+    resume = (run / "checkpoint.pt").exists()
+    trainer = Trainer(config, run)
+    trainer.fit(train, resume=resume, init_from=None if resume or arm == "scratch" else pretrained)
+    print(f"{arm}: {trainer.step} steps ({trainer.stopped_by}) → {run / 'model.pt'}", flush=True)
+    return run / "model.pt"
+
+
+# ------------------------------------------------------------------------------------ 3. metrics
+def grf_rmse_pct(est: np.ndarray, ref: np.ndarray, columns: list[int], mass: float) -> float:
+    """RMSE of GRF columns (N) pooled over both feet, %BW."""
+    return float(100 * np.sqrt(np.mean((est[:, columns] - ref[:, columns]) ** 2)) / (mass * GRAVITY))
+
+
+def trial_metrics(grf: np.ndarray, speed: float | None, rec: Recording) -> dict[str, float]:
+    """Metrics of an estimated GRF (T, 4) (and mean speed, m/s) against ``rec``'s labels."""
+    assert rec.labels is not None and rec.labels.grf is not None and rec.labels.speed is not None
+    sl = slice(WARMUP, None)
+    ref, est = rec.labels.grf[sl], grf[sl]
+    out = {"vertical": grf_rmse_pct(est, ref, [1, 3], rec.mass), "horizontal": grf_rmse_pct(est, ref, [0, 2], rec.mass),
+           "all": grf_rmse_pct(est, ref, [0, 1, 2, 3], rec.mass)}
+    bw = rec.mass * GRAVITY
+    for kind in ("heel_strikes", "toe_offs"):
+        timings = [event_timing(getattr(detect_events(est[:, 2 * f + 1], bw, SAMPLE_RATE_HZ), kind),
+                                getattr(detect_events(ref[:, 2 * f + 1], bw, SAMPLE_RATE_HZ), kind), SAMPLE_RATE_HZ,
+                                EVENT_WINDOW_S) for f in range(2)]
+        matched = sum(t.matched for t in timings)
+        key = "hs" if kind == "heel_strikes" else "to"
+        out[f"{key}_ms"] = float(sum(t.mean_abs_ms * t.matched for t in timings if t.matched) / matched) if matched else float("nan")
+        out[f"{key}_bias_ms"] = float(sum(t.bias_ms * t.matched for t in timings if t.matched) / matched) if matched else float("nan")
+        out[f"{key}_matched"] = matched / max(1, sum(t.n_reference for t in timings))
+        out[f"{key}_extra"] = sum(t.n_estimated for t in timings) - matched
+    if speed is not None:
+        out["speed"] = speed
+        out["speed_error"] = abs(speed - float(np.mean(rec.labels.speed[sl])))
+    return out
+
+
+def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recording]) -> tuple[dict, dict[str, dict[str, GaitEstimate]]]:
+    """Per trial: the metrics of every arm and of the baselines; and the estimates (for plots)."""
+    trivial = TrivialPredictor.fit(train, "the training subjects' labels (Sub01–Sub04)")
+    profiles = {c: GRFProfilePredictor.fit([r for r in train if r.name.endswith(c)], f"training subjects, {c}") for c in CONDITIONS}
+    results: dict[str, dict] = {}
+    estimates: dict[str, dict[str, GaitEstimate]] = {}
+    loaded = {arm: load_model(path) for arm, path in models.items()}
+    for rec in test:
+        condition = next(c for c in CONDITIONS if rec.name.endswith(c))
+        base = trivial.predict(rec)
+        row = {"belt_speed": float(np.mean(rec.labels.speed)) if rec.labels and rec.labels.speed is not None else None,
+               "constant mean GRF / mean speed": trial_metrics(base.grf, float(np.mean(base.u[:, 0])), rec),
+               "mean GRF profile (measured timing)": trial_metrics(profiles[condition].predict_grf(rec), None, rec)}
+        estimates[rec.name] = {}
+        for arm, (model, segments, _) in loaded.items():
+            est = estimate_recording(model, rec, segments)
+            estimates[rec.name][arm] = est
+            row[arm] = trial_metrics(est.grf, float(np.mean(est.u[WARMUP:, 0])), rec)
+        results[rec.name] = row
+    return results, estimates
+
+
+# ------------------------------------------------------------------------------------- 4. report
+def plot_trial(path: Path, rec: Recording, estimates: dict[str, GaitEstimate], profile: np.ndarray) -> None:
+    """Right foot's vertical and horizontal GRF over ~4 strides from 20 s: every arm vs measured."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from sspinn.plotting import save_figure
+
+    assert rec.labels is not None and rec.labels.grf is not None
+    sl = slice(2000, min(rec.n_samples, 2550))
+    t = rec.time[sl]
+    bw = rec.mass * GRAVITY
+    fig, axes = plt.subplots(2, 1, figsize=(11, 6), sharex=True)
+    for ax, col, label in ((axes[0], 1, "vertical"), (axes[1], 0, "horizontal (anterior +)")):
+        ax.plot(t, rec.labels.grf[sl, col] / bw, color="k", lw=2, label="measured (treadmill)")
+        ax.plot(t, profile[sl, col] / bw, color="0.6", ls="--", label="mean profile, measured timing")
+        for arm, est in estimates.items():
+            ax.plot(t, est.grf[sl, col] / bw, label=arm)
+        ax.set_ylabel(f"right GRF {label} (BW)")
+    axes[0].legend(fontsize=8, ncol=3)
+    axes[1].set_xlabel("time (s)")
+    fig.suptitle(f"{rec.name}: estimated vs measured GRF (held-out subject)")
+    save_figure(fig, path, dpi=90)
+
+
+def _fmt(value: float | None, spec: str) -> str:
+    return "n/a" if value is None or not np.isfinite(value) else format(value, spec)
+
+
+def report(results: dict, training: dict[str, dict], out: Path) -> str:
+    """Markdown tables: per trial, and per condition (mean over the test subjects) with verdicts."""
+    rows = ["constant mean GRF / mean speed", "mean GRF profile (measured timing)", *[a for a in ARMS if a in training or a == "zero_shot"]]
+    lines = ["# SSPINNpose on real continuous IMU data (CMU treadmill; test subjects Sub05, Sub06)", "",
+             "Trained (self-supervised, no labels) on Sub01–Sub04, both conditions; metrics over each whole aligned "
+             f"test trial after {WARMUP / SAMPLE_RATE_HZ:.0f} s of warm-up. GRF RMSE in %BW (both feet), event timing "
+             "errors in ms (mean |Δt| over matched events; matched = share of measured events with an estimated one within "
+             f"{1e3 * EVENT_WINDOW_S:.0f} ms), speed in m/s.", ""]
+    for arm, info in training.items():
+        lines.append(f"- `{arm}`: {info}")
+    lines += ["", "## Per trial", "", "| trial | predictor | vGRF | hGRF | GRF all | HS ms | HS matched | TO ms | speed | belt | speed error |",
+              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for name, row in results.items():
+        for predictor in rows:
+            if predictor not in row:
+                continue
+            m = row[predictor]
+            lines.append(f"| {name} | {predictor} | {_fmt(m['vertical'], '.1f')} | {_fmt(m['horizontal'], '.1f')} | "
+                         f"{_fmt(m['all'], '.1f')} | {_fmt(m['hs_ms'], '.0f')} | {_fmt(m['hs_matched'], '.0%')} | "
+                         f"{_fmt(m['to_ms'], '.0f')} | {_fmt(m.get('speed'), '.3f')} | {_fmt(row['belt_speed'], '.3f')} | "
+                         f"{_fmt(m.get('speed_error'), '.3f')} |")
+    lines += ["", "## Per condition (mean over the two test subjects) against the targets", ""]
+    for condition, label in CONDITIONS.items():
+        trials = [row for name, row in results.items() if name.endswith(condition)]
+        lines += [f"### {label} ({condition})", "", "| predictor | GRF all | vGRF | hGRF | HS ms | TO ms | speed error |", "|---|---:|---:|---:|---:|---:|---:|"]
+        means = {p: {k: float(np.nanmean([t[p].get(k, np.nan) for t in trials])) for k in ("all", "vertical", "horizontal", "hs_ms", "to_ms", "speed_error")}
+                 for p in rows if p in trials[0]}
+        for predictor, m in means.items():
+            lines.append(f"| {predictor} | {_fmt(m['all'], '.1f')} | {_fmt(m['vertical'], '.1f')} | {_fmt(m['horizontal'], '.1f')} | "
+                         f"{_fmt(m['hs_ms'], '.0f')} | {_fmt(m['to_ms'], '.0f')} | {_fmt(m['speed_error'], '.3f')} |")
+        lines.append("")
+        const, prof = means["constant mean GRF / mean speed"], means["mean GRF profile (measured timing)"]
+        for arm in (a for a in ARMS if a in means):
+            m = means[arm]
+            verdicts = [
+                f"GRF {m['all']:.1f} %BW: {'meets' if m['all'] <= TARGETS['grf_rmse'] else 'MISSES'} ≤ {TARGETS['grf_rmse']:g}, "
+                f"{'beats' if m['all'] < const['all'] else 'WORSE than'} the constant mean ({const['all']:.1f}), "
+                f"{'beats' if m['all'] < prof['all'] else 'worse than'} the profile at measured timing ({prof['all']:.1f})",
+                f"HS {_fmt(m['hs_ms'], '.0f')} ms: {'meets' if m['hs_ms'] <= TARGETS['hs_ms'] else 'MISSES'} ≤ {TARGETS['hs_ms']:g}",
+                f"speed error {m['speed_error']:.3f} m/s: {'meets' if m['speed_error'] <= TARGETS['speed'] else 'MISSES'} ≤ "
+                f"{TARGETS['speed']:.2f}, {'beats' if m['speed_error'] < const['speed_error'] else 'WORSE than'} the training "
+                f"subjects' mean speed ({const['speed_error']:.3f})",
+            ]
+            lines.append(f"- **{arm}**: " + "; ".join(verdicts))
+        lines.append("")
+    lines += ["## GRF over a few strides", ""] + [f"![{n}](plots/{n}.png)" for n in results]
+    text = "\n".join(lines) + "\n"
+    (out / "report.md").write_text(text)
+    return text
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--source", type=Path, default=REPO.parent / "shared/data/cmu_treadmill_imu_grf")
+    parser.add_argument("--out", type=Path, default=REPO / "results/cmu")
+    parser.add_argument("--pretrained", type=Path, default=REPO / "results/demo/run/model.pt",
+                        help="model trained on synthetic data only (what `make demo` writes)")
+    parser.add_argument("--steps", type=int, default=6000, help="training steps of the scratch and finetune arms")
+    parser.add_argument("--arms", nargs="+", choices=ARMS, default=list(ARMS))
+    parser.add_argument("--threads", type=int, default=1, help="torch threads per training (two side by side: 1 each)")
+    parser.add_argument("--no-report", action="store_true", help="only import and train (e.g. one arm per process)")
+    args = parser.parse_args(argv)
+    if not args.source.exists():
+        print(f"{args.source}: the CMU treadmill data is not there (see ../shared/data/README.md)", file=sys.stderr)
+        return 2
+    needs_pretrained = {"zero_shot", "finetune"} & set(args.arms)
+    if needs_pretrained and not args.pretrained.exists():
+        print(f"{args.pretrained}: no synthetic-only model for {sorted(needs_pretrained)}; run `make demo` first "
+              "or pass --pretrained", file=sys.stderr)
+        return 2
+    data = args.out / "data"
+    import_trials(args.source, data)
+    dataset = Dataset.open(data)
+    train, test = dataset.load("train"), dataset.load("test")
+    models: dict[str, Path] = {}
+    training: dict[str, dict] = {}
+    for arm in args.arms:
+        if arm == "zero_shot":
+            models[arm] = args.pretrained
+            training[arm] = {"model": str(args.pretrained), "real-data steps": 0}
+            continue
+        models[arm] = train_arm(arm, train, args.out, args.steps, args.threads, args.pretrained)
+        summary = json.loads((args.out / arm / "training_summary.json").read_text())
+        training[arm] = {"steps": summary["steps"], "stopped_by": summary["stopped_by"],
+                         "wall_s_last_session": summary["wall_s_this_run"], "threads": args.threads,
+                         "from": str(args.pretrained) if arm == "finetune" else "random initialisation",
+                         "config": "configs/sspinn/demo.yaml" + (" (fine-tuning weights)" if arm == "finetune" else "")}
+    if args.no_report:
+        return 0
+    results, estimates = evaluate(models, test, train)
+    (args.out / "plots").mkdir(parents=True, exist_ok=True)
+    for rec in test:
+        condition = next(c for c in CONDITIONS if rec.name.endswith(c))
+        profile = GRFProfilePredictor.fit([r for r in train if r.name.endswith(condition)], "").predict_grf(rec)
+        plot_trial(args.out / "plots" / f"{rec.name}.png", rec, estimates[rec.name], profile)
+    metrics = {"training": training, "trials": results}
+    (args.out / "metrics.json").write_text(json.dumps(finite_or_null(metrics), indent=2, allow_nan=False))
+    print(report(results, training, args.out))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,75 @@
+"""Gait events from vertical GRF, their timing error, and the GRF-profile baseline."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sspinn.baselines import GRFProfilePredictor, TrivialPredictor
+from sspinn.conventions import GRAVITY, SEGMENTS
+from sspinn.dataset import Labels, Recording
+from sspinn.gait_events import contact_mask, detect_events, event_timing
+
+RATE = 100.0
+
+
+def stance_force(n: int, period: int, stance: int, shift: int, weight: float) -> np.ndarray:
+    """A vertical GRF: a half-sine bump of ``stance`` samples every ``period`` samples."""
+    t = (np.arange(n) - shift) % period
+    return np.where(t < stance, weight * np.sin(np.pi * t / stance), 0.0)
+
+
+def test_events_are_found_and_chatter_is_ignored() -> None:
+    f = stance_force(1000, 100, 60, 10, 700.0)
+    ev = detect_events(f, 700.0, RATE)
+    # 5 % BW of a half sine of 60 samples is crossed ~1 sample after its start and before its end
+    np.testing.assert_array_equal(ev.heel_strikes, np.arange(11, 1000, 100))
+    np.testing.assert_array_equal(ev.toe_offs, np.arange(70, 1000, 100))
+    chattering = f.copy()
+    chattering[[450, 452, 454]] = 100.0  # spikes in swing, each one sample
+    chattering[140:142] = 0.0  # a 2-sample dropout in stance
+    again = detect_events(chattering, 700.0, RATE)
+    np.testing.assert_array_equal(again.heel_strikes, ev.heel_strikes)
+    np.testing.assert_array_equal(again.toe_offs, ev.toe_offs)
+    assert not detect_events(chattering, 700.0, RATE, min_phase_s=0.0).heel_strikes.size == ev.heel_strikes.size
+
+
+def test_contact_mask_keeps_phases_cut_by_the_edges() -> None:
+    on = np.r_[np.ones(3), np.zeros(20), np.ones(20), np.zeros(3)]
+    np.testing.assert_array_equal(contact_mask(on, 0.5, 5), on.astype(bool))
+
+
+def test_event_timing() -> None:
+    ref = np.array([100, 200, 300, 400])
+    t = event_timing(ref + 3, ref, RATE, 0.3)
+    assert t.mean_abs_ms == pytest.approx(30.0) and t.bias_ms == pytest.approx(30.0) and t.matched == 4
+    early_and_missing = event_timing(np.array([98, 198, 298]), ref, RATE, 0.05)
+    assert early_and_missing.bias_ms == pytest.approx(-20.0) and early_and_missing.matched == 3
+    assert np.isnan(event_timing(np.array([], dtype=int), ref, RATE, 0.3).mean_abs_ms)
+
+
+def grf_recording(name: str, period: int, mass: float, n: int = 1500) -> Recording:
+    w = mass * GRAVITY
+    right, left = stance_force(n, period, int(0.6 * period), 0, w), stance_force(n, period, int(0.6 * period), period // 2, w)
+    horizontal = lambda v: -0.1 * np.gradient(v) * period / np.pi  # noqa: E731 - braking then propulsion
+    labels = Labels.from_columns({"grf_x_r": horizontal(right), "grf_y_r": right, "grf_x_l": horizontal(left),
+                                  "grf_y_l": left, "speed": np.full(n, 1.0)}, n)
+    imu = np.random.default_rng(0).normal(scale=0.1, size=(n, len(SEGMENTS), 3))
+    imu[:, :, 1] += GRAVITY
+    return Recording(name=name, imu=imu, segments=SEGMENTS, height=1.75, mass=mass, labels=labels)
+
+
+def test_grf_profile_follows_the_measured_strides() -> None:
+    train = [grf_recording("a", 100, 60.0), grf_recording("b", 110, 80.0)]
+    profile = GRFProfilePredictor.fit(train, "test")
+    assert profile.strides >= 10 and profile.profile.shape == (2, 101, 2)
+    test = grf_recording("c", 125, 70.0)  # slower strides, another body weight: the shape in BW still fits
+    est = profile.predict_grf(test)
+    ref = test.labels.grf
+    inner = slice(200, 1300)
+    err = np.sqrt(np.mean((est[inner] - ref[inner]) ** 2)) / (70.0 * GRAVITY)
+    const = TrivialPredictor.fit(train, "test").predict(test).grf
+    err_const = np.sqrt(np.mean((const[inner] - ref[inner]) ** 2)) / (70.0 * GRAVITY)
+    assert err < 0.05 and err_const > 0.25
+    with pytest.raises(ValueError, match="no complete stride"):
+        GRFProfilePredictor.fit([Recording(name="x", imu=test.imu, segments=SEGMENTS, height=1.75, mass=70.0)], "empty")
