@@ -62,11 +62,13 @@ EVENT_WINDOW_S = 0.3  # an estimated event further than this from the measured o
 
 
 # ------------------------------------------------------------------------------------- 1. import
-def import_trials(source: Path, data: Path) -> None:
-    """Import every trial of ``source`` into the dataset folder ``data`` (cached)."""
+def import_trials(source: Path, data: Path, train_subjects: tuple[str, ...], test_subjects: tuple[str, ...],
+                  end_s: float | None = None) -> None:
+    """Import every trial of the subjects into the dataset folder ``data`` (cached; ``end_s``:
+    only the first seconds, for ``--quick``)."""
     with open(source / "subjects.csv", newline="") as fh:
         subjects = {row["subject"]: row for row in csv.DictReader(fh)}
-    for subject in (*TRAIN_SUBJECTS, *TEST_SUBJECTS):
+    for subject in (*train_subjects, *test_subjects):
         row = subjects[subject]
         for condition in CONDITIONS:
             name = f"{subject}_{condition}"
@@ -79,7 +81,7 @@ def import_trials(source: Path, data: Path) -> None:
                 [folder / f"OpenSim_{subject}_{condition}_Accel.trc.gz"], REPO / "configs/sensor_maps/cmu_treadmill.yaml",
                 float(row["height_m"]), float(row["mass_kg"]), data, subject=subject, name=name,
                 grf=folder / f"OpenSim_{subject}_{condition}_GRF.mot.gz", speed=float(row["treadmill_speed_mps"]),
-                split="train" if subject in TRAIN_SUBJECTS else "test",
+                split="train" if subject in train_subjects else "test", end_s=end_s,
             )
             lag = result.alignment.lag_s if result.alignment else float("nan")
             print(f"imported {name}: {result.recording.duration:.1f} s, GRF lag {lag:+.3f} s "
@@ -87,13 +89,13 @@ def import_trials(source: Path, data: Path) -> None:
 
 
 # ------------------------------------------------------------------------------------- 2. train
-def train_arm(arm: str, train: list[Recording], out: Path, steps: int, threads: int, pretrained: Path) -> Path:
+def train_arm(arm: str, train: list[Recording], out: Path, config_path: Path, steps: int, threads: int, pretrained: Path) -> Path:
     """Train one arm (``scratch`` or ``finetune``) to ``steps`` steps; returns its model file."""
     run = out / arm
     summary = run / "training_summary.json"
     if summary.exists() and json.loads(summary.read_text())["steps"] >= steps:
         return run / "model.pt"
-    config = TrainConfig.from_yaml(REPO / "configs/sspinn/demo.yaml", steps=steps, threads=threads, time_limit_s=4 * 3600.0)
+    config = TrainConfig.from_yaml(config_path, steps=steps, threads=threads, time_limit_s=4 * 3600.0)
     config.finetune = arm == "finetune"
     resume = (run / "checkpoint.pt").exists()
     trainer = Trainer(config, run)
@@ -165,7 +167,8 @@ def plot_trial(path: Path, rec: Recording, estimates: dict[str, GaitEstimate], p
     from sspinn.plotting import save_figure
 
     assert rec.labels is not None and rec.labels.grf is not None
-    sl = slice(2000, min(rec.n_samples, 2550))
+    start = min(2000, rec.n_samples // 3)
+    sl = slice(start, min(rec.n_samples, start + 550))
     t = rec.time[sl]
     bw = rec.mass * GRAVITY
     fig, axes = plt.subplots(2, 1, figsize=(11, 6), sharex=True)
@@ -236,27 +239,29 @@ def report(results: dict, training: dict[str, dict], out: Path) -> str:
     return text
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None) -> dict:
+    """Run the benchmark (module docstring); returns the per-trial metrics (empty with ``--no-report``)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--source", type=Path, default=REPO.parent / "shared/data/cmu_treadmill_imu_grf")
     parser.add_argument("--out", type=Path, default=REPO / "results/cmu")
     parser.add_argument("--pretrained", type=Path, default=REPO / "results/demo/run/model.pt",
                         help="model trained on synthetic data only (what `make demo` writes)")
+    parser.add_argument("--config", type=Path, default=REPO / "configs/sspinn/demo.yaml", help="training configuration")
     parser.add_argument("--steps", type=int, default=6000, help="training steps of the scratch and finetune arms")
     parser.add_argument("--arms", nargs="+", choices=ARMS, default=list(ARMS))
     parser.add_argument("--threads", type=int, default=1, help="torch threads per training (two side by side: 1 each)")
     parser.add_argument("--no-report", action="store_true", help="only import and train (e.g. one arm per process)")
+    parser.add_argument("--quick", action="store_true", help="smoke run: Sub01 → Sub05, first 20 s, 3 steps")
     args = parser.parse_args(argv)
+    subjects = (TRAIN_SUBJECTS[:1], TEST_SUBJECTS[:1]) if args.quick else (TRAIN_SUBJECTS, TEST_SUBJECTS)
+    steps = 3 if args.quick else args.steps
     if not args.source.exists():
-        print(f"{args.source}: the CMU treadmill data is not there (see ../shared/data/README.md)", file=sys.stderr)
-        return 2
+        parser.error(f"{args.source}: the CMU treadmill data is not there (see ../shared/data/README.md)")
     needs_pretrained = {"zero_shot", "finetune"} & set(args.arms)
     if needs_pretrained and not args.pretrained.exists():
-        print(f"{args.pretrained}: no synthetic-only model for {sorted(needs_pretrained)}; run `make demo` first "
-              "or pass --pretrained", file=sys.stderr)
-        return 2
+        parser.error(f"{args.pretrained}: no synthetic-only model for {sorted(needs_pretrained)}; run `make demo` first or pass --pretrained")
     data = args.out / "data"
-    import_trials(args.source, data)
+    import_trials(args.source, data, *subjects, end_s=20.0 if args.quick else None)
     dataset = Dataset.open(data)
     train, test = dataset.load("train"), dataset.load("test")
     models: dict[str, Path] = {}
@@ -266,14 +271,14 @@ def main(argv: list[str] | None = None) -> int:
             models[arm] = args.pretrained
             training[arm] = {"model": str(args.pretrained), "real-data steps": 0}
             continue
-        models[arm] = train_arm(arm, train, args.out, args.steps, args.threads, args.pretrained)
+        models[arm] = train_arm(arm, train, args.out, args.config, steps, args.threads, args.pretrained)
         summary = json.loads((args.out / arm / "training_summary.json").read_text())
         training[arm] = {"steps": summary["steps"], "stopped_by": summary["stopped_by"],
                          "wall_s_last_session": summary["wall_s_this_run"], "threads": args.threads,
                          "from": str(args.pretrained) if arm == "finetune" else "random initialisation",
-                         "config": "configs/sspinn/demo.yaml" + (" (fine-tuning weights)" if arm == "finetune" else "")}
+                         "config": args.config.name + (" (fine-tuning weights)" if arm == "finetune" else "")}
     if args.no_report:
-        return 0
+        return {}
     results, estimates = evaluate(models, test, train)
     (args.out / "plots").mkdir(parents=True, exist_ok=True)
     for rec in test:
@@ -283,8 +288,8 @@ def main(argv: list[str] | None = None) -> int:
     metrics = {"training": training, "trials": results}
     (args.out / "metrics.json").write_text(json.dumps(finite_or_null(metrics), indent=2, allow_nan=False))
     print(report(results, training, args.out))
-    return 0
+    return results
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    main(sys.argv[1:])

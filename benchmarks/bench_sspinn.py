@@ -11,6 +11,8 @@
    SSPINNpose step (forward, all physics losses, backward, Adam) next to a plain PyTorch
    baseline of the same model (same network, an MSE loss on its raw outputs, no physics) —
    the ratio is the cost of the physics.
+3. **Where a training step's time goes**: data preparation, network forward, physics losses,
+   backward, optimizer (:func:`profile_step`), for the demo and the paper configuration.
 
 Usage: ``python benchmarks/bench_sspinn.py [--quick] [--json PATH]``.
 """
@@ -129,6 +131,54 @@ def bench_training(config: NetworkConfig, batch: int, window: int, repeats: int,
     return {"plain_windows_per_s": results["plain"], "sspinn_windows_per_s": results["sspinn"], "batch": batch, "window": window}
 
 
+#: Phases of one training step, in order (see :func:`profile_step`).
+PHASES = ("data", "forward", "physics", "backward", "optimizer")
+
+
+def profile_step(config: NetworkConfig, batch: int, window: int, repeats: int, threads: int, rng: np.random.Generator) -> dict:
+    """Wall time of each phase of one :class:`sspinn.training.Trainer` step (median over
+    ``repeats`` steps after one warm-up; CPU, so every phase has finished when the clock is
+    read): window draw + :func:`make_batch` + input noise (data), the LSTM and head (forward),
+    decoding + every physics loss (physics), ``loss.backward()`` (backward), gradient clipping +
+    Adam (optimizer). Real-sized recordings with ZUPT speeds, as in training."""
+    torch.set_num_threads(threads)
+    from sspinn.training import WindowSampler
+
+    data = prepare([fake_recording(window * 8, rng) for _ in range(4)], SEGMENTS, zupt=False)
+    sampler = WindowSampler(data, window, rng)
+    imu_std = torch.ones(len(SEGMENTS), 3)
+    n_inputs = input_features(data[0].recording.imu[:1], 1.75, 70.0, data[0].placement, SEGMENTS).shape[1]
+    torch.manual_seed(0)
+    model = SSPINNposeNet(n_inputs, config)
+    opt = torch.optim.Adam(model.parameters(), lr=1e-3)
+    losses = PhysicsLosses()
+    noise = torch.full((n_inputs,), 0.25)
+    times: dict[str, list[float]] = {k: [] for k in PHASES}
+    for r in range(repeats + 1):
+        marks = [time.perf_counter()]
+        which, starts = sampler.sample(batch)
+        x, b = make_batch(data, which, starts, window, SEGMENTS, imu_std, torch.device("cpu"))
+        x = x + torch.randn_like(x) * noise
+        marks.append(time.perf_counter())
+        raw, _ = model(x)
+        marks.append(time.perf_counter())
+        loss = losses(decode(raw, b.out_scale, b.out_offset, b.dt), b)["total"]
+        marks.append(time.perf_counter())
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        marks.append(time.perf_counter())
+        torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+        opt.step()
+        marks.append(time.perf_counter())
+        if r > 0:
+            for k, name in enumerate(PHASES):
+                times[name].append(marks[k + 1] - marks[k])
+    median = {k: statistics.median(v) for k, v in times.items()}
+    total = sum(median.values())
+    return {"ms": {k: 1e3 * v for k, v in median.items()}, "share": {k: v / total for k, v in median.items()},
+            "samples_per_s": batch * window / total, "batch": batch, "window": window, "threads": threads}
+
+
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="tiny sizes for a smoke run")
@@ -153,8 +203,17 @@ def main(argv: list[str] | None = None) -> dict:
     print(f"   plain PyTorch (same model, MSE on raw outputs)          {t['plain_windows_per_s']:9.1f}")
     print(f"   sspinn (all physics losses)                             {t['sspinn_windows_per_s']:9.1f}")
     print(f"   physics overhead: sspinn / plain = {t['sspinn_windows_per_s'] / t['plain_windows_per_s']:.2f}×")
+    demo = NetworkConfig(hidden=32, layers=2, dense=16) if args.quick else NetworkConfig(hidden=128, layers=2, dropout=0.1, dense=128)
+    profiles = {}
+    for name, net, (pb, pw) in (("demo", demo, (4, 32) if args.quick else (16, 128)), ("paper", cfg, (batch, window))):
+        label = f"{name} (LSTM {net.layers}×{net.hidden}, batch {pb} × {pw})"
+        prof = profile_step(net, pb, pw, repeats if args.quick else 10, 2, rng)
+        profiles[label] = prof
+        print(f"\n3. one training step, {label}, 2 threads: {prof['samples_per_s']:,.0f} samples/s")
+        for phase in PHASES:
+            print(f"   {phase:<10} {prof['ms'][phase]:8.1f} ms  {prof['share'][phase]:6.1%}")
     torch.set_num_threads(threads_before)
-    result = {"streaming": s, "training": t, "config": cfg.__dict__, "quick": args.quick}
+    result = {"streaming": s, "training": t, "profile": profiles, "config": cfg.__dict__, "quick": args.quick}
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(result, fh, indent=2)

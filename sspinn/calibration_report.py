@@ -9,7 +9,6 @@ from typing import Any
 
 import numpy as np
 
-from sspinn.conventions import GRAVITY
 from sspinn.plotting import save_figure
 from sspinn.sensor_calibration import SIGN_MARGIN_WARN, Calibration
 from sspinn.time_alignment import Alignment
@@ -48,8 +47,8 @@ def calibration_markdown(title: str, calibration: Calibration, alignment: Alignm
     for seg, c in cal.sensors.items():
         flag = " **(uncertain)**" if c.sign_margin < SIGN_MARGIN_WARN else ""
         acc = "–" if c.standing_acc_norm is None else f"{c.standing_acc_norm:.2f}"
-        if c.standing_acc_norm is not None and abs(c.standing_acc_norm - GRAVITY) > 0.5:
-            acc += " (≠ g: accelerometer scale or bias?)"
+        if c.acc_gain != 1.0:
+            acc += f" (≠ g: accelerometer scaled by {c.acc_gain:.3f})"
         lines.append(f"| {c.sensor} | {seg} | {_vec(c.axis)} | {c.out_of_plane_fraction:.1%} | {c.axis_check_deg:.1f} | "
                      f"{c.angle_deg:+.1f} | {c.reference_axis} | {c.sign_method}{flag} | {c.sign_margin:.2f} | {acc} |")
     lines += ["", "Sign votes (positive supports the axis as reported): " + "; ".join(

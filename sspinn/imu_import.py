@@ -49,7 +49,7 @@ from sspinn.time_alignment import Alignment, align_to_grf, walking_direction_sig
 from sspinn.vendor_formats import read_imu_files, read_treadmill_grf
 
 #: Version of the import procedure, stored in the provenance.
-IMPORTER_VERSION: Final = 1
+IMPORTER_VERSION: Final = 2
 
 
 @dataclass
@@ -258,5 +258,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"  GRF: {result.alignment.describe()}")
     for n in cal.uncertain_signs():
         print(f"  WARNING: uncertain medio-lateral sign of {cal.sensors[n].sensor} ({n}); give right_axis in the sensor map")
+    for n, c in cal.sensors.items():
+        if c.acc_gain != 1.0:
+            print(f"  WARNING: {c.sensor} ({n}) reads {c.standing_acc_norm:.2f} m/s² standing, not g: accelerometer scaled by {c.acc_gain:.3f}")
     print(f"calibration report: {result.report} (+ {result.figure.name})")
     return 0

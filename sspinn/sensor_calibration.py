@@ -88,6 +88,10 @@ class SensorCalibrationError(UserError):
     """The walking data cannot calibrate a sensor (no walking, too short, upside down…)."""
 
 
+#: Relative deviation of the standing |specific force| from g above which the accelerometer's
+#: gain is corrected (:attr:`SensorCalibration.acc_gain`).
+ACC_GAIN_TOLERANCE: float = 0.03
+
 @dataclass
 class SensorCalibration:
     """One sensor's calibration (module docstring).
@@ -101,6 +105,11 @@ class SensorCalibration:
         axis_method, sign_method, angle_method: how each was found.
         sign_votes: the votes (positive: z as found points right). sign_margin: score lost by flipping.
         standing_acc_norm: |specific force| in standing, m/s² (None without standing).
+        acc_gain: factor applied to the accelerometer by :meth:`project`: g / ``standing_acc_norm``
+            when that is off g by more than :data:`ACC_GAIN_TOLERANCE`, else 1. (The CMU data's
+            left forefoot sensor reads 12.1–12.4 m/s² standing in every trial; uncorrected, the
+            foot's zero-velocity detection never fired. One standing posture cannot tell a gain
+            error from a bias; a gain is assumed.)
     """
 
     sensor: str
@@ -117,6 +126,7 @@ class SensorCalibration:
     sign_votes: dict[str, float] = field(default_factory=dict)
     sign_margin: float = float("inf")
     standing_acc_norm: float | None = None
+    acc_gain: float = 1.0
 
     @property
     def axis(self) -> np.ndarray:
@@ -125,6 +135,7 @@ class SensorCalibration:
 
     def project(self, acc: np.ndarray, gyr: np.ndarray) -> np.ndarray:
         """(n, 3) ``acc_x, acc_y, gyr_z`` (m/s², rad/s) in the segment frame."""
+        acc = self.acc_gain * acc
         return np.column_stack([acc @ self.rotation[0], acc @ self.rotation[1], (gyr - self.gyro_bias) @ self.rotation[2]])
 
     def to_dict(self) -> dict:
@@ -135,6 +146,7 @@ class SensorCalibration:
             "axis_method": self.axis_method, "sign_method": self.sign_method, "angle_method": self.angle_method,
             "sign_votes": {k: round(v, 3) for k, v in self.sign_votes.items()}, "sign_margin": round(self.sign_margin, 3),
             "standing_acc_norm_m_s2": None if self.standing_acc_norm is None else round(self.standing_acc_norm, 3),
+            "acc_gain": round(self.acc_gain, 5),
         }
 
 
@@ -374,9 +386,14 @@ def calibrate(
         g = r.gyr[mask] - r.bias
         oop = float(1.0 - np.sum((g @ z) ** 2) / np.sum(g**2))
         _check_up_axis(r, span, mask, source)
+        norm = float(np.linalg.norm(r.acc[span[0]:span[1]].mean(axis=0))) if span is not None else None
+        gain = GRAVITY / norm if norm is not None and abs(norm / GRAVITY - 1) > ACC_GAIN_TOLERANCE else 1.0
+        if gain != 1.0:
+            notes.append(f"sensor {r.a.sensor!r} ({seg}): |specific force| {norm:.2f} m/s² in quiet standing, not g: "
+                         f"accelerometer scaled by {gain:.3f}; check or recalibrate the sensor")
         out[seg] = SensorCalibration(
             r.a.sensor, seg, rotation, r.bias, oop, r.tilt, angle, _AXIS_NAMES[k], r.method, how[seg], angle_method,
-            votes[seg], margins[seg], float(np.linalg.norm(r.acc[span[0]:span[1]].mean(axis=0))) if span is not None else None,
+            votes[seg], margins[seg], norm, gain,
         )
     cal = Calibration(out, rate_hz, span, walking_s, period, notes)
     for seg in cal.uncertain_signs():

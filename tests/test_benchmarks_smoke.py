@@ -14,6 +14,8 @@ from typing import Any
 
 import pytest
 
+from tests.conftest import shared_data
+
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
 
@@ -54,4 +56,26 @@ def test_bench_sspinn(tmp_path: Path, capsys: pytest.CaptureFixture[str], torch_
     out = capsys.readouterr().out
     assert "streaming latency" in out and "training throughput" in out
     assert result["streaming"]["ours_ms"][0] > 0 and result["training"]["sspinn_windows_per_s"] > 0
+    assert "one training step" in out and len(result["profile"]) == 2
+    for prof in result["profile"].values():  # the phases partition the step
+        assert sum(prof["share"].values()) == pytest.approx(1.0) and min(prof["ms"].values()) > 0
     assert json.loads((tmp_path / "r.json").read_text())["quick"] is True
+
+
+def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str], tiny_run, torch_threads) -> None:
+    """Real CMU data (skipped without it): import, both trainings, zero-shot, report, plots."""
+    source = shared_data("cmu_treadmill_imu_grf")
+    _, _, cfg, _, run = tiny_run
+    bench = runpy.run_path(str(BENCHMARKS / "bench_cmu_continuous.py"), run_name="bench_cmu_continuous")
+    results = bench["main"](["--quick", "--out", str(tmp_path / "cmu"), "--config", str(cfg),
+                             "--pretrained", str(run / "model.pt"), "--source", str(source)])
+    out = capsys.readouterr().out
+    assert set(results) == {"Sub05_CSBaseline", "Sub05_CSStiffKnee"}
+    row = results["Sub05_CSBaseline"]
+    assert {"scratch", "zero_shot", "finetune", "constant mean GRF / mean speed", "mean GRF profile (measured timing)"} <= set(row)
+    # the baselines are what they claim: the profile at measured timing beats the constant mean GRF
+    assert row["mean GRF profile (measured timing)"]["all"] < row["constant mean GRF / mean speed"]["all"]
+    assert row["mean GRF profile (measured timing)"]["hs_ms"] == 0.0 and row["belt_speed"] == pytest.approx(0.7791, abs=1e-3)
+    assert "per condition" in out.lower() and (tmp_path / "cmu" / "plots" / "Sub05_CSBaseline.png").exists()
+    saved = json.loads((tmp_path / "cmu" / "metrics.json").read_text())
+    assert saved["training"]["scratch"]["steps"] == 3

@@ -120,3 +120,18 @@ def test_no_walking_is_an_error() -> None:
                          rng.normal(scale=0.01, size=(1000, 3)))}
     with pytest.raises(SensorCalibrationError, match=r"x\.txt: 0\.0 s of walking found"):
         calibrate(still, {"femur_r": SensorAssignment("a", "femur_r")}, source="x.txt")
+
+
+def test_an_accelerometer_gain_error_is_corrected_from_standing(gait) -> None:
+    """A foot sensor reading 1.24 g at rest (as the CMU left forefoot sensor does): the gain is
+    corrected from quiet standing, noted, and the projection matches the error-free one."""
+    _, _, signals = _signals(gait, 5)
+    assignments = {s: SensorAssignment(f"s_{s}", s) for s in SEGMENTS}
+    clean = calibrate(signals, assignments)
+    acc, gyr = signals["foot_l"]
+    faulty = calibrate({**signals, "foot_l": (1.24 * acc, gyr)}, assignments)
+    assert faulty.sensors["foot_l"].acc_gain == pytest.approx(1 / 1.24, rel=0.01)
+    assert clean.sensors["foot_l"].acc_gain == 1.0 and clean.sensors["foot_r"].acc_gain == 1.0
+    assert any("s_foot_l" in n and "scaled by" in n for n in faulty.notes)
+    np.testing.assert_allclose(faulty.sensors["foot_l"].project(1.24 * acc, gyr), clean.sensors["foot_l"].project(acc, gyr),
+                               atol=0.05 * 9.81)
