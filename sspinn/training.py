@@ -61,7 +61,10 @@ class TrainConfig:
         steps: optimiser steps.
         batch_size: windows per step.
         window: samples per window (>= 8).
-        lr: Adam learning rate.
+        lr: Adam learning rate (the peak, with a schedule).
+        lr_schedule: "constant", or "cosine": half a cosine from ``lr`` down to ``lr_final`` over
+            ``steps`` (set from the step count every step, so a resumed run follows it exactly).
+        lr_final: the cosine schedule's last learning rate, as a fraction of ``lr``.
         input_noise: η, input noise std as a fraction of each channel's std.
         grad_clip: gradient-norm clipping threshold.
         seed: seed of the window draws, the noise and the initial weights.
@@ -83,6 +86,8 @@ class TrainConfig:
     batch_size: int = 32
     window: int = 256
     lr: float = 1e-3
+    lr_schedule: str = "constant"
+    lr_final: float = 0.1
     input_noise: float = 0.25
     grad_clip: float = 1.0
     seed: int = 0
@@ -108,6 +113,10 @@ class TrainConfig:
         for name in ("lr", "grad_clip"):
             if not math.isfinite(getattr(self, name)) or getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be a finite number > 0, got {getattr(self, name)}")
+        if self.lr_schedule not in ("constant", "cosine"):
+            raise ValueError(f"lr_schedule must be 'constant' or 'cosine', got {self.lr_schedule!r}")
+        if not 0 < self.lr_final <= 1:
+            raise ValueError(f"lr_final must be in (0, 1], got {self.lr_final}")
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}")
         if not math.isfinite(self.input_noise) or self.input_noise < 0:
@@ -121,6 +130,13 @@ class TrainConfig:
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
+
+    def lr_at(self, step: int) -> float:
+        """The learning rate of step ``step`` (0-based) under :attr:`lr_schedule`."""
+        if self.lr_schedule == "constant":
+            return self.lr
+        frac = min(step, self.steps) / self.steps
+        return self.lr * (self.lr_final + (1 - self.lr_final) * 0.5 * (1 + math.cos(math.pi * frac)))
 
 
 def resolve_device(name: str) -> torch.device:
@@ -405,6 +421,8 @@ class Trainer:
         try:
             while self.step < cfg.steps:
                 boundary_rng, mid_step = self._rng_state(), True  # the state a resume must start from
+                for group in self.optimizer.param_groups:
+                    group["lr"] = cfg.lr_at(self.step)
                 which, starts = self.sampler.sample(cfg.batch_size)
                 x, batch = make_batch(self.data, which, starts, cfg.window, self.segments, self.imu_std, self.device)
                 batch.placement = self.placement[which]

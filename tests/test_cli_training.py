@@ -140,3 +140,14 @@ def test_a_bidirectional_network_is_not_exported_as_a_streaming_step() -> None:
 
     with pytest.raises(ValueError, match="only unidirectional ones stream"):
         StreamingStep(SSPINNposeNet(10, NetworkConfig(hidden=8, layers=1, dense=8, bidirectional=True)))
+
+
+def test_cosine_learning_rate_schedule() -> None:
+    from sspinn.training import TrainConfig
+
+    cfg = TrainConfig(steps=100, lr=1e-3, lr_schedule="cosine", lr_final=0.1)
+    assert cfg.lr_at(0) == pytest.approx(1e-3) and cfg.lr_at(100) == pytest.approx(1e-4)
+    assert cfg.lr_at(50) == pytest.approx(0.55e-3) and cfg.lr_at(10) > cfg.lr_at(20) > cfg.lr_at(90)
+    assert TrainConfig(steps=100).lr_at(77) == 1e-3
+    with pytest.raises(ValueError, match="lr_schedule"):
+        TrainConfig(lr_schedule="step")
