@@ -1,11 +1,15 @@
-"""Try every bad-input case of issue #12 and print the Markdown table of ``docs/bad_input.md``:
-the case, what was run, the exit status (or exception/warning) and the exact message the user sees.
+"""Try every bad-input case of issue #12 (and the bad IMU files of issue #13) and print the
+Markdown table of ``docs/bad_input.md``: the case, what was run, the exit status (or
+exception/warning) and the exact message the user sees.
 
 Each case is run in-process (the command lines through their ``main``, stderr captured) on a
 tiny dataset and a 4-step model made in a temporary folder; paths are shown relative to it as
 ``<tmp>``. A case counts as a **clear error** when it ends as expected (exit status 2 with one
 line on stderr, 1 with one ``FAILED`` line for a rejected solution, or the documented exception
 or warning) and the message contains what it must name (the file, column, field or value).
+For a command that succeeds, what it prints on stdout matching the case's pattern (a ``WARNING``
+line, a gap note) is the message. The ``sspinn import`` cases edit copies of the first 12 s of a
+real CMU OpenSense export (``../shared/data/cmu_treadmill_imu_grf``; "not run" when absent).
 
 Usage::
 
@@ -31,12 +35,31 @@ from pathlib import Path
 
 import numpy as np
 import torch
+import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from sspinn.conventions import SEGMENTS  # noqa: E402
 from sspinn.dataset import Dataset, Recording  # noqa: E402
-from sspinn.testing import edit_column, tiny_run, walking_recording  # noqa: E402
+from sspinn.testing import (  # noqa: E402
+    OpenSenseEdit,
+    axis_constant,
+    edit_column,
+    read_opensense_raw,
+    rows_deleted,
+    sensor_map_edited,
+    sensor_removed,
+    sensor_turned,
+    tiny_run,
+    walking_recording,
+    write_opensense,
+)
+
+#: The real OpenSense export whose copies the ``sspinn import`` cases edit, and its sensor map.
+CMU_TRIAL = ROOT.parent / "shared" / "data" / "cmu_treadmill_imu_grf" / "Sub01" / "CSBaseline"
+CMU_ACCEL = CMU_TRIAL / "OpenSim_Sub01_CSBaseline_Accel.trc.gz"
+CMU_MAP = ROOT / "configs" / "sensor_maps" / "cmu_treadmill.yaml"
 
 
 @dataclass
@@ -55,16 +78,19 @@ class Case:
     call: Callable[[], Outcome]
 
 
-def cli(main: Callable[[list[str]], int], argv: list[str]) -> Outcome:
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+def cli(main: Callable[[list[str]], int], argv: list[str], shown: str | None = None) -> Outcome:
+    """Run a command line in-process: its exit status and last stderr line, or, when it succeeds
+    and ``shown`` (a regular expression) is given, the stdout lines matching it (joined by " / ")."""
+    err, out = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
         try:
             code = main(argv)
         except SystemExit as exc:  # argparse
             code = exc.code
     lines = [line for line in err.getvalue().splitlines() if line.strip()]
     status = f"exit {code}" + ("" if len(lines) == 1 or (code == 0 and not lines) else f" ({len(lines)} lines)")
-    return Outcome(status, lines[-1] if lines else "")
+    printed = [line.strip() for line in out.getvalue().splitlines() if shown and re.search(shown, line)]
+    return Outcome(status, " / ".join(printed) if code == 0 and printed else lines[-1] if lines else "")
 
 
 def raises(fn: Callable[[], object]) -> Outcome:
@@ -252,6 +278,24 @@ def main() -> None:
     def placement_empty(meta: dict) -> None:
         meta["imu"]["placement"]["pelvis"]["position_m"] = []
 
+    cmu = read_opensense_raw(CMU_ACCEL, end_s=12.0) if CMU_ACCEL.exists() else None
+
+    def imu_import(edit: OpenSenseEdit | None = None, smap: dict | None = None, shown: str = "WARNING:") -> Outcome:
+        """``sspinn import --end 10`` of an (edited) copy of the CMU excerpt with the CMU map or ``smap``."""
+        if cmu is None:
+            return Outcome("not run", f"{CMU_ACCEL} absent")
+        folder = tmp / f"imu{len(list(tmp.glob('imu*')))}"
+        folder.mkdir()
+        time, sensors = edit(*cmu) if edit else cmu
+        accel = write_opensense(folder, "OpenSim_Sub01_CSBaseline", sensors, time=time)
+        path = CMU_MAP
+        if smap is not None:
+            path = folder / "map.yaml"
+            path.write_text(yaml.safe_dump(smap, sort_keys=False))
+        return cli(sspinn_main, ["import", "--imu", str(accel), "--sensor-map", str(path), "--height", "1.81", "--mass", "66.7",
+                                 "--end", "10", "--out", str(folder / "out")], shown)
+
+    legs = tuple(f"{k}_{s}_imu_offset_imu" for k in ("femur", "tibia", "toes") for s in "rl")
     acc = [f"pelvis_acc_{a}" for a in "xy"]
     cases = [
         # 1. one run per folder
@@ -383,14 +427,41 @@ def main() -> None:
              "refusing to load posix.system", lambda: raises(lambda: _load_statistics(tmp, RunsCode()))),
         Case("all", "agents: missing config", "python -m agents train --config missing.yaml", "exit 2", "missing.yaml",
              lambda: cli(agents_main, ["train", "--config", str(tmp / "missing.yaml"), "--out", str(tmp / "ag")])),
+        # issue #13: bad IMU files (sspinn import of edited copies of a real CMU OpenSense export)
+        Case("13a", "thighs' sensors swapped between the sides in the map", "sspinn import --sensor-map thighs_swapped.yaml",
+             "exit 0", "'femur_l_imu_offset_imu' (femur_r) leads 'tibia_r_imu_offset_imu' (tibia_r)",
+             lambda: imu_import(smap=sensor_map_edited(CMU_MAP, legs[:2]))),
+        Case("13a", "all leg sensors swapped between the sides in the map", "sspinn import --sensor-map sides_swapped.yaml",
+             "exit 0", "right and left look swapped", lambda: imu_import(smap=sensor_map_edited(CMU_MAP, legs))),
+        Case("13a", "a sensor mapped to a segment that does not exist", "sspinn import --sensor-map upperleg.yaml", "exit 2",
+             "sensor 'femur_r_imu_offset_imu': unknown segment 'upperleg_r'",
+             lambda: imu_import(smap=sensor_map_edited(CMU_MAP, femur_r_imu_offset_imu="upperleg_r"))),
+        Case("13a", "the map of another export (other sensor names)", "sspinn import --sensor-map other.yaml", "exit 2",
+             "sensor 'pelvis_imu' (mapped to pelvis) is not in", lambda: imu_import(smap={"sensors": {f"{s}_imu": s for s in SEGMENTS}})),
+        Case("13b", "a sensor's columns removed from the .trc files", "sspinn import --imu <copy without tibia_l>", "exit 2",
+             "sensor 'tibia_l_imu_offset_imu' (mapped to tibia_l) is not in", lambda: imu_import(sensor_removed("tibia_l_imu_offset_imu"))),
+        Case("13c", "3 rows (0.03 s) deleted: a short gap (interpolated)", "sspinn import --imu <copy with a gap>", "exit 0",
+             "sensor 'pelvis_imu_offset_imu': 3 sample(s) missing after t = 4.990 s",
+             lambda: imu_import(rows_deleted(5.0, 0.03), shown=r"gap\(s\) interpolated|WARNING:")),
+        Case("13c", "20 rows (0.2 s) deleted: a long gap", "sspinn import --imu <copy with a gap>", "exit 2",
+             "sensor 'pelvis_imu_offset_imu': 20 sample(s) missing after t = 4.990 s", lambda: imu_import(rows_deleted(5.0, 0.2))),
+        Case("13d", "shank sensor upside down (turned 180° about its medio-lateral axis), no hint", "sspinn import --imu <copy>",
+             "exit 0", "sensor 'tibia_l_imu_offset_imu' (tibia_l): appears mounted upside down",
+             lambda: imu_import(sensor_turned("tibia_l_imu_offset_imu", 2))),
+        Case("13d", "shank sensor turned 180° about its long axis (same signals: not reported)", "sspinn import --imu <copy>",
+             "exit 0", "", lambda: imu_import(sensor_turned("tibia_l_imu_offset_imu", 0))),
+        Case("13e", "an accelerometer axis all zeros", "sspinn import --imu <copy>", "exit 2",
+             "sensor 'tibia_l_imu_offset_imu': acc axis Y is constant", lambda: imu_import(axis_constant("tibia_l_imu_offset_imu", 0, 1))),
+        Case("13e", "a gyroscope axis all zeros", "sspinn import --imu <copy>", "exit 2",
+             "sensor 'femur_r_imu_offset_imu': gyr axis Z is constant", lambda: imu_import(axis_constant("femur_r_imu_offset_imu", 1, 2))),
     ]
 
     rows, clear = [], 0
     for k, case in enumerate(cases, 1):
         out = case.call()
-        ok = out.status == case.expect_status and case.must_name in out.message
+        ok = out.status == case.expect_status and (case.must_name in out.message if case.must_name else not out.message)
         clear += ok
-        message = re.sub(r"\x1b\[[0-9;]*m", "", out.message).replace(str(tmp), "<tmp>").replace("|", "\\|")
+        message = re.sub(r"\x1b\[[0-9;]*m", "", out.message).replace(str(tmp), "<tmp>").replace(f"{ROOT}/", "").replace("|", "\\|")
         rows.append(f"| {k} | {case.item} | {case.name} | `{case.run}` | {out.status} | {message or '–'} | {'yes' if ok else '**no**'} |")
     assert not (tmp / "pwned").exists(), "the crafted model file ran code"
     print("| # | item | case | what was run | result | what the user sees | clear |")

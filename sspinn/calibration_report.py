@@ -26,7 +26,7 @@ def _vec(v: np.ndarray) -> str:
 def calibration_markdown(title: str, calibration: Calibration, alignment: Alignment | None = None,
                          context: dict[str, Any] | None = None, notes: list[str] | None = None) -> str:
     """The report as Markdown: ``context`` (key → value lines: files, map, subject…), the
-    per-sensor table, the alignment and the notes."""
+    warnings, the per-sensor table, the alignment and the notes."""
     cal = calibration
     lines = [f"# IMU calibration: {title}", ""]
     for key, value in (context or {}).items():
@@ -34,6 +34,8 @@ def calibration_markdown(title: str, calibration: Calibration, alignment: Alignm
     standing = (f"{cal.standing[0] / cal.rate_hz:.2f}–{cal.standing[1] / cal.rate_hz:.2f} s" if cal.standing else
                 "none found (in-plane angles from the typical walking orientation; see docs/imu_import.md)")
     lines += [f"- **quiet standing**: {standing}", f"- **walking used**: {cal.walking_s:.1f} s, stride period {cal.stride_period_s:.2f} s", ""]
+    if cal.warnings:
+        lines += ["## Warnings", ""] + [f"- **{w}**" for w in cal.warnings] + [""]
     lines += [
         "## Sensors", "",
         "Axis: the segment's medio-lateral axis (to the subject's right) in the sensor frame. Out-of-plane: share of the "

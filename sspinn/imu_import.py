@@ -11,7 +11,9 @@ Pipeline (:func:`import_imu`):
 2. calibrate each sensor onto its segment's sagittal plane from the data
    (:func:`sspinn.sensor_calibration.calibrate`) and project: ``acc_x, acc_y, gyr_z`` in the
    segment frame (placement angle 0; positions: the project's default, the map's forefoot or
-   explicit ones);
+   explicit ones); check the sensors against each other (:func:`sspinn.mounting_checks.check_mounting`:
+   a sensor upside down compared with the others, legs mixed up in the map) — warnings, printed and
+   stored in the provenance and the report;
 3. optionally read the GRF (``.mot``; :func:`sspinn.vendor_formats.read_treadmill_grf`; above
    100 Hz low-pass filtered at 40 Hz first), align it
    (:func:`sspinn.time_alignment.align_to_grf`), orient its horizontal axis along the walking
@@ -43,6 +45,7 @@ from sspinn.calibration_report import calibration_markdown, plot_calibration
 from sspinn.conventions import GRF
 from sspinn.dataset import FORMAT, SPLITS, VERSION, DataFormatError, Labels, Recording
 from sspinn.imu_stream import ANTI_ALIAS_HZ, DEFAULT_MAX_GAP_S, RATE_HZ, IMUImportError, resample
+from sspinn.mounting_checks import check_mounting
 from sspinn.sensor_calibration import Calibration, calibrate
 from sspinn.sensor_map import SensorMap
 from sspinn.time_alignment import Alignment, align_to_grf, walking_direction_sign
@@ -105,6 +108,7 @@ def import_imu(
     by_segment = smap.by_segment()
     signals = {seg: (stream.sensors[a.sensor].acc, stream.sensors[a.sensor].gyr) for seg, a in by_segment.items()}
     cal = calibrate(signals, by_segment, RATE_HZ, standing="auto" if standing else None, source=stream.source)
+    check_mounting(signals, cal, by_segment, {seg: stream.sensors[a.sensor].source for seg, a in by_segment.items()})
     projected = {seg: cal.sensors[seg].project(*signals[seg]) for seg in by_segment}
     imu = np.stack([projected[seg] for seg in smap.segments], axis=1)
     times = grid - t_file0  # s from the start of the IMU files
@@ -130,7 +134,7 @@ def import_imu(
         "calibration": {seg: c.to_dict() for seg, c in cal.sensors.items()},
         "standing_s": None if cal.standing is None else [round((cal.standing[0]) / RATE_HZ + float(times[0]), 3),
                                                          round(cal.standing[1] / RATE_HZ + float(times[0]), 3)],
-        "stride_period_s": round(cal.stride_period_s, 3), "notes": cal.notes + notes,
+        "stride_period_s": round(cal.stride_period_s, 3), "warnings": list(cal.warnings), "notes": cal.notes + notes,
         "gaps": [g.describe() for g in stream.gaps],
     }
     if grf is not None:
@@ -153,7 +157,8 @@ def import_imu(
     report = out / f"{name}_calibration.md"
     report.write_text(calibration_markdown(name, cal, alignment, context, notes), encoding="utf-8")
     (out / f"{name}_calibration.json").write_text(json.dumps(
-        {"sensors": provenance["calibration"], "alignment": provenance.get("grf_alignment"), "notes": provenance["notes"]}, indent=2))
+        {"sensors": provenance["calibration"], "alignment": provenance.get("grf_alignment"), "warnings": provenance["warnings"],
+         "notes": provenance["notes"]}, indent=2))
     figure = plot_calibration(out / f"{name}_calibration.png", name, cal, projected, {s: v[1] for s, v in signals.items()})
     return ImportResult(rec, cal, alignment, csv, report, figure)
 
@@ -256,10 +261,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {c.sensor} → {seg}: out-of-plane {c.out_of_plane_fraction:.1%}, φ {c.angle_deg:+.1f}°, sign margin {c.sign_margin:.2f}")
     if result.alignment is not None:
         print(f"  GRF: {result.alignment.describe()}")
-    for n in cal.uncertain_signs():
-        print(f"  WARNING: uncertain medio-lateral sign of {cal.sensors[n].sensor} ({n}); give right_axis in the sensor map")
-    for n, c in cal.sensors.items():
-        if c.acc_gain != 1.0:
-            print(f"  WARNING: {c.sensor} ({n}) reads {c.standing_acc_norm:.2f} m/s² standing, not g: accelerometer scaled by {c.acc_gain:.3f}")
+    if rec.provenance["gaps"]:
+        print(f"  {len(rec.provenance['gaps'])} gap(s) interpolated (listed in the report), the first: {rec.provenance['gaps'][0]}")
+    for warning in cal.warnings:
+        print(f"  WARNING: {warning}")
     print(f"calibration report: {result.report} (+ {result.figure.name})")
     return 0

@@ -236,17 +236,18 @@ def resample(stream: IMUStream, max_gap_s: float = DEFAULT_MAX_GAP_S, rate_hz: f
     ``start_s``/``end_s``). Sensors at a higher rate are low-pass filtered at
     :data:`ANTI_ALIAS_HZ` first. The orientation is not resampled (dropped).
     """
-    notes = list(stream.notes)
     for s in stream.sensors.values():
         check_sensor(s)
         s.gaps = find_gaps(s)
-        for g in s.gaps:
-            if g.duration_s > max_gap_s + 1e-9:
-                raise IMUImportError(
-                    f"{g.describe()}: a gap longer than {max_gap_s:g} s cannot be bridged; import the part before or after "
-                    f"it (start/end times) or allow longer gaps (max_gap_s)"
-                )
-            notes.append(f"gap interpolated: {g.describe()}")
+    too_long = [g for s in stream.sensors.values() for g in s.gaps if g.duration_s > max_gap_s + 1e-9]
+    if too_long:
+        g = too_long[0]
+        shared = sum(h.sensor != g.sensor and abs(h.start_s - g.start_s) < 1e-6 for h in too_long)
+        raise IMUImportError(
+            f"{g.describe()}{f' (the same gap in {shared} other sensor(s))' if shared else ''}: a gap longer than {max_gap_s:g} s "
+            "cannot be bridged; import the part before or after it (start/end times) or allow longer gaps (max_gap_s)"
+        )
+    notes = list(stream.notes) + [f"gap interpolated: {g.describe()}" for s in stream.sensors.values() for g in s.gaps]
     t0 = max(float(s.time[0]) for s in stream.sensors.values())
     t1 = min(float(s.time[-1]) for s in stream.sensors.values())
     if t1 - t0 < 2.0 / rate_hz:

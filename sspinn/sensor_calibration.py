@@ -50,7 +50,9 @@ a standing phase, else its mean while walking):
    of the sensor axis nearest to y (``reference_axis``) from y, counter-clockwise seen from the
    right (the placement-angle convention of :class:`sspinn.body.IMUPlacement`).
 5. **Checks**: an ``up_axis`` hint whose gravity reading is below −0.5 g is a sensor mounted
-   upside down (:class:`SensorCalibrationError` naming it).
+   upside down (:class:`SensorCalibrationError` naming it). Without hints nothing here depends on
+   how a sensor is mounted; :mod:`sspinn.mounting_checks` compares the sensors with each other
+   (upside down, legs mixed up in the map) and adds warnings.
 """
 
 from __future__ import annotations
@@ -152,7 +154,17 @@ class SensorCalibration:
 
 @dataclass
 class Calibration:
-    """All sensors' calibrations plus the gait context they were found in."""
+    """All sensors' calibrations plus the gait context they were found in.
+
+    Attributes:
+        sensors: segment → :class:`SensorCalibration`. rate_hz: sample rate, Hz.
+        standing: (start, stop) samples of quiet standing, or None.
+        walking_s: walking used, s. stride_period_s: s.
+        walking_runs: (start, stop) samples of the walking spans used.
+        notes: how the calibration went (for the report).
+        warnings: what the user must check (uncertain signs here; :mod:`sspinn.mounting_checks`
+            adds upside-down sensors and legs mixed up in the map); ``sspinn import`` prints them.
+    """
 
     sensors: dict[str, SensorCalibration]
     rate_hz: float
@@ -160,6 +172,8 @@ class Calibration:
     walking_s: float
     stride_period_s: float
     notes: list[str] = field(default_factory=list)
+    walking_runs: list[tuple[int, int]] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
     def uncertain_signs(self) -> list[str]:
         return [s for s, c in self.sensors.items() if c.sign_margin < SIGN_MARGIN_WARN]
@@ -388,17 +402,18 @@ def calibrate(
         _check_up_axis(r, span, mask, source)
         norm = float(np.linalg.norm(r.acc[span[0]:span[1]].mean(axis=0))) if span is not None else None
         gain = GRAVITY / norm if norm is not None and abs(norm / GRAVITY - 1) > ACC_GAIN_TOLERANCE else 1.0
-        if gain != 1.0:
-            notes.append(f"sensor {r.a.sensor!r} ({seg}): |specific force| {norm:.2f} m/s² in quiet standing, not g: "
-                         f"accelerometer scaled by {gain:.3f}; check or recalibrate the sensor")
         out[seg] = SensorCalibration(
             r.a.sensor, seg, rotation, r.bias, oop, r.tilt, angle, _AXIS_NAMES[k], r.method, how[seg], angle_method,
             votes[seg], margins[seg], norm, gain,
         )
-    cal = Calibration(out, rate_hz, span, walking_s, period, notes)
+    cal = Calibration(out, rate_hz, span, walking_s, period, notes, runs)
     for seg in cal.uncertain_signs():
-        notes.append(f"sensor {out[seg].sensor!r} ({seg}): the medio-lateral sign is uncertain (margin {out[seg].sign_margin:.2f}); "
-                     "give right_axis in the sensor map")
+        cal.warnings.append(f"sensor {out[seg].sensor!r} ({seg}): the medio-lateral sign is uncertain "
+                            f"(margin {out[seg].sign_margin:.2f}); give right_axis in the sensor map")
+    for seg, c in out.items():
+        if c.acc_gain != 1.0:
+            cal.warnings.append(f"sensor {c.sensor!r} ({seg}): |specific force| {c.standing_acc_norm:.2f} m/s² in quiet standing, "
+                                f"not g: accelerometer scaled by {c.acc_gain:.3f}; check or recalibrate the sensor")
     return cal
 
 

@@ -139,8 +139,9 @@ class SensorMap:
         files is neither mapped nor ignored."""
         missing = [s for s in self.assignments if s not in available]
         if missing:
-            raise SensorMapError(f"{self.source}: sensor {missing[0]!r} (mapped to {self.assignments[missing[0]].segment}) is not in "
-                                 f"{files}; the files have {available}")
+            segment = self.assignments[missing[0]].segment
+            raise SensorMapError(f"{self.source}: sensor {missing[0]!r} (mapped to {segment}) is not in {files}; the files have "
+                                 f"{available}: fix the name, or remove it from the map to import without a {segment} IMU")
         unmapped = [s for s in available if s not in self.assignments and s not in self.ignore]
         if unmapped:
             raise SensorMapError(f"{self.source}: sensor {unmapped[0]!r} of {files} is not in the map; map it to a segment "

@@ -2,8 +2,10 @@
 
 Nothing here is used by the library itself: random but plausible model inputs, small synthetic
 recordings (random, or with walking-like channels), a CSV column edit for corrupting files, a
-tiny dataset + configuration + finished 4-step training run, and vendor IMU files (Xsens MT
-Manager text exports, OpenSense ``.trc``) written from given signals.
+tiny dataset + configuration + finished 4-step training run, vendor IMU files (Xsens MT
+Manager text exports, OpenSense ``.trc``) written from given signals, and edits of real
+OpenSense exports and sensor maps (bad files: a sensor removed, rows deleted, a sensor turned
+over, a dead axis, sides swapped).
 """
 
 from __future__ import annotations
@@ -16,9 +18,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 
 from sspinn.conventions import COORDINATES, GRAVITY, SEGMENTS
 from sspinn.dataset import Dataset, Labels, Recording
+from sspinn.vendor_formats import opensense_files, read_trc_vectors
 
 
 def random_inputs(rng: np.random.Generator, batch: tuple[int, ...] = ()) -> dict[str, np.ndarray]:
@@ -140,11 +144,14 @@ def write_xsens_txt(path: Path, acc: np.ndarray, gyr: np.ndarray, rate: float = 
     return path
 
 
-def write_opensense(folder: Path, stem: str, sensors: dict[str, tuple[np.ndarray, np.ndarray]], compress: bool = False) -> Path:
+def write_opensense(folder: Path, stem: str, sensors: dict[str, tuple[np.ndarray, np.ndarray]], compress: bool = False,
+                    time: np.ndarray | None = None) -> Path:
     """``<stem>_Accel.trc`` and ``_Gyro.trc`` as OpenSense writes them (the CMU files' header
-    layout, including the stray tab on line 5), optionally gzip-compressed; returns the accel file."""
+    layout, including the stray tab on line 5), optionally gzip-compressed; returns the accel file.
+    ``time``: the Time column, s (default: 100 Hz from 0)."""
     names = list(sensors)
     n = len(next(iter(sensors.values()))[0])
+    time = np.arange(n) / 100 if time is None else time
     out, stray = None, "\t"  # the CMU files have a stray tab before the last sensor's Y label
     for kind, index in (("Accel", 0), ("Gyro", 1)):
         lines = [f"PathFileType\t4\t(X/Y/Z)\t{stem}_{kind}.trc",
@@ -154,10 +161,70 @@ def write_opensense(folder: Path, stem: str, sensors: dict[str, tuple[np.ndarray
                  "\t\t" + "\t".join(f"X{i + 1}\t{stray if i == len(names) - 1 else ''}Y{i + 1}\tZ{i + 1}" for i in range(len(names))) + "\t",
                  ""]
         for k in range(n):
-            row = [str(k + 1), f"{k / 100:.8f}"] + [f"{v:.8f}" for s in names for v in sensors[s][index][k]]
+            row = [str(k + 1), f"{time[k]:.8f}"] + [f"{v:.8f}" for s in names for v in sensors[s][index][k]]
             lines.append("\t".join(row))
         text = "\n".join(lines) + "\n"
         path = folder / f"{stem}_{kind}.trc{'.gz' if compress else ''}"
         path.write_bytes(gzip.compress(text.encode()) if compress else text.encode())
         out = out or path
     return out
+
+
+#: Raw OpenSense sensors: name → (acc (n, 3), gyr (n, 3)).
+OpenSenseSensors = dict[str, tuple[np.ndarray, np.ndarray]]
+#: An edit of a raw OpenSense export: (time (n,), sensors) → (time, sensors).
+OpenSenseEdit = Callable[[np.ndarray, OpenSenseSensors], tuple[np.ndarray, OpenSenseSensors]]
+
+
+def read_opensense_raw(accel: Path, end_s: float | None = None) -> tuple[np.ndarray, OpenSenseSensors]:
+    """(time, sensors) of a real OpenSense export (its ``_Accel`` file, the ``_Gyro`` beside it),
+    rows with time < ``end_s`` only: the material for :func:`write_opensense` copies with errors."""
+    files = opensense_files(accel)
+    time, acc, _ = read_trc_vectors(files["accel"])
+    _, gyr, _ = read_trc_vectors(files["gyro"])
+    keep = time < (np.inf if end_s is None else end_s)
+    return time[keep], {n: (acc[n][keep], gyr[n][keep]) for n in acc}
+
+
+def sensor_removed(name: str) -> OpenSenseEdit:
+    """An edit that removes one sensor's columns from both files."""
+    return lambda time, sensors: (time, {n: v for n, v in sensors.items() if n != name})
+
+
+def rows_deleted(start_s: float, seconds: float) -> OpenSenseEdit:
+    """An edit that deletes the rows with ``start_s <= time < start_s + seconds`` (a gap)."""
+    def edit(time: np.ndarray, sensors: OpenSenseSensors) -> tuple[np.ndarray, OpenSenseSensors]:
+        keep = (time < start_s - 1e-9) | (time >= start_s + seconds - 1e-9)
+        return time[keep], {n: (a[keep], g[keep]) for n, (a, g) in sensors.items()}
+    return edit
+
+
+def sensor_turned(name: str, axis: int) -> OpenSenseEdit:
+    """An edit that turns one sensor 180° about its own axis ``axis`` (0 X, 1 Y, 2 Z): the other
+    two axes of its accelerometer and gyroscope change sign (remounted upside down or back to front)."""
+    flip = -np.ones(3)
+    flip[axis] = 1.0
+    return lambda time, sensors: (time, {**sensors, name: (sensors[name][0] * flip, sensors[name][1] * flip)})
+
+
+def axis_constant(name: str, quantity: int, axis: int, value: float = 0.0) -> OpenSenseEdit:
+    """An edit that sets one axis (0 X, 1 Y, 2 Z) of one sensor's accelerometer (``quantity`` 0)
+    or gyroscope (1) to ``value``: a dead axis, or a 2D export padded to 3D."""
+    def edit(time: np.ndarray, sensors: OpenSenseSensors) -> tuple[np.ndarray, OpenSenseSensors]:
+        signals = [sensors[name][0].copy(), sensors[name][1].copy()]
+        signals[quantity][:, axis] = value
+        return time, {**sensors, name: (signals[0], signals[1])}
+    return edit
+
+
+def sensor_map_edited(path: Path, swap: tuple[str, ...] = (), **entries: object) -> dict:
+    """The sensor map YAML at ``path`` as a dict, with the sides (``_r``/``_l``) of the sensors in
+    ``swap`` exchanged and ``entries`` (sensor → segment or mapping) set: wrong maps for tests."""
+    data = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
+    for sensor in swap:
+        entry = data["sensors"][sensor]
+        segment = entry if isinstance(entry, str) else entry["segment"]
+        segment = segment[:-1] + {"r": "l", "l": "r"}[segment[-1]]
+        data["sensors"][sensor] = segment if isinstance(entry, str) else {**entry, "segment": segment}
+    data["sensors"].update(entries)
+    return data
