@@ -24,7 +24,7 @@ from sspinn.validation.semi_real_running import (
     hamner_running,
     stance_intervals,
 )
-from tests.conftest import shared_data
+from tests.conftest import SHARED_DATA, shared_data
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -137,6 +137,8 @@ def test_deterministic_under_a_seed(run: SemiRealRunning) -> None:
     np.testing.assert_allclose(ideal.recording.imu, run.ideal_imu)
 
 
+# skipped before the session's tiny training run is set up, not after
+@pytest.mark.skipif(not (SHARED_DATA / DATA_FOLDER).exists(), reason=f"real data {SHARED_DATA / DATA_FOLDER} not present")
 def test_script_writes_an_evaluable_dataset(tmp_path, tiny_run, capsys) -> None:
     data = shared_data(DATA_FOLDER)
     spec = importlib.util.spec_from_file_location("make_semi_real_running", REPO / "scripts" / "make_semi_real_running.py")
