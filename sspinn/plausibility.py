@@ -11,8 +11,11 @@ from a foot gyroscope in rad/s; so each check is driven by what the body can do,
   impacts in running reach 10–20 g); and **gravity is visible**: the median magnitude lies within
   :data:`GRAVITY_MAGNITUDE_RANGE` × g (units of g give ≈ 0.1 g, cm/s² ≈ 100 g, linear
   acceleration without gravity ≈ 0.1–0.3 g), and so does the magnitude of the low-frequency
-  specific force (the mean over each :data:`LOW_PASS_WINDOW_S` window: dynamic accelerations
-  average out, gravity does not) in the median window.
+  specific force (the mean over each :data:`LOW_PASS_WINDOW_S` window: linear accelerations
+  average out, gravity does not) in the median window. In the frame of a swinging segment the
+  centripetal acceleration does not average out either: virtual foot IMUs on human running
+  kinematics at 4 m/s (``sspinn.validation.semi_real_running``) give 1 s means of 2.9–3.1 g
+  (shank 1.6 g), hence the upper bound of :data:`LOW_PASS_RANGE` equals that of the raw median.
 * **dead sensors**: a channel that never changes over the recording.
 * **saturated sensors**: a channel that sits at its extreme value (max or min) for at least
   :data:`SATURATION_MIN_RUN` consecutive samples in at least :data:`SATURATION_MIN_EPISODES`
@@ -42,7 +45,7 @@ MAX_GYRO_RAD_S: Final[dict[str, float]] = {"pelvis": 12.0, "femur": 25.0, "tibia
 MAX_ACC_M_S2: Final = 50 * GRAVITY
 #: Accepted median |specific force| and low-frequency |specific force|, in units of g.
 GRAVITY_MAGNITUDE_RANGE: Final = (0.3, 5.0)
-LOW_PASS_RANGE: Final = (0.3, 3.0)
+LOW_PASS_RANGE: Final = (0.3, 5.0)
 #: Window of the low-frequency specific force, s; checked only for recordings at least this long.
 LOW_PASS_WINDOW_S: Final = 1.0
 #: Saturation: runs of at least this many samples at the extreme, in at least this many episodes.
@@ -149,7 +152,8 @@ def _check_gravity(source: str, segment: str, acc: np.ndarray, sample_rate_hz: f
     if not low <= low_freq <= high:
         raise ImplausibleRecordingError(
             f"{source}: the low-frequency specific force of {columns} ({LOW_PASS_WINDOW_S:g} s means) has median "
-            f"magnitude {low_freq:.2f} g, but gravity keeps it near 1 g: the signals lack gravity or are scaled wrongly"
+            f"magnitude {low_freq:.2f} g, outside {low:g}–{high:g} g (gravity, plus the centripetal acceleration of a "
+            "swinging segment): the signals lack gravity or are scaled wrongly"
         )
 
 
