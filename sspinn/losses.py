@@ -15,7 +15,8 @@ imu        30      virtual − measured IMU signals, divided by each channel's s
 contact    100     separately estimated ankle kinematics − forward kinematics (L_GC)
 bounds     10000   joint limits (hip, ankle [−π/3, π/3], knee [−π/3, 0.1] rad by
                    default), |pelvis velocity| ≤ 10 m/s, pelvis height in [0, 2] m,
-                   each foot carrying ≥ 20 % BW on average over the sequence (L_B)
+                   each foot carrying ≥ 20 % BW on average over the sequence, and the
+                   sequence's mean forward pelvis velocity ≥ 0 (L_B; see below)
 torque     1       speed-weighted effort: (τ / (BW·BH) / max(ẋ_root, 1 m/s))² (L_τ)
 slide      30      (|ẋ_contact| / (1 m/s) · F_y / BW)² — no sliding under load
 foot_speed 1       foot-IMU horizontal speed vs a ZUPT Kalman estimate, penalised only
@@ -23,6 +24,14 @@ foot_speed 1       foot-IMU horizontal speed vs a ZUPT Kalman estimate, penalise
 =========  ======  ===================================================================
 
 Fine-tuning multiplies the kane, temporal and contact weights by 10 (:meth:`LossWeights.finetune`).
+
+**Forward, not backward.** Accelerometers and gyroscopes cannot see a constant velocity added to
+the whole body, and without the foot-speed term (running: no zero-velocity phase) nothing else
+told a gait from its mirror image running backwards: trained on running, the network converged
+to pelvis velocities of −2 to −3 m/s (issue #14; the Hamner running trial gave −3 m/s). The
+calibration (:mod:`sspinn.sensor_calibration`) and the synthetic data define x as the subject's
+anterior direction, so the mean forward velocity over a training window (≥ 1 s, a stride or
+more) is ≥ 0 for every gait, standing included; its violation is part of L_B.
 """
 
 from __future__ import annotations
@@ -168,6 +177,7 @@ class PhysicsLosses:
             + _relu2(-q[..., 1]).mean()
             + _relu2(q[..., 1] - 2.0).mean()
             + _relu2(self.foot_load - fy.mean(dim=1)).mean()
+            + _relu2(-u[..., 0].mean(dim=1)).mean()
         )
         terms["bounds"] = bounds
 

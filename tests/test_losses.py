@@ -99,6 +99,17 @@ def test_bounds_values():
     assert b1 - foot_term == pytest.approx(0.1**2 / 6, rel=1e-6)  # one joint of six, every sample
 
 
+def test_bounds_rule_out_walking_backwards():
+    """The same motion with −1.3 m/s added to the pelvis (what IMUs cannot tell apart) costs
+    (1.3 m/s)² in L_B; forward it costs nothing."""
+    est, batch, grf = exact_case()
+    losses = PhysicsLosses(UNIT)
+    forward = losses(est, batch)["bounds"]
+    est.u = est.u.clone()
+    est.u[..., 0] -= 2 * 1.3
+    assert losses(est, batch)["bounds"] - forward == pytest.approx(1.3**2, rel=1e-9)
+
+
 def test_foot_speed_margin():
     est, batch, _ = exact_case()
     losses = PhysicsLosses(UNIT)
