@@ -232,6 +232,12 @@ def report(results: dict, training: dict[str, dict], out: Path) -> str:
                 f"subjects' mean speed ({const['speed_error']:.3f})",
             ]
             lines.append(f"- **{arm}**: " + "; ".join(verdicts))
+        names = [name for name in results if name.endswith(condition)]
+        for arm in (a for a in ARMS if a in means and len(names) == 2):
+            (n1, r1), (n2, r2) = ((n, results[n]) for n in names)
+            lines.append(f"- speed tracking, {arm}: estimate {n1.split('_')[0]} − {n2.split('_')[0]} = "
+                         f"{r1[arm]['speed'] - r2[arm]['speed']:+.3f} m/s, belts {r1['belt_speed'] - r2['belt_speed']:+.3f} m/s "
+                         f"(the training mean predicts 0)")
         lines.append("")
     lines += ["## GRF over a few strides", ""] + [f"![{n}](plots/{n}.png)" for n in results]
     text = "\n".join(lines) + "\n"

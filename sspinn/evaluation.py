@@ -6,7 +6,11 @@ Metrics (computed over the label columns that are available):
 * **JTE** — RMSD of the joint torques, %BW·BH (body weight × body height);
 * **GRFE** — RMSE of the ground reaction forces (horizontal and vertical, both feet), %BW;
 * **speed error** — |mean estimated − mean true horizontal speed|, m/s;
-* **jitter** — mean |d³θ/dt³| of the estimated joint angles, rad/s³ (smoothness; lower is smoother).
+* **jitter** — mean |d³θ/dt³| of the estimated joint angles, rad/s³ (smoothness; lower is smoother);
+* **Kane residual** — RMS of the estimate's own equations-of-motion residual
+  (:meth:`sspinn.trajectory.Trajectory.kane_residual` with the assumed body: BW for the two
+  translational rows, BW·BH for the rotational ones), pooled over rows and samples: how far the
+  estimate is from being physically consistent (needs no labels).
 
 Metrics are only ever computed on recordings the model was not trained on, except for the
 paper's "averaged" protocol, which by design trains and evaluates on the same unlabelled stride
@@ -21,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sspinn.body import BodyParameters
 from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS
 from sspinn.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.errors import UserError
@@ -38,12 +43,15 @@ class EvaluationError(UserError):
 
 @dataclass
 class Metrics:
+    """Metrics of one or more estimates (module docstring; units in the names)."""
+
     jae_deg: float
     jte_pct_bwbh: float
     grfe_pct_bw: float
     speed_error_mps: float
     jitter: float
     n_samples: int
+    kane_residual: float = float("nan")
 
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
@@ -64,9 +72,10 @@ def _pooled_rmse(est: np.ndarray, ref: np.ndarray) -> float:
     return float(np.sqrt(np.mean((est - ref) ** 2)))
 
 
-def compute_metrics(est: GaitEstimate, rec: Recording, skip: int = 0) -> Metrics:
+def compute_metrics(est: GaitEstimate, rec: Recording, skip: int = 0, physics: bool = True) -> Metrics:
     """Metrics of one estimate against its recording's labels, ignoring the first ``skip``
-    samples (the LSTM's warm-up)."""
+    samples (the LSTM's warm-up); ``physics=False`` leaves the Kane residual out (NaN), e.g. for
+    a trivial predictor, which is no motion."""
     if rec.labels is None:
         raise EvaluationError(f"{rec.name}: no labels to evaluate against (use `sspinn infer` for recordings without labels)")
     lab = rec.labels
@@ -83,14 +92,16 @@ def compute_metrics(est: GaitEstimate, rec: Recording, skip: int = 0) -> Metrics
     speed = abs(float(np.mean(est.u[sl, 0])) - float(np.mean(lab.column("speed")[sl]))) if "speed" in have else float("nan")
     angles = est.q[sl][:, 2:]
     jitter = angle_jitter(angles, SAMPLE_RATE_HZ)
-    return Metrics(jae_deg=float(jae), jte_pct_bwbh=float(jte), grfe_pct_bw=float(grfe), speed_error_mps=speed, jitter=jitter, n_samples=len(est.time[sl]))
+    residual = est.kane_residual(BodyParameters.from_anthropometry(rec.height, rec.mass))[sl] if physics else np.empty(0)
+    return Metrics(jae_deg=float(jae), jte_pct_bwbh=float(jte), grfe_pct_bw=float(grfe), speed_error_mps=speed, jitter=jitter,
+                   n_samples=len(est.time[sl]), kane_residual=float(np.sqrt(np.mean(residual**2))) if residual.size else float("nan"))
 
 
 def mean_metrics(items: list[Metrics]) -> Metrics:
     """Sample-weighted mean of per-recording metrics (NaN-aware)."""
     w = np.array([m.n_samples for m in items], dtype=float)
     out = {}
-    for key in ("jae_deg", "jte_pct_bwbh", "grfe_pct_bw", "speed_error_mps", "jitter"):
+    for key in ("jae_deg", "jte_pct_bwbh", "grfe_pct_bw", "speed_error_mps", "jitter", "kane_residual"):
         v = np.array([getattr(m, key) for m in items])
         ok = np.isfinite(v)
         out[key] = float(np.sum(v[ok] * w[ok]) / np.sum(w[ok])) if ok.any() else float("nan")
@@ -132,7 +143,7 @@ def compare_with_baseline(
 
     groups: dict[str, list[tuple[Metrics, Metrics]]] = {}
     for est, rec in zip(estimates, recordings):
-        pair = (compute_metrics(est, rec, skip), compute_metrics(baseline.predict(rec), rec, skip))
+        pair = (compute_metrics(est, rec, skip), compute_metrics(baseline.predict(rec), rec, skip, physics=False))
         groups.setdefault(program_of(rec), []).append(pair)
     if len(groups) > 1:
         groups["all"] = [pair for pairs in list(groups.values()) for pair in pairs]
@@ -190,7 +201,6 @@ def write_report(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from sspinn.body import BodyParameters
     from sspinn.plotting import draw_stick_figure, save_figure
 
     check_evaluable(estimates, recordings, skip)  # everything is checked before anything is written
@@ -198,10 +208,11 @@ def write_report(
     mean = mean_metrics(list(per.values()))
     comparison = compare_with_baseline(estimates, recordings, baseline, skip) if baseline is not None else None
     out.mkdir(parents=True, exist_ok=True)
-    lines = [f"# {title}", "", "| recording | JAE (deg) | JTE (%BW·BH) | GRFE (%BW) | speed error (m/s) | jitter (rad/s³) |", "|---|---|---|---|---|---|"]
+    lines = [f"# {title}", "", "| recording | JAE (deg) | JTE (%BW·BH) | GRFE (%BW) | speed error (m/s) | jitter (rad/s³) | Kane residual (RMS) |",
+             "|---|---|---|---|---|---|---|"]
     for name, m in [*per.items(), ("**mean**", mean)]:
         cells = [_cell(v, f) for v, f in ((m.jae_deg, ".2f"), (m.jte_pct_bwbh, ".2f"), (m.grfe_pct_bw, ".2f"),
-                                          (m.speed_error_mps, ".3f"), (m.jitter, ".0f"))]
+                                          (m.speed_error_mps, ".3f"), (m.jitter, ".0f"), (m.kane_residual, ".3f"))]
         lines.append(f"| {name} | {' | '.join(cells)} |")
     if comparison is not None:
         assert baseline is not None
