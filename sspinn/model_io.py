@@ -49,7 +49,9 @@ def _network_config(state: dict[str, Any], path: Path) -> tuple[int, NetworkConf
 
 
 def load_weights(model: SSPINNposeNet, state: dict[str, Any], path: Path) -> None:
-    """``model.load_state_dict`` with an error that names the file and both network sizes."""
+    """``model.load_state_dict`` with an error that names the file and both network sizes; the
+    input normalisation of files written before :func:`~sspinn.network.feature_std_floor`
+    existed is floored on the way (idempotent for newer files)."""
     try:
         model.load_state_dict(state["model"])
     except (RuntimeError, TypeError, AttributeError) as exc:
@@ -58,6 +60,9 @@ def load_weights(model: SSPINNposeNet, state: dict[str, Any], path: Path) -> Non
             f"{path}: its network ({theirs}) does not fit this run's ({model.hyperparameters()}): "
             f"{_first_mismatch(exc)}; use the same network settings, or another run folder"
         ) from None
+    segments = tuple(state.get("segments", ()))
+    if segments and all(s in SEGMENTS for s in segments) and model.n_inputs == len(feature_std_floor(segments)):
+        model.set_normalisation(model.input_mean.clone(), model.input_std.clone(), feature_std_floor(segments))
 
 
 def _first_mismatch(exc: BaseException) -> str:
@@ -80,8 +85,6 @@ def load_model(path: str | Path, device: str | torch.device = "cpu") -> tuple[SS
     unknown = [s for s in segments if s not in SEGMENTS]
     if unknown or not isinstance(state["config"], dict):
         raise ModelFileError(f"{path}: unknown IMU segments {unknown} or a damaged config entry; {MODEL_HINT}")
-    if model.n_inputs == len(feature_std_floor(segments)):  # files from before the floor: apply it (idempotent)
-        model.set_normalisation(model.input_mean.clone(), model.input_std.clone(), feature_std_floor(segments))
     model.to(device).eval()
     return model, segments, state["config"]
 

@@ -12,7 +12,8 @@ import torch
 from sspinn.body import IMUPlacement
 from sspinn.conventions import SEGMENTS
 from sspinn.inference import estimate_recording
-from sspinn.model_io import load_model, save_model
+from sspinn.model_file import MODEL, load_torch_file
+from sspinn.model_io import MODEL_ENTRIES, load_model, load_weights, save_model
 from sspinn.network import UNSEEN_STD, NetworkConfig, SSPINNposeNet, feature_std_floor, input_features
 from sspinn.testing import walking_recording
 
@@ -39,6 +40,10 @@ def test_old_model_files_get_the_mask_on_load(tmp_path) -> None:
     path = save_model(net, tmp_path / "model.pt", SEGMENTS, {}, torch.ones(len(SEGMENTS), 3))
     model, segments, _ = load_model(path)
     assert (model.input_std[3 * len(SEGMENTS):] >= 0.05).all()
+    # fine-tuning reads the weights through load_weights: the same floor and mask
+    fresh = SSPINNposeNet(x.shape[1], NetworkConfig(hidden=16, layers=1, dense=16))
+    load_weights(fresh, load_torch_file(path, (MODEL,), MODEL_ENTRIES, "", "cpu"), path)
+    torch.testing.assert_close(fresh.input_std, model.input_std)
     moved = IMUPlacement.default(rec.height)
     moved.positions["foot_r"] = (0.26, -0.03)  # a forefoot sensor 14 cm further forward
     nominal = estimate_recording(model, rec, segments)
