@@ -116,7 +116,7 @@ def _evaluate(args: argparse.Namespace) -> int:
             f"{key} {c['model'][key]:.3g} vs {c['baseline'][key]:.3g}"
             + (" (WORSE)" if key in c["worse_than_baseline"] else "")
             for key in c["model"]
-            if key in c["baseline"] and key not in ("jitter", "n_samples", "kane_residual")
+            if key in c["baseline"] and key not in ("jitter", "n_samples", "kane_residual", "hs_timing_ms", "hs_matched")
         ]
         print(f"  {program:<5} " + "; ".join(cells))
         if c["worse_than_baseline"]:

@@ -7,6 +7,9 @@ Metrics (computed over the label columns that are available):
 * **GRFE** — RMSE of the ground reaction forces (horizontal and vertical, both feet), %BW;
 * **speed error** — |mean estimated − mean true horizontal speed|, m/s;
 * **jitter** — mean |d³θ/dt³| of the estimated joint angles, rad/s³ (smoothness; lower is smoother);
+* **heel-strike timing** — mean |Δt| between the heel strikes of the estimated and the measured
+  vertical GRF of each foot (:mod:`sspinn.gait_events`; 5 % BW threshold on both; events more
+  than 0.3 s apart count as missed), ms, and the share of measured heel strikes matched;
 * **Kane residual** — RMS of the estimate's own equations-of-motion residual
   (:meth:`sspinn.trajectory.Trajectory.kane_residual` with the assumed body: BW for the two
   translational rows, BW·BH for the rotational ones), pooled over rows and samples: how far the
@@ -27,7 +30,7 @@ import numpy as np
 
 from sspinn.body import BodyParameters
 from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS
-from sspinn.dataset import SAMPLE_RATE_HZ, Recording
+from sspinn.dataset import SAMPLE_RATE_HZ, Labels, Recording
 from sspinn.errors import UserError
 from sspinn.inference import GaitEstimate
 
@@ -52,6 +55,8 @@ class Metrics:
     jitter: float
     n_samples: int
     kane_residual: float = float("nan")
+    hs_timing_ms: float = float("nan")
+    hs_matched: float = float("nan")
 
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
@@ -93,15 +98,39 @@ def compute_metrics(est: GaitEstimate, rec: Recording, skip: int = 0, physics: b
     angles = est.q[sl][:, 2:]
     jitter = angle_jitter(angles, SAMPLE_RATE_HZ)
     residual = est.kane_residual(BodyParameters.from_anthropometry(rec.height, rec.mass))[sl] if physics else np.empty(0)
+    hs_ms, hs_matched = heel_strike_timing(est.grf[sl], lab, sl, bw)
     return Metrics(jae_deg=float(jae), jte_pct_bwbh=float(jte), grfe_pct_bw=float(grfe), speed_error_mps=speed, jitter=jitter,
-                   n_samples=len(est.time[sl]), kane_residual=float(np.sqrt(np.mean(residual**2))) if residual.size else float("nan"))
+                   n_samples=len(est.time[sl]), kane_residual=float(np.sqrt(np.mean(residual**2))) if residual.size else float("nan"),
+                   hs_timing_ms=hs_ms, hs_matched=hs_matched)
+
+
+#: Largest |Δt| of an estimated heel strike still matched to a measured one, s.
+HS_WINDOW_S = 0.3
+
+
+def heel_strike_timing(grf: np.ndarray, labels: Labels, sl: slice, body_weight: float) -> tuple[float, float]:
+    """(mean |Δt| in ms, share of measured heel strikes matched) of the estimated GRF (T, 4)
+    against the labels' vertical GRF of each foot that has one (NaN, NaN without)."""
+    from sspinn.gait_events import detect_events, event_timing
+
+    timings = []
+    for foot, column in enumerate(("grf_y_r", "grf_y_l")):
+        if column in labels.columns():
+            est = detect_events(grf[:, 2 * foot + 1], body_weight, SAMPLE_RATE_HZ).heel_strikes
+            ref = detect_events(labels.column(column)[sl], body_weight, SAMPLE_RATE_HZ).heel_strikes
+            timings.append(event_timing(est, ref, SAMPLE_RATE_HZ, HS_WINDOW_S))
+    matched, n_ref = sum(t.matched for t in timings), sum(t.n_reference for t in timings)
+    if not n_ref:
+        return float("nan"), float("nan")
+    mean = sum(t.mean_abs_ms * t.matched for t in timings if t.matched) / matched if matched else float("nan")
+    return float(mean), matched / n_ref
 
 
 def mean_metrics(items: list[Metrics]) -> Metrics:
     """Sample-weighted mean of per-recording metrics (NaN-aware)."""
     w = np.array([m.n_samples for m in items], dtype=float)
     out = {}
-    for key in ("jae_deg", "jte_pct_bwbh", "grfe_pct_bw", "speed_error_mps", "jitter", "kane_residual"):
+    for key in ("jae_deg", "jte_pct_bwbh", "grfe_pct_bw", "speed_error_mps", "jitter", "kane_residual", "hs_timing_ms", "hs_matched"):
         v = np.array([getattr(m, key) for m in items])
         ok = np.isfinite(v)
         out[key] = float(np.sum(v[ok] * w[ok]) / np.sum(w[ok])) if ok.any() else float("nan")
@@ -208,11 +237,13 @@ def write_report(
     mean = mean_metrics(list(per.values()))
     comparison = compare_with_baseline(estimates, recordings, baseline, skip) if baseline is not None else None
     out.mkdir(parents=True, exist_ok=True)
-    lines = [f"# {title}", "", "| recording | JAE (deg) | JTE (%BW·BH) | GRFE (%BW) | speed error (m/s) | jitter (rad/s³) | Kane residual (RMS) |",
-             "|---|---|---|---|---|---|---|"]
+    lines = [f"# {title}", "", "| recording | JAE (deg) | JTE (%BW·BH) | GRFE (%BW) | speed error (m/s) | heel strike (ms, matched) | "
+             "jitter (rad/s³) | Kane residual (RMS) |", "|---|---|---|---|---|---|---|---|"]
     for name, m in [*per.items(), ("**mean**", mean)]:
         cells = [_cell(v, f) for v, f in ((m.jae_deg, ".2f"), (m.jte_pct_bwbh, ".2f"), (m.grfe_pct_bw, ".2f"),
-                                          (m.speed_error_mps, ".3f"), (m.jitter, ".0f"), (m.kane_residual, ".3f"))]
+                                          (m.speed_error_mps, ".3f"))]
+        cells.append(f"{_cell(m.hs_timing_ms, '.0f')} ({_cell(100 * m.hs_matched, '.0f')} %)")
+        cells += [_cell(m.jitter, ".0f"), _cell(m.kane_residual, ".3f")]
         lines.append(f"| {name} | {' | '.join(cells)} |")
     if comparison is not None:
         assert baseline is not None

@@ -73,3 +73,17 @@ def test_grf_profile_follows_the_measured_strides() -> None:
     assert err < 0.05 and err_const > 0.25
     with pytest.raises(ValueError, match="no complete stride"):
         GRFProfilePredictor.fit([Recording(name="x", imu=test.imu, segments=SEGMENTS, height=1.75, mass=70.0)], "empty")
+
+
+def test_heel_strike_timing_of_an_estimate() -> None:
+    from sspinn.evaluation import heel_strike_timing
+
+    rec = grf_recording("a", 100, 70.0, n=1000)
+    late = np.roll(rec.labels.grf, 4, axis=0)  # every event 40 ms late
+    ms, matched = heel_strike_timing(late, rec.labels, slice(0, None), 70.0 * GRAVITY)
+    assert ms == pytest.approx(40.0) and matched == 1.0
+    mirrored = np.roll(rec.labels.grf, 50, axis=0)  # right and left swapped: half a stride off
+    ms, matched = heel_strike_timing(mirrored[:, [2, 3, 0, 1]], rec.labels, slice(0, None), 70.0 * GRAVITY)
+    assert ms == pytest.approx(0.0, abs=10.0)  # the swap itself is what the shift undoes
+    ms, matched = heel_strike_timing(mirrored, rec.labels, slice(0, None), 70.0 * GRAVITY)
+    assert np.isnan(ms) and matched == 0.0  # stance on the wrong foot: nothing within 0.3 s
