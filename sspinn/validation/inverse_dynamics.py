@@ -65,8 +65,8 @@ from sspinn.dynamics import inverse_dynamics
 from sspinn.kinematics import point_index, point_kinematics
 from sspinn.validation.opensim_files import (
     read_external_loads,
+    read_opensim_columns,
     read_opensim_header,
-    read_opensim_table,
     read_osim_model,
     sagittal_leg_from_osim,
 )
@@ -467,17 +467,6 @@ def csu_reference_replica(directory: str | Path | None = None, threshold: float 
 # --------------------------------------------------------------------------------------------
 # OpenSim subject01 (Gait10dof18musc)
 # --------------------------------------------------------------------------------------------
-def _table(path: Path) -> dict[str, np.ndarray]:
-    names, data = read_opensim_table(path)
-    return {name: data[:, k] for k, name in enumerate(names)}
-
-
-def _column(table: dict[str, np.ndarray], name: str, path: Path) -> np.ndarray:
-    try:
-        return table[name]
-    except KeyError:
-        raise KeyError(f"{path}: no column {name!r}") from None
-
 
 def opensim_inverse_dynamics(
     directory: str | Path | None = None,
@@ -522,25 +511,25 @@ def opensim_inverse_dynamics(
     mass = model.mass
     gravity = float(-model.gravity[1])
 
-    ik = _table(ik_path)
+    ik = read_opensim_columns(ik_path)
     in_degrees = read_opensim_header(ik_path).get("inDegrees", "no").strip().lower() == "yes"
-    t = _column(ik, "time", ik_path)
+    t = ik.column("time")
     dt = float(np.mean(np.diff(t)))
 
     def coord(name: str) -> np.ndarray:
-        x = _column(ik, name, ik_path)
+        x = ik.column(name)
         return np.deg2rad(x) if in_degrees and name not in _OPENSIM_TRANSLATIONS else x
 
     ik_names = ("pelvis_tx", "pelvis_ty", "pelvis_tilt", *(OPENSIM_JOINTS[j] for j in OPENSIM_JOINTS))
     filtered = dict(zip(ik_names, lowpass(np.stack([coord(c) for c in ik_names], axis=1), 1.0 / dt, cutoff).T))
 
-    grf_table = _table(grf_path)
-    t_grf = _column(grf_table, "time", grf_path)
+    grf_table = read_opensim_columns(grf_path)
+    t_grf = grf_table.column("time")
     fs_grf = (t_grf.size - 1) / (t_grf[-1] - t_grf[0])
     external = read_external_loads(xml_path)
 
-    reference_table = _table(id_path)
-    t_ref = _column(reference_table, "time", id_path)
+    reference_table = read_opensim_columns(id_path)
+    t_ref = reference_table.column("time")
 
     ours, reference, joints = [], [], []
     for side in sides:
@@ -563,8 +552,8 @@ def opensim_inverse_dynamics(
         loads = {}
         if load is not None:
             cols = load.columns()
-            fx, fy = (_column(grf_table, c, grf_path) for c in cols["force"][:2])
-            px, py = (_column(grf_table, c, grf_path) for c in cols["point"][:2])
+            fx, fy = (grf_table.column(c) for c in cols["force"][:2])
+            px, py = (grf_table.column(c) for c in cols["point"][:2])
             tz = grf_table.get(cols["torque"][2], np.zeros_like(fx))
             raw = np.stack([fx, fy, px * fy - py * fx + tz], axis=1)
             smooth = lowpass(raw, fs_grf, cutoff)
@@ -574,7 +563,7 @@ def opensim_inverse_dynamics(
         for j in leg_joints:
             joints.append(j)
             ours.append(tau[:, index(j) - 3] / mass)
-            ref = _column(reference_table, f"{OPENSIM_JOINTS[j]}_moment", id_path)
+            ref = reference_table.column(f"{OPENSIM_JOINTS[j]}_moment")
             reference.append(np.interp(t, t_ref, ref) / mass)
     return Comparison(
         dataset="OpenSim subject01 ID",

@@ -142,6 +142,28 @@ def read_opensim_table(path: str | Path) -> tuple[list[str], np.ndarray]:
     return names, np.asarray(rows, dtype=np.float64)
 
 
+class OpenSimTable(dict):
+    """An OpenSim table as columns by name (:func:`read_opensim_columns`); :meth:`column` names
+    the file when a column is missing."""
+
+    path: Path
+
+    def column(self, name: str) -> np.ndarray:
+        """The column ``name``; :class:`OpenSimFormatError` naming the file if it has none."""
+        try:
+            return self[name]
+        except KeyError:
+            raise OpenSimFormatError(f"{self.path}: no column {name!r}") from None
+
+
+def read_opensim_columns(path: str | Path) -> OpenSimTable:
+    """:func:`read_opensim_table` as a mapping column name → (n_rows,) array."""
+    names, data = read_opensim_table(path)
+    table = OpenSimTable({n: data[:, k] for k, n in enumerate(names)})
+    table.path = Path(path)
+    return table
+
+
 # --------------------------------------------------------------------------------------------
 # OpenSim models (.osim)
 # --------------------------------------------------------------------------------------------

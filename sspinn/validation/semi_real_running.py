@@ -98,8 +98,8 @@ from sspinn.validation.opensim_files import (
     OpenSimFormatError,
     SagittalLeg,
     read_external_loads,
+    read_opensim_columns,
     read_opensim_header,
-    read_opensim_table,
     read_osim_model,
     sagittal_leg_from_osim,
 )
@@ -158,17 +158,6 @@ class HamnerFiles:
     directory: Path
 
 
-def _table(path: Path) -> dict[str, np.ndarray]:
-    names, data = read_opensim_table(path)
-    return {n: data[:, k] for k, n in enumerate(names)}
-
-
-def _column(table: dict[str, np.ndarray], name: str, path: Path) -> np.ndarray:
-    try:
-        return table[name]
-    except KeyError:
-        raise OpenSimFormatError(f"{path}: no column {name!r}") from None
-
 
 def read_hamner_files(directory: str | Path | None = None) -> HamnerFiles:
     """Read the IK, GRF, external-loads and model files of the Hamner run (see the module docs)."""
@@ -183,14 +172,14 @@ def read_hamner_files(directory: str | Path | None = None) -> HamnerFiles:
     if legs["r"] != legs["l"]:  # pragma: no cover - the scaled model is symmetric
         raise NotImplementedError(f"{model.path}: asymmetric legs are not supported")
 
-    table = _table(ik_path)
+    table = read_opensim_columns(ik_path)
     in_degrees = read_opensim_header(ik_path).get("inDegrees", "no").strip().lower() == "yes"
     ik = {}
     for c in _IK_COORDINATES:
-        x = _column(table, c, ik_path)
+        x = table.column(c)
         ik[c] = np.deg2rad(x) if in_degrees and c not in _TRANSLATIONS else x
 
-    grf = _table(grf_path)
+    grf = read_opensim_columns(grf_path)
     external = read_external_loads(directory / LOADS_FILE)
     loads, cop = {}, {}
     for side in SIDES:
@@ -198,16 +187,16 @@ def read_hamner_files(directory: str | Path | None = None) -> HamnerFiles:
         if load is None:
             raise OpenSimFormatError(f"{directory / LOADS_FILE}: no ExternalForce applied to calcn_{side}")
         cols = load.columns()
-        fx, fy = (_column(grf, c, grf_path) for c in cols["force"][:2])
-        px, py = (_column(grf, c, grf_path) for c in cols["point"][:2])
+        fx, fy = (grf.column(c) for c in cols["force"][:2])
+        px, py = (grf.column(c) for c in cols["point"][:2])
         tz = grf.get(cols["torque"][2], np.zeros_like(fx))
         loads[side] = np.stack([fx, fy, px * fy - py * fx + tz], axis=1)
         cop[side] = np.stack([px, py], axis=1)
     on = np.concatenate([cop[s][loads[s][:, 1] > CONTACT_THRESHOLD_N, 1] for s in SIDES])
     return HamnerFiles(
-        t_ik=_column(table, "time", ik_path),
+        t_ik=table.column("time"),
         ik=ik,
-        t_grf=_column(grf, "time", grf_path),
+        t_grf=grf.column("time"),
         loads=loads,
         cop=cop,
         leg=legs["r"],
