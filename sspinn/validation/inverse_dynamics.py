@@ -64,6 +64,7 @@ from sspinn.conventions import N_Q, SIDES, index
 from sspinn.dynamics import inverse_dynamics
 from sspinn.kinematics import point_index, point_kinematics
 from sspinn.validation.opensim_files import (
+    SagittalLeg,
     read_external_loads,
     read_opensim_columns,
     read_opensim_header,
@@ -468,6 +469,22 @@ def csu_reference_replica(directory: str | Path | None = None, threshold: float 
 # OpenSim subject01 (Gait10dof18musc)
 # --------------------------------------------------------------------------------------------
 
+def sagittal_coordinates(ik: dict[str, np.ndarray], leg: SagittalLeg, sides: tuple[str, ...] = SIDES) -> np.ndarray:
+    """(n, 9) sspinn coordinates in the lab frame from OpenSim IK coordinates (rad, m): the hip
+    joint centre from the pelvis origin and tilt, joint angles of ``sides`` with the leg's frame
+    offsets (the other side's stay 0)."""
+    tilt = ik["pelvis_tilt"]
+    hx, hy = leg.hip_in_pelvis
+    q = np.zeros((tilt.size, N_Q))
+    q[:, 0] = ik["pelvis_tx"] + np.cos(tilt) * hx - np.sin(tilt) * hy
+    q[:, 1] = ik["pelvis_ty"] + np.sin(tilt) * hx + np.cos(tilt) * hy
+    q[:, 2] = tilt
+    for side in sides:
+        joints = (f"hip_{side}", f"knee_{side}", f"ankle_{side}")
+        q[:, [index(j) for j in joints]] = leg.joint_angles(*(ik[OPENSIM_JOINTS[j]] for j in joints))
+    return q
+
+
 def opensim_inverse_dynamics(
     directory: str | Path | None = None,
     cutoff: float = DEFAULT_CUTOFF_HZ,
@@ -538,14 +555,8 @@ def opensim_inverse_dynamics(
         p = BodyParameters.from_anthropometry(height, mass, gravity=gravity).replace(
             **{f"femur_{side}": leg.femur, f"tibia_{side}": leg.tibia, f"foot_{side}": leg.foot}
         )
-        tilt = filtered["pelvis_tilt"]
-        hx, hy = leg.hip_in_pelvis
-        q = np.zeros((t.size, N_Q))
-        q[:, 0] = filtered["pelvis_tx"] + np.cos(tilt) * hx - np.sin(tilt) * hy
-        q[:, 1] = filtered["pelvis_ty"] + np.sin(tilt) * hx + np.cos(tilt) * hy
-        q[:, 2] = tilt
+        q = sagittal_coordinates(filtered, leg, (side,))
         leg_joints = (f"hip_{side}", f"knee_{side}", f"ankle_{side}")
-        q[:, [index(j) for j in leg_joints]] = leg.joint_angles(*(filtered[OPENSIM_JOINTS[j]] for j in leg_joints))
         u, qdd = differentiate(q, dt)
 
         load = external.get(f"calcn_{side}")

@@ -80,7 +80,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from sspinn.body import BodyParameters, IMUPlacement
-from sspinn.conventions import N_Q, SEGMENTS, SIDES, index
+from sspinn.conventions import SEGMENTS, SIDES, index
 from sspinn.dataset import SAMPLE_RATE_HZ, Labels, Recording
 from sspinn.dynamics import inverse_dynamics
 from sspinn.imu_errors import IMUErrorModel, measure_imu
@@ -93,6 +93,7 @@ from sspinn.validation.inverse_dynamics import (
     differentiate,
     grf_inputs,
     lowpass,
+    sagittal_coordinates,
 )
 from sspinn.validation.opensim_files import (
     OpenSimFormatError,
@@ -209,21 +210,6 @@ def read_hamner_files(directory: str | Path | None = None) -> HamnerFiles:
 # --------------------------------------------------------------------------------------------
 # Kinematics
 # --------------------------------------------------------------------------------------------
-def sagittal_coordinates(ik: dict[str, np.ndarray], leg: SagittalLeg) -> np.ndarray:
-    """(n, 9) sspinn coordinates in the lab frame from OpenSim IK coordinates (rad, m): the hip
-    joint centre from the pelvis origin and tilt, joint angles with the leg's frame offsets."""
-    tilt = ik["pelvis_tilt"]
-    hx, hy = leg.hip_in_pelvis
-    q = np.zeros((tilt.size, N_Q))
-    q[:, 0] = ik["pelvis_tx"] + np.cos(tilt) * hx - np.sin(tilt) * hy
-    q[:, 1] = ik["pelvis_ty"] + np.sin(tilt) * hx + np.cos(tilt) * hy
-    q[:, 2] = tilt
-    for side in SIDES:
-        joints = (f"hip_{side}", f"knee_{side}", f"ankle_{side}")
-        q[:, [index(j) for j in joints]] = leg.joint_angles(*(ik[OPENSIM_JOINTS[j]] for j in joints))
-    return q
-
-
 def stance_intervals(vertical: np.ndarray, threshold: float = CONTACT_THRESHOLD_N) -> list[tuple[int, int]]:
     """Complete stances ``[start, end)`` (sample indices) where ``vertical`` (N) exceeds
     ``threshold``; a stance cut by the start or the end of the signal is left out."""
