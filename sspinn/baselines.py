@@ -25,6 +25,7 @@ import numpy as np
 
 from sspinn.conventions import COORDINATES, GRAVITY, GRF, N_Q, N_TAU
 from sspinn.dataset import SAMPLE_RATE_HZ, Recording
+from sspinn.gait_events import detect_events, normalise_cycles, strides
 from sspinn.inference import GaitEstimate
 
 #: Program name of recordings whose provenance names none.
@@ -154,12 +155,13 @@ class GRFProfilePredictor:
                 continue
             grf_bw = rec.labels.grf / (rec.mass * GRAVITY)
             means.append(grf_bw)
-            for foot, (a, b) in enumerate(_strides(rec)):
-                cycles[foot] += [_normalise(grf_bw[s : e + 1, 2 * foot : 2 * foot + 2]) for s, e in zip(a, b)]
+            for foot, cuts in enumerate(_strides(rec)):
+                if cuts:
+                    cycles[foot].append(np.stack([normalise_cycles(grf_bw[:, 2 * foot + k], cuts) for k in range(2)], axis=-1))
         if not cycles[0] or not cycles[1]:
             raise ValueError(f"{source}: no complete stride on both feet in the GRF labels to fit a GRF profile on")
-        profile = np.stack([np.mean(c, axis=0) for c in cycles])
-        return cls(profile, np.concatenate(means).mean(0), min(len(c) for c in cycles), source)
+        profile = np.stack([np.concatenate(c).mean(axis=0) for c in cycles])
+        return cls(profile, np.concatenate(means).mean(0), min(sum(len(x) for x in c) for c in cycles), source)
 
     def predict_grf(self, rec: Recording) -> np.ndarray:
         """(T, 4) GRF (N) of ``rec``: the profile between its measured heel strikes."""
@@ -167,29 +169,16 @@ class GRFProfilePredictor:
             raise ValueError(f"{rec.name}: the GRF profile is placed at the measured heel strikes; the recording has no GRF labels")
         bw = rec.mass * GRAVITY
         out = np.tile(self.mean_bw, (rec.n_samples, 1))
-        for foot, (a, b) in enumerate(_strides(rec)):
-            for s, e in zip(a, b):
+        for foot, cuts in enumerate(_strides(rec)):
+            for s, e in cuts:
                 grid = np.linspace(0, 1, e - s + 1)
                 out[s : e + 1, 2 * foot : 2 * foot + 2] = np.column_stack(
                     [np.interp(grid, np.linspace(0, 1, 101), self.profile[foot, :, k]) for k in range(2)])
         return out * bw
 
 
-def _strides(rec: Recording) -> list[tuple[np.ndarray, np.ndarray]]:
+def _strides(rec: Recording) -> list[list[tuple[int, int]]]:
     """Per foot (right, left): (start, end) sample indices of the strides of the measured GRF."""
-    from sspinn.gait_events import detect_events
-
     assert rec.labels is not None and rec.labels.grf is not None
-    out = []
-    for foot in range(2):
-        hs = detect_events(rec.labels.grf[:, 2 * foot + 1], rec.mass * GRAVITY, SAMPLE_RATE_HZ).heel_strikes
-        keep = (np.diff(hs) >= 0.3 * SAMPLE_RATE_HZ) & (np.diff(hs) <= 3 * SAMPLE_RATE_HZ)
-        out.append((hs[:-1][keep], hs[1:][keep]))
-    return out
-
-
-def _normalise(signal: np.ndarray, points: int = 101) -> np.ndarray:
-    """(points, n) of a (T, n) signal time-normalised to 0–100 %."""
-    grid = np.linspace(0, 1, points)
-    t = np.linspace(0, 1, len(signal))
-    return np.column_stack([np.interp(grid, t, signal[:, k]) for k in range(signal.shape[1])])
+    return [strides(detect_events(rec.labels.grf[:, 2 * foot + 1], rec.mass * GRAVITY, SAMPLE_RATE_HZ).heel_strikes, SAMPLE_RATE_HZ)
+            for foot in range(2)]

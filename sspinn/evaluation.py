@@ -32,6 +32,7 @@ from sspinn.body import BodyParameters
 from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS
 from sspinn.dataset import SAMPLE_RATE_HZ, Labels, Recording
 from sspinn.errors import UserError
+from sspinn.gait_events import detect_events, grf_event_timing, normalise_cycles, strides
 from sspinn.inference import GaitEstimate
 
 if TYPE_CHECKING:
@@ -111,19 +112,10 @@ HS_WINDOW_S = 0.3
 def heel_strike_timing(grf: np.ndarray, labels: Labels, sl: slice, body_weight: float) -> tuple[float, float]:
     """(mean |Δt| in ms, share of measured heel strikes matched) of the estimated GRF (T, 4)
     against the labels' vertical GRF of each foot that has one (NaN, NaN without)."""
-    from sspinn.gait_events import detect_events, event_timing
-
-    timings = []
-    for foot, column in enumerate(("grf_y_r", "grf_y_l")):
-        if column in labels.columns():
-            est = detect_events(grf[:, 2 * foot + 1], body_weight, SAMPLE_RATE_HZ).heel_strikes
-            ref = detect_events(labels.column(column)[sl], body_weight, SAMPLE_RATE_HZ).heel_strikes
-            timings.append(event_timing(est, ref, SAMPLE_RATE_HZ, HS_WINDOW_S))
-    matched, n_ref = sum(t.matched for t in timings), sum(t.n_reference for t in timings)
-    if not n_ref:
+    if labels.grf is None:
         return float("nan"), float("nan")
-    mean = sum(t.mean_abs_ms * t.matched for t in timings if t.matched) / matched if matched else float("nan")
-    return float(mean), matched / n_ref
+    t = grf_event_timing(grf, labels.grf[sl], body_weight, SAMPLE_RATE_HZ, "heel_strikes", HS_WINDOW_S)
+    return (t.mean_abs_ms, t.matched / t.n_reference) if t.n_reference else (float("nan"), float("nan"))
 
 
 def mean_metrics(items: list[Metrics]) -> Metrics:
@@ -138,20 +130,6 @@ def mean_metrics(items: list[Metrics]) -> Metrics:
 
 
 # ------------------------------------------------------------------------------ report
-def gait_cycles(vertical_grf: np.ndarray, threshold: float) -> list[tuple[int, int]]:
-    """(start, end) sample indices of gait cycles from heel strike to heel strike, detected as
-    upward crossings of ``threshold`` (N) by one foot's vertical GRF."""
-    on = vertical_grf > threshold
-    strikes = np.flatnonzero(on[1:] & ~on[:-1]) + 1
-    return [(int(a), int(b)) for a, b in zip(strikes[:-1], strikes[1:]) if 30 <= b - a <= 300]
-
-
-def normalise_cycles(signal: np.ndarray, cycles: list[tuple[int, int]], points: int = 101) -> np.ndarray:
-    """(n_cycles, points) of a signal time-normalised to 0–100 % of each cycle."""
-    grid = np.linspace(0, 1, points)
-    return np.array([np.interp(grid, np.linspace(0, 1, b - a + 1), signal[a : b + 1]) for a, b in cycles])
-
-
 #: Metric → name of the trivial predictor it is compared with (:mod:`sspinn.baselines`).
 BASELINE_OF: dict[str, str] = {
     "jae_deg": "mean posture",
@@ -261,8 +239,9 @@ def write_report(
         ax.set_title("estimated poses (spread out in x) with GRF")
         lab = rec.labels
         grf_ref = lab.column("grf_y_r") if lab is not None and "grf_y_r" in lab.columns() else est.grf[:, 1]
-        cycles = gait_cycles(grf_ref[skip:], 0.05 * rec.mass * GRAVITY)
-        cycles = [(a + skip, b + skip) for a, b in cycles]
+        # heel strikes as raw upward crossings of 5 % BW (no minimum phase: the reference is clean)
+        heel_strikes = detect_events(grf_ref[skip:], rec.mass * GRAVITY, SAMPLE_RATE_HZ, min_phase_s=0.0).heel_strikes
+        cycles = [(a + skip, b + skip) for a, b in strides(heel_strikes, SAMPLE_RATE_HZ)]
         panels = [("hip_r", "angle"), ("knee_r", "angle"), ("ankle_r", "angle"), ("tau_knee_r", "torque"), ("grf_y_r", "grf")]
         for ax, (col, kind) in zip(axes.flat[1:], panels):
             if kind == "angle":

@@ -10,7 +10,10 @@ chatters around the threshold gives one event, not several. The same rule is app
 estimated and to the measured force, so the timing error compares like with like.
 
 The timing error (:func:`event_timing`) pairs every reference event with the nearest estimated
-event of the same kind and foot; pairs further apart than ``max_offset_s`` count as missed.
+event of the same kind and foot; pairs further apart than ``max_offset_s`` count as missed;
+:func:`grf_event_timing` pools both feet of a GRF array. :func:`strides` and
+:func:`normalise_cycles` cut a recording into heel-strike-to-heel-strike cycles and time-normalise
+them (0–100 %), for the gait-cycle plots and the mean-GRF-profile baseline.
 """
 
 from __future__ import annotations
@@ -82,6 +85,18 @@ def detect_events(vertical: np.ndarray, body_weight: float, rate_hz: float,
     return GaitEvents(np.flatnonzero(change == 1) + 1, np.flatnonzero(change == -1) + 1, contact)
 
 
+def strides(heel_strikes: np.ndarray, rate_hz: float, min_s: float = 0.3, max_s: float = 3.0) -> list[tuple[int, int]]:
+    """(start, end) sample indices of the cycles between consecutive heel strikes that last
+    ``min_s``–``max_s`` seconds (longer or shorter ones are missed or spurious events)."""
+    return [(int(a), int(b)) for a, b in zip(heel_strikes[:-1], heel_strikes[1:]) if min_s * rate_hz <= b - a <= max_s * rate_hz]
+
+
+def normalise_cycles(signal: np.ndarray, cycles: list[tuple[int, int]], points: int = 101) -> np.ndarray:
+    """(n_cycles, points) of a (T,) signal time-normalised to 0–100 % of each cycle."""
+    grid = np.linspace(0, 1, points)
+    return np.array([np.interp(grid, np.linspace(0, 1, b - a + 1), signal[a : b + 1]) for a, b in cycles])
+
+
 def event_timing(estimated: np.ndarray, reference: np.ndarray, rate_hz: float, max_offset_s: float) -> EventTiming:
     """Timing error of ``estimated`` against ``reference`` event sample indices (module docstring)."""
     estimated, reference = np.asarray(estimated), np.asarray(reference)
@@ -94,3 +109,22 @@ def event_timing(estimated: np.ndarray, reference: np.ndarray, rate_hz: float, m
         return EventTiming(float("nan"), float("nan"), 0, len(reference), len(estimated))
     return EventTiming(float(1e3 * np.mean(np.abs(offset_s[ok]))), float(1e3 * np.mean(offset_s[ok])), int(ok.sum()),
                        len(reference), len(estimated))
+
+
+def grf_event_timing(estimated: np.ndarray, reference: np.ndarray, body_weight: float, rate_hz: float,
+                     kind: str = "heel_strikes", max_offset_s: float = 0.3) -> EventTiming:
+    """:func:`event_timing` of one kind of event (``heel_strikes`` or ``toe_offs``) from two (T, 4)
+    GRF arrays (``grf_x_r, grf_y_r, grf_x_l, grf_y_l``, N), pooled over the feet whose reference
+    vertical force is known (a foot of NaN, e.g. a missing label column, is left out): the means
+    weighted by each foot's matched events."""
+    feet = [f for f in range(2) if np.isfinite(reference[:, 2 * f + 1]).all()]
+    timings = [event_timing(getattr(detect_events(estimated[:, 2 * f + 1], body_weight, rate_hz), kind),
+                            getattr(detect_events(reference[:, 2 * f + 1], body_weight, rate_hz), kind), rate_hz, max_offset_s)
+               for f in feet]
+    matched = sum(t.matched for t in timings)
+
+    def weighted(field: str) -> float:
+        return float(sum(getattr(t, field) * t.matched for t in timings if t.matched) / matched) if matched else float("nan")
+
+    return EventTiming(weighted("mean_abs_ms"), weighted("bias_ms"), matched, sum(t.n_reference for t in timings),
+                       sum(t.n_estimated for t in timings))

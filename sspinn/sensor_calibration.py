@@ -94,6 +94,7 @@ class SensorCalibrationError(UserError):
 #: gain is corrected (:attr:`SensorCalibration.acc_gain`).
 ACC_GAIN_TOLERANCE: float = 0.03
 
+
 @dataclass
 class SensorCalibration:
     """One sensor's calibration (module docstring).
