@@ -45,7 +45,7 @@ from sspinn.baselines import GRFProfilePredictor, TrivialPredictor
 from sspinn.conventions import GRAVITY
 from sspinn.dataset import SAMPLE_RATE_HZ, Dataset, Recording
 from sspinn.evaluation import finite_or_null
-from sspinn.gait_events import detect_events, event_timing
+from sspinn.gait_events import grf_event_timing
 from sspinn.imu_import import IMPORTER_VERSION, import_imu
 from sspinn.inference import GaitEstimate, estimate_recording
 from sspinn.model_io import load_model
@@ -117,43 +117,44 @@ def trial_metrics(grf: np.ndarray, speed: float | None, rec: Recording) -> dict[
     ref, est = rec.labels.grf[sl], grf[sl]
     out = {"vertical": grf_rmse_pct(est, ref, [1, 3], rec.mass), "horizontal": grf_rmse_pct(est, ref, [0, 2], rec.mass),
            "all": grf_rmse_pct(est, ref, [0, 1, 2, 3], rec.mass)}
-    bw = rec.mass * GRAVITY
-    for kind in ("heel_strikes", "toe_offs"):
-        timings = [event_timing(getattr(detect_events(est[:, 2 * f + 1], bw, SAMPLE_RATE_HZ), kind),
-                                getattr(detect_events(ref[:, 2 * f + 1], bw, SAMPLE_RATE_HZ), kind), SAMPLE_RATE_HZ,
-                                EVENT_WINDOW_S) for f in range(2)]
-        matched = sum(t.matched for t in timings)
-        key = "hs" if kind == "heel_strikes" else "to"
-        out[f"{key}_ms"] = float(sum(t.mean_abs_ms * t.matched for t in timings if t.matched) / matched) if matched else float("nan")
-        out[f"{key}_bias_ms"] = float(sum(t.bias_ms * t.matched for t in timings if t.matched) / matched) if matched else float("nan")
-        out[f"{key}_matched"] = matched / max(1, sum(t.n_reference for t in timings))
-        out[f"{key}_extra"] = sum(t.n_estimated for t in timings) - matched
+    for key, kind in (("hs", "heel_strikes"), ("to", "toe_offs")):
+        t = grf_event_timing(est, ref, rec.mass * GRAVITY, SAMPLE_RATE_HZ, kind, EVENT_WINDOW_S)
+        out |= {f"{key}_ms": t.mean_abs_ms, f"{key}_bias_ms": t.bias_ms, f"{key}_matched": t.matched / max(1, t.n_reference),
+                f"{key}_extra": t.n_estimated - t.matched}
     if speed is not None:
         out["speed"] = speed
         out["speed_error"] = abs(speed - float(np.mean(rec.labels.speed[sl])))
     return out
 
 
-def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recording]) -> tuple[dict, dict[str, dict[str, GaitEstimate]]]:
-    """Per trial: the metrics of every arm and of the baselines; and the estimates (for plots)."""
+def condition_of(rec: Recording) -> str:
+    """The trial's condition (a key of :data:`CONDITIONS`), from its name."""
+    return next(c for c in CONDITIONS if rec.name.endswith(c))
+
+
+def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recording]
+             ) -> tuple[dict, dict[str, dict[str, GaitEstimate]], dict[str, np.ndarray]]:
+    """Per trial: the metrics of every arm and of the baselines; the estimates and the mean
+    profile's GRF (for the plots)."""
     trivial = TrivialPredictor.fit(train, "the training subjects' labels (Sub01–Sub04)")
-    profiles = {c: GRFProfilePredictor.fit([r for r in train if r.name.endswith(c)], f"training subjects, {c}") for c in CONDITIONS}
+    profiles = {c: GRFProfilePredictor.fit([r for r in train if condition_of(r) == c], f"training subjects, {c}") for c in CONDITIONS}
     results: dict[str, dict] = {}
     estimates: dict[str, dict[str, GaitEstimate]] = {}
+    profile_grf: dict[str, np.ndarray] = {}
     loaded = {arm: load_model(path) for arm, path in models.items()}
     for rec in test:
-        condition = next(c for c in CONDITIONS if rec.name.endswith(c))
         base = trivial.predict(rec)
+        profile_grf[rec.name] = profiles[condition_of(rec)].predict_grf(rec)
         row = {"belt_speed": float(np.mean(rec.labels.speed)) if rec.labels and rec.labels.speed is not None else None,
                "constant mean GRF / mean speed": trial_metrics(base.grf, float(np.mean(base.u[:, 0])), rec),
-               "mean GRF profile (measured timing)": trial_metrics(profiles[condition].predict_grf(rec), None, rec)}
+               "mean GRF profile (measured timing)": trial_metrics(profile_grf[rec.name], None, rec)}
         estimates[rec.name] = {}
         for arm, (model, segments, _) in loaded.items():
             est = estimate_recording(model, rec, segments)
             estimates[rec.name][arm] = est
             row[arm] = trial_metrics(est.grf, float(np.mean(est.u[WARMUP:, 0])), rec)
         results[rec.name] = row
-    return results, estimates
+    return results, estimates, profile_grf
 
 
 # ------------------------------------------------------------------------------------- 4. report
@@ -182,6 +183,12 @@ def plot_trial(path: Path, rec: Recording, estimates: dict[str, GaitEstimate], p
     axes[1].set_xlabel("time (s)")
     fig.suptitle(f"{rec.name}: estimated vs measured GRF (held-out subject)")
     save_figure(fig, path, dpi=90)
+
+
+def _finite_mean(values: list[float]) -> float:
+    """Mean of the finite values, NaN if none (a metric a predictor does not have, e.g. timing)."""
+    v = np.asarray(values, dtype=float)
+    return float(v[np.isfinite(v)].mean()) if np.isfinite(v).any() else float("nan")
 
 
 def _fmt(value: float | None, spec: str) -> str:
@@ -213,7 +220,7 @@ def report(results: dict, training: dict[str, dict], out: Path) -> str:
     for condition, label in CONDITIONS.items():
         trials = [row for name, row in results.items() if name.endswith(condition)]
         lines += [f"### {label} ({condition})", "", "| predictor | GRF all | vGRF | hGRF | HS ms | TO ms | speed error |", "|---|---:|---:|---:|---:|---:|---:|"]
-        means = {p: {k: float(np.nanmean([t[p].get(k, np.nan) for t in trials])) for k in ("all", "vertical", "horizontal", "hs_ms", "to_ms", "speed_error")}
+        means = {p: {k: _finite_mean([t[p].get(k, np.nan) for t in trials]) for k in ("all", "vertical", "horizontal", "hs_ms", "to_ms", "speed_error")}
                  for p in rows if p in trials[0]}
         for predictor, m in means.items():
             lines.append(f"| {predictor} | {_fmt(m['all'], '.1f')} | {_fmt(m['vertical'], '.1f')} | {_fmt(m['horizontal'], '.1f')} | "
@@ -285,12 +292,10 @@ def main(argv: list[str] | None = None) -> dict:
                          "config": args.config.name + (" (fine-tuning weights)" if arm == "finetune" else "")}
     if args.no_report:
         return {}
-    results, estimates = evaluate(models, test, train)
+    results, estimates, profile_grf = evaluate(models, test, train)
     (args.out / "plots").mkdir(parents=True, exist_ok=True)
     for rec in test:
-        condition = next(c for c in CONDITIONS if rec.name.endswith(c))
-        profile = GRFProfilePredictor.fit([r for r in train if r.name.endswith(condition)], "").predict_grf(rec)
-        plot_trial(args.out / "plots" / f"{rec.name}.png", rec, estimates[rec.name], profile)
+        plot_trial(args.out / "plots" / f"{rec.name}.png", rec, estimates[rec.name], profile_grf[rec.name])
     metrics = {"training": training, "trials": results}
     (args.out / "metrics.json").write_text(json.dumps(finite_or_null(metrics), indent=2, allow_nan=False))
     print(report(results, training, args.out))
