@@ -39,7 +39,7 @@ from typing import Final
 
 import numpy as np
 
-from sspinn.sensor_calibration import Calibration, _cross_spectrum, _moving_mean
+from sspinn.sensor_calibration import Calibration, cross_spectrum, moving_mean
 from sspinn.sensor_map import SensorAssignment
 
 #: A sensor counts as mounted along its segment when its reference axis lies within this angle
@@ -140,7 +140,7 @@ def leg_pairing_warnings(signals: dict[str, tuple[np.ndarray, np.ndarray]], cal:
         bad = []
         for a, b in combinations([k for k in _KINDS if f"{k}_{side}" in rate], 2):
             sa, sb = f"{a}_{side}", f"{b}_{side}"
-            sab, saa, sbb = _cross_spectrum(rate[sa][:, None], rate[sb], cal.rate_hz, 1 / period, cal.walking_runs, window)
+            sab, saa, sbb = cross_spectrum(rate[sa][:, None], rate[sb], cal.rate_hz, 1 / period, cal.walking_runs, window)
             if saa[0] * sbb == 0 or abs(sab[0]) / np.sqrt(saa[0] * sbb) < MIN_COHERENCE:
                 continue
             phase, expected = float(np.degrees(np.angle(sab[0]))), LEG_PHASE_DEG[(a, b)]
@@ -163,8 +163,8 @@ def side_warnings(signals: dict[str, tuple[np.ndarray, np.ndarray]], cal: Calibr
     if "pelvis" not in cal.sensors or stance is None or not cal.walking_runs:
         return []
     n = int(SIDE_SMOOTHING_S * cal.rate_hz)
-    still = [-_moving_mean(np.linalg.norm(signals[s][1], axis=1), n) for s in stance]
-    lateral = _moving_mean(signals["pelvis"][0] @ cal.sensors["pelvis"].axis, n)
+    still = [-moving_mean(np.linalg.norm(signals[s][1], axis=1), n) for s in stance]
+    lateral = moving_mean(signals["pelvis"][0] @ cal.sensors["pelvis"].axis, n)
     mask = _walking_mask(cal, len(lateral))
     corr = float(np.corrcoef(lateral[mask], (still[0] - still[1])[mask])[0, 1])
     cal.notes.append(f"side check: the pelvis's medio-lateral force correlates {corr:+.2f} with the right-minus-left stance "

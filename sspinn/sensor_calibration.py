@@ -181,7 +181,8 @@ class Calibration:
 
 
 # ---------------------------------------------------------------------------------- gait context
-def _moving_mean(x: np.ndarray, n: int) -> np.ndarray:
+def moving_mean(x: np.ndarray, n: int) -> np.ndarray:
+    """Centred moving mean of ``x`` over ``n`` samples (clipped to 1…len(x); same length)."""
     n = max(1, min(n, len(x)))
     return np.convolve(x, np.ones(n) / n, mode="same")
 
@@ -197,7 +198,7 @@ def detect_standing(gyr: list[np.ndarray], rate_hz: float) -> tuple[int, int] | 
     0.05 s at each end, or None."""
     still = np.ones(len(gyr[0]), dtype=bool)
     for g in gyr:
-        still &= _moving_mean(np.linalg.norm(g, axis=1), int(0.1 * rate_hz)) < STANDING_GYRO_RAD_S
+        still &= moving_mean(np.linalg.norm(g, axis=1), int(0.1 * rate_hz)) < STANDING_GYRO_RAD_S
     runs = [(a, b) for a, b in _runs(still) if b - a >= MIN_STANDING_S * rate_hz]
     if not runs:
         return None
@@ -210,7 +211,7 @@ def detect_walking(gyr: list[np.ndarray], rate_hz: float) -> np.ndarray:
     """Samples in 1 s windows whose largest angular-rate RMS over the sensors exceeds
     :data:`WALKING_GYRO_RMS_RAD_S`."""
     window = int(rate_hz)
-    rms = np.max([np.sqrt(_moving_mean(np.sum(g**2, axis=1), window)) for g in gyr], axis=0)
+    rms = np.max([np.sqrt(moving_mean(np.sum(g**2, axis=1), window)) for g in gyr], axis=0)
     return rms > WALKING_GYRO_RMS_RAD_S
 
 
@@ -234,7 +235,7 @@ def stride_period(signal: np.ndarray, rate_hz: float, step: bool = False) -> flo
 
 
 # ---------------------------------------------------------------------------------- features
-def _cross_spectrum(a: np.ndarray, b: np.ndarray, rate_hz: float, freq_hz: float, runs: list[tuple[int, int]],
+def cross_spectrum(a: np.ndarray, b: np.ndarray, rate_hz: float, freq_hz: float, runs: list[tuple[int, int]],
                     window_s: float) -> tuple[np.ndarray, np.ndarray, float]:
     """(Σ A·conj(B), Σ|A|², Σ|B|²) at ``freq_hz`` of ``a`` (n, k) against ``b`` (n,), summed over Hann
     windows of ``window_s`` (half overlap) inside the walking ``runs`` (each window's mean removed)."""
@@ -255,7 +256,7 @@ def harmonic_phase(ax: np.ndarray, ay: np.ndarray, rate_hz: float, freq_hz: floa
                    window_s: float) -> float:
     """sin of the phase lead of ``ax`` over ``ay`` at ``freq_hz``: Im(Σ X·conj(Y)) / √(Σ|X|² Σ|Y|²)
     over Hann windows of ``window_s`` (half overlap) inside the walking ``runs``."""
-    sxy, sxx, syy = _cross_spectrum(ax[:, None], ay, rate_hz, freq_hz, runs, window_s)
+    sxy, sxx, syy = cross_spectrum(ax[:, None], ay, rate_hz, freq_hz, runs, window_s)
     return float(np.imag(sxy[0]) / np.sqrt(sxx[0] * syy)) if sxx[0] > 0 and syy > 0 else 0.0
 
 
@@ -265,7 +266,7 @@ def anterior_direction(acc: np.ndarray, up: np.ndarray, rate_hz: float, freq_hz:
     vertical one by the largest quarter-cycle component at ``freq_hz`` (the step frequency):
     the walking direction of a trunk sensor (braking after heel strike, when the vertical force
     peaks; propulsion before the next)."""
-    sab, _, _ = _cross_spectrum(acc, acc @ up, rate_hz, freq_hz, runs, window_s)
+    sab, _, _ = cross_spectrum(acc, acc @ up, rate_hz, freq_hz, runs, window_s)
     lead = np.imag(sab)
     return _unit(lead - (lead @ up) * up)
 
