@@ -26,6 +26,7 @@ import statistics
 import sys
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -38,7 +39,7 @@ from sspinn.dataset import Recording
 from sspinn.inference import StreamingEstimator
 from sspinn.losses import PhysicsLosses
 from sspinn.network import NetworkConfig, SSPINNposeNet, decode, input_features, output_affine
-from sspinn.training import make_batch, prepare
+from sspinn.training import TrainConfig, WindowSampler, make_batch, prepare
 
 
 def fake_recording(n: int, rng: np.random.Generator) -> Recording:
@@ -140,10 +141,9 @@ def profile_step(config: NetworkConfig, batch: int, window: int, repeats: int, t
     ``repeats`` steps after one warm-up; CPU, so every phase has finished when the clock is
     read): window draw + :func:`make_batch` + input noise (data), the LSTM and head (forward),
     decoding + every physics loss (physics), ``loss.backward()`` (backward), gradient clipping +
-    Adam (optimizer). Real-sized recordings with ZUPT speeds, as in training."""
+    Adam (optimizer). Synthetic recordings without ZUPT speeds (L_FS off), as in
+    :func:`bench_training`."""
     torch.set_num_threads(threads)
-    from sspinn.training import WindowSampler
-
     data = prepare([fake_recording(window * 8, rng) for _ in range(4)], SEGMENTS, zupt=False)
     sampler = WindowSampler(data, window, rng)
     imu_std = torch.ones(len(SEGMENTS), 3)
@@ -203,9 +203,10 @@ def main(argv: list[str] | None = None) -> dict:
     print(f"   plain PyTorch (same model, MSE on raw outputs)          {t['plain_windows_per_s']:9.1f}")
     print(f"   sspinn (all physics losses)                             {t['sspinn_windows_per_s']:9.1f}")
     print(f"   physics overhead: sspinn / plain = {t['sspinn_windows_per_s'] / t['plain_windows_per_s']:.2f}×")
-    demo = NetworkConfig(hidden=32, layers=2, dense=16) if args.quick else NetworkConfig(hidden=128, layers=2, dropout=0.1, dense=128)
+    demo = TrainConfig.from_yaml(Path(__file__).resolve().parents[1] / "configs" / "sspinn" / "demo.yaml")
+    demo_net, demo_size = (cfg, (4, 32)) if args.quick else (demo.network, (demo.batch_size, demo.window))
     profiles = {}
-    for name, net, (pb, pw) in (("demo", demo, (4, 32) if args.quick else (16, 128)), ("paper", cfg, (batch, window))):
+    for name, net, (pb, pw) in (("demo", demo_net, demo_size), ("paper", cfg, (batch, window))):
         label = f"{name} (LSTM {net.layers}×{net.hidden}, batch {pb} × {pw})"
         prof = profile_step(net, pb, pw, repeats if args.quick else 10, 2, rng)
         profiles[label] = prof
