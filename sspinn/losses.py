@@ -19,6 +19,8 @@ bounds     10000   joint limits (hip, ankle [−π/3, π/3], knee [−π/3, 0.1]
                    sequence's mean forward pelvis velocity ≥ 0 (L_B; see below)
 torque     1       speed-weighted effort: (τ / (BW·BH) / max(ẋ_root, 1 m/s))² (L_τ)
 slide      30      (|ẋ_contact| / (1 m/s) · F_y / BW)² — no sliding under load
+stance     0       the same on the body model's own contact point (forward kinematics
+                   of q, u) instead of the separately estimated ankle's (L_S; see below)
 foot_speed 1       foot-IMU horizontal speed vs a ZUPT Kalman estimate, penalised only
                    beyond 30 % of the sequence's maximum ZUPT speed (L_FS)
 =========  ======  ===================================================================
@@ -32,6 +34,15 @@ to pelvis velocities of −2 to −3 m/s (issue #14; the Hamner running trial ga
 calibration (:mod:`sspinn.sensor_calibration`) and the synthetic data define x as the subject's
 anterior direction, so the mean forward velocity over a training window (≥ 1 s, a stride or
 more) is ≥ 0 for every gait, standing included; its violation is part of L_B.
+
+**Stance anchors the speed (L_S, not in the paper).** L_slide reads the contact point's velocity
+from the separately estimated ankle kinematics, which L_GC ties to the body model only loosely
+(a 2.8 m/s mismatch during a running stance costs less than the dynamics gain from it). So a
+running estimate could put its pelvis near 0 m/s and its stance on the foot that is really in
+swing (which then hardly moves). L_S penalises the same product on the forward kinematics of
+the estimated q, u — the model's own loaded foot must not slide, which fixes the pelvis speed
+to the leg's motion during stance. Its default weight is 0 (the paper's losses);
+``configs/sspinn/demo.yaml`` sets it.
 """
 
 from __future__ import annotations
@@ -46,6 +57,10 @@ from sspinn.contact import ContactParameters
 from sspinn.conventions import GRAVITY, SEGMENTS
 from sspinn.network import TYPICAL_QDD, TYPICAL_U, Estimate
 
+#: L_S's height scale, m: a loaded contact point this far above the floor (or any point this
+#: far below it) costs as much as one sliding at 1 m/s.
+STANCE_HEIGHT = 0.05
+
 
 @dataclass(frozen=True)
 class LossWeights:
@@ -59,6 +74,7 @@ class LossWeights:
     torque: float = 1.0
     slide: float = 30.0
     foot_speed: float = 1.0
+    stance: float = 0.0
 
     def finetune(self) -> LossWeights:
         """The paper's fine-tuning weights: kane, temporal and contact × 10."""
@@ -187,6 +203,15 @@ class PhysicsLosses:
 
         # L_slide
         terms["slide"] = (gc[..., 4].abs() * gc[..., 1] / weight[..., None]).square().mean()
+
+        # L_S: the body model's own contact points (forward kinematics) under the same loads
+        cp = torch.stack([pk[..., kinematics.point_index(f"contact_{s}"), :4] for s in "rl"], dim=-2)  # (B, T, 2, 4)
+        load = gc[..., 1] / weight[..., None]
+        terms["stance"] = (
+            (cp[..., 2].abs() * load).square().mean()
+            + (cp[..., 1] / STANCE_HEIGHT * load).square().mean()
+            + _relu2(-cp[..., 1] / STANCE_HEIGHT).mean()
+        )
 
         # L_FS
         if batch.zupt_speed is not None:

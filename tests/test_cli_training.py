@@ -151,3 +151,28 @@ def test_cosine_learning_rate_schedule() -> None:
     assert TrainConfig(steps=100).lr_at(77) == 1e-3
     with pytest.raises(ValueError, match="lr_schedule"):
         TrainConfig(lr_schedule="step")
+
+
+def test_starts_choose_the_most_physical_and_continue(tiny):
+    """``starts``: short runs of seeds seed, seed+1, …; the one with the lowest Kane term on the
+    fixed check windows continues (from its step, optimizer and random state) to ``steps``; a
+    rerun reuses the finished starts, and the whole is the chosen seed's uninterrupted run."""
+    import json
+
+    root, data, cfg = tiny
+    train = Dataset.open(data).load("train")
+    config = TrainConfig.from_yaml(cfg, steps=5, settings=["starts=3", "start_steps=2"])
+    trainer = Trainer(config, root / "starts")
+    trainer.fit(train)
+    record = json.loads((root / "starts" / "starts.json").read_text())
+    kane = {int(k): v["kane"] for k, v in record["checks"].items()}
+    assert sorted(kane) == [0, 1, 2] and record["chosen_seed"] == min(kane, key=kane.get)
+    assert trainer.step == 5 and [h["step"] for h in trainer.history][:2] == [1, 2]
+    # the chosen start's checks are reproducible from its own folder
+    chosen = record["chosen_seed"]
+    alone = Trainer(TrainConfig.from_yaml(cfg, steps=5, seed=chosen), root / "alone")
+    alone.fit(train)
+    for a, b in zip(alone.model.state_dict().values(), trainer.model.state_dict().values()):
+        torch.testing.assert_close(a, b)
+    with pytest.raises(ValueError, match="start_steps"):
+        TrainConfig.from_yaml(cfg, steps=2, settings=["starts=2", "start_steps=2"])

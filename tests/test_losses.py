@@ -137,3 +137,47 @@ def test_weights_and_finetune():
     b = PhysicsLosses(w)(est, batch)
     assert b["kane"] == pytest.approx(3 * a["kane"])
     assert b["total"] == pytest.approx(sum(float(b[k]) for k in w.as_dict()))
+
+
+def standing_case(height: float = 1.75, mass: float = 70.0, T: int = 10):
+    """Standing still, feet flat on the floor, each loaded by the contact model (est = FK)."""
+    body = BodyParameters.from_anthropometry(height, mass)
+    q = torch.zeros(1, T, 9, dtype=torch.float64)
+    q[..., 1] = body.standing_hip_height
+    u, qdd = torch.zeros_like(q), torch.zeros_like(q)
+    p = torch.as_tensor(body.vector())
+    c = torch.as_tensor(ContactParameters().vector())
+    w = dynamics.contact_fraction(q, c)
+    pk = kinematics.point_kinematics(q, u, qdd, w, p)
+    fk = torch.stack([pk[..., kinematics.point_index(f"ankle_{s}"), :] for s in "rl"], dim=-2)
+    ankle = torch.cat([fk[..., :1] - q[..., None, :1], fk[..., 1:]], dim=-1)
+    est = Estimate(q=q, u=u, qdd=qdd, tau=torch.zeros(1, T, 6, dtype=torch.float64), ankle=ankle,
+                   mu_hat=torch.zeros(1, T, 2, dtype=torch.float64))
+    placement = torch.as_tensor(IMUPlacement.default(height).vector())[None]
+    batch = Batch(
+        imu=kinematics.virtual_imu(q, u, qdd, placement[:, None], p), imu_std=torch.ones(len(SEGMENTS), 3, dtype=torch.float64),
+        segments=SEGMENTS, p=p[None], height=torch.tensor([height], dtype=torch.float64),
+        mass=torch.tensor([mass], dtype=torch.float64), placement=placement, dt=DT,
+    )
+    load = dynamics.contact_from_ankles(q, u, est.ankle_global(), est.mu_hat, p, c)[..., 1] / (mass * GRAVITY)
+    return est, batch, load
+
+
+def test_stance_term_ties_the_loaded_foot_to_the_body_model():
+    """L_S (not in the paper): a loaded contact point of the body model's own kinematics must
+    neither slide nor float; a body that moves while its separately estimated ankles stay put
+    (what let running estimates sit at 0 m/s) pays for it, the standing body hardly at all."""
+    est, batch, load = standing_case()
+    assert load.min() > 0.1, "both feet must carry load"
+    losses = PhysicsLosses(UNIT)
+    still = float(losses(est, batch)["stance"])
+    assert still < 0.05  # the contact points sit a few mm in the floor under the model's stiffness
+    sliding = Estimate(**{**est.__dict__, "u": est.u.clone()})
+    sliding.u[..., 0] = 1.0  # the whole body at 1 m/s: the loaded contact points slide at 1 m/s
+    assert float(losses(sliding, batch)["stance"]) - still == pytest.approx(float(load.square().mean()), rel=1e-6)
+    floating = Estimate(**{**est.__dict__, "q": est.q.clone()})
+    floating.q[..., 1] += 0.05  # 5 cm above the floor but still loaded through the ankle estimates
+    assert float(losses(floating, batch)["stance"]) > still + 0.5 * float(load.square().mean())
+    sunk = Estimate(**{**est.__dict__, "q": est.q.clone()})
+    sunk.q[..., 1] -= 0.10  # 10 cm below the floor: (−0.1 / 0.05)² = 4 even without load
+    assert float(losses(sunk, batch)["stance"]) > 3.0
