@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import json
 import sys
 import time
@@ -95,7 +96,9 @@ def train_arm(arm: str, train: list[Recording], out: Path, config_path: Path, st
     summary = run / "training_summary.json"
     if summary.exists() and json.loads(summary.read_text())["steps"] >= steps:
         return run / "model.pt"
-    config = TrainConfig.from_yaml(config_path, steps=steps, threads=threads, time_limit_s=4 * 3600.0)
+    config = TrainConfig.from_yaml(config_path, threads=threads, time_limit_s=4 * 3600.0)
+    # a run shorter than the configuration's starts (the smoke run) trains one start
+    config = dataclasses.replace(config, steps=steps, starts=config.starts if steps > config.start_steps else 1)
     config.finetune = arm == "finetune"
     resume = (run / "checkpoint.pt").exists()
     trainer = Trainer(config, run)
