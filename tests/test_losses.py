@@ -17,6 +17,24 @@ UNIT = LossWeights(**{k: 1.0 for k in LossWeights().as_dict()})
 DT = 0.01
 
 
+def fk_ankles(q: torch.Tensor, u: torch.Tensor, qdd: torch.Tensor, p: torch.Tensor) -> torch.Tensor:
+    """The estimator's ankle states (x relative to the pelvis) from forward kinematics."""
+    w = dynamics.contact_fraction(q, torch.as_tensor(ContactParameters().vector()))
+    pk = kinematics.point_kinematics(q, u, qdd, w, p)
+    fk = torch.stack([pk[..., kinematics.point_index(f"ankle_{s}"), :] for s in "rl"], dim=-2)
+    return torch.cat([fk[..., :1] - q[..., None, :1], fk[..., 1:]], dim=-1)
+
+
+def batch_of(q: torch.Tensor, u: torch.Tensor, qdd: torch.Tensor, p: torch.Tensor, height: float, mass: float) -> Batch:
+    """A loss batch whose IMU data are the model's own virtual IMUs of the motion."""
+    placement = torch.as_tensor(IMUPlacement.default(height).vector())[None]
+    return Batch(
+        imu=kinematics.virtual_imu(q, u, qdd, placement[:, None], p), imu_std=torch.ones(len(SEGMENTS), 3, dtype=torch.float64),
+        segments=SEGMENTS, p=p[None], height=torch.tensor([height], dtype=torch.float64),
+        mass=torch.tensor([mass], dtype=torch.float64), placement=placement, dt=DT,
+    )
+
+
 def exact_case(T: int = 120, height: float = 1.75, mass: float = 70.0, dynamic: bool = True):
     """A smooth motion q(t), u(t) with feet on the ground, torques τ(t), and q̈ either analytic
     (``dynamic=False``: temporally exact) or from forward dynamics with the contact-model GRFs
@@ -35,26 +53,15 @@ def exact_case(T: int = 120, height: float = 1.75, mass: float = 70.0, dynamic: 
     p = torch.as_tensor(body.vector())
     c = torch.as_tensor(ContactParameters().vector())
     w = dynamics.contact_fraction(q, c)
-    pk = kinematics.point_kinematics(q, u, qdd, w, p)
-    fk = torch.stack([pk[..., kinematics.point_index(f"ankle_{s}"), :] for s in "rl"], dim=-2)
-    ankle = torch.cat([fk[..., :1] - q[..., None, :1], fk[..., 1:]], dim=-1)
+    ankle = fk_ankles(q, u, qdd, p)
     mu_hat = 0.3 * torch.ones(1, T, 2, dtype=torch.float64)
     tau = 20.0 * torch.sin(om * t)[None, :, None].expand(1, T, 6)
     est = Estimate(q=q, u=u, qdd=qdd, tau=tau, ankle=ankle, mu_hat=mu_hat)
     grf = dynamics.contact_from_ankles(q, u, est.ankle_global(), mu_hat, p, c)[..., :2].flatten(-2)
     if dynamic:
         est.qdd = qdd = dynamics.forward_dynamics(q, u, tau, grf, w, p)
-        pk = kinematics.point_kinematics(q, u, qdd, w, p)
-        fk = torch.stack([pk[..., kinematics.point_index(f"ankle_{s}"), :] for s in "rl"], dim=-2)
-        est.ankle = torch.cat([fk[..., :1] - q[..., None, :1], fk[..., 1:]], dim=-1)
-    placement = torch.as_tensor(IMUPlacement.default(height).vector())[None]
-    imu = kinematics.virtual_imu(q, u, qdd, placement[:, None], p)
-    batch = Batch(
-        imu=imu, imu_std=torch.ones(len(SEGMENTS), 3, dtype=torch.float64), segments=SEGMENTS, p=p[None],
-        height=torch.tensor([height], dtype=torch.float64), mass=torch.tensor([mass], dtype=torch.float64),
-        placement=placement, dt=DT,
-    )
-    return est, batch, grf
+        est.ankle = fk_ankles(q, u, qdd, p)
+    return est, batch_of(q, u, qdd, p, height, mass), grf
 
 
 def test_exact_motion_has_zero_kane_contact_and_imu_loss():
@@ -147,18 +154,9 @@ def standing_case(height: float = 1.75, mass: float = 70.0, T: int = 10):
     u, qdd = torch.zeros_like(q), torch.zeros_like(q)
     p = torch.as_tensor(body.vector())
     c = torch.as_tensor(ContactParameters().vector())
-    w = dynamics.contact_fraction(q, c)
-    pk = kinematics.point_kinematics(q, u, qdd, w, p)
-    fk = torch.stack([pk[..., kinematics.point_index(f"ankle_{s}"), :] for s in "rl"], dim=-2)
-    ankle = torch.cat([fk[..., :1] - q[..., None, :1], fk[..., 1:]], dim=-1)
-    est = Estimate(q=q, u=u, qdd=qdd, tau=torch.zeros(1, T, 6, dtype=torch.float64), ankle=ankle,
+    est = Estimate(q=q, u=u, qdd=qdd, tau=torch.zeros(1, T, 6, dtype=torch.float64), ankle=fk_ankles(q, u, qdd, p),
                    mu_hat=torch.zeros(1, T, 2, dtype=torch.float64))
-    placement = torch.as_tensor(IMUPlacement.default(height).vector())[None]
-    batch = Batch(
-        imu=kinematics.virtual_imu(q, u, qdd, placement[:, None], p), imu_std=torch.ones(len(SEGMENTS), 3, dtype=torch.float64),
-        segments=SEGMENTS, p=p[None], height=torch.tensor([height], dtype=torch.float64),
-        mass=torch.tensor([mass], dtype=torch.float64), placement=placement, dt=DT,
-    )
+    batch = batch_of(q, u, qdd, p, height, mass)
     load = dynamics.contact_from_ankles(q, u, est.ankle_global(), est.mu_hat, p, c)[..., 1] / (mass * GRAVITY)
     return est, batch, load
 
