@@ -57,6 +57,8 @@ class TrainConfig:
         network: LSTM size (:class:`~sspinn.network.NetworkConfig`).
         weights: loss weights λ (:class:`~sspinn.losses.LossWeights`).
         finetune: use the fine-tuning weights (kane, temporal and contact × 10).
+        finetune_last: the last this many steps use the fine-tuning weights (the paper's
+            fine-tuning as the end of one run; 0 = none).
         learn_placement: also optimise the IMU placement.
         steps: optimiser steps.
         batch_size: windows per step.
@@ -86,6 +88,7 @@ class TrainConfig:
     network: NetworkConfig = field(default_factory=NetworkConfig)
     weights: LossWeights = field(default_factory=LossWeights)
     finetune: bool = False
+    finetune_last: int = 0
     learn_placement: bool = False
     steps: int = 2000
     batch_size: int = 32
@@ -124,6 +127,8 @@ class TrainConfig:
             raise ValueError(f"lr_schedule must be 'constant' or 'cosine', got {self.lr_schedule!r}")
         if not 0 < self.lr_final <= 1:
             raise ValueError(f"lr_final must be in (0, 1], got {self.lr_final}")
+        if not 0 <= self.finetune_last <= self.steps:
+            raise ValueError(f"finetune_last must be in [0, steps={self.steps}], got {self.finetune_last}")
         if self.starts > 1 and self.start_steps >= self.steps:
             raise ValueError(f"start_steps ({self.start_steps}) must be fewer than steps ({self.steps}) with {self.starts} starts")
         if self.starts > 1 and self.lr_schedule != "constant":
@@ -322,6 +327,7 @@ class Trainer:
         self.optimizer = torch.optim.Adam(params, lr=cfg.lr)
         weights = cfg.weights.finetune() if cfg.finetune else cfg.weights
         self.losses = PhysicsLosses(weights)
+        self.finetune_losses = PhysicsLosses(cfg.weights.finetune())
         self.net: torch.nn.Module = self.model
         if self.world > 1:
             from torch.nn.parallel import DistributedDataParallel
@@ -443,7 +449,8 @@ class Trainer:
                 with autocast:
                     raw, _ = self.net(x)
                 est = decode(raw.float(), batch.out_scale, batch.out_offset, batch.dt)
-                terms = self.losses(est, batch)
+                losses = self.finetune_losses if self.step >= cfg.steps - cfg.finetune_last else self.losses
+                terms = losses(est, batch)
                 loss = terms["total"]
                 if not torch.isfinite(loss):
                     bad = [f"{self.data[k].recording.name}[{s}:{s + cfg.window}]" for k, s in zip(which, starts)]
@@ -526,7 +533,7 @@ class Trainer:
         for k in range(cfg.starts):
             seed = cfg.seed + k
             folder = self.out / "starts" / f"seed{seed}"
-            sub = Trainer(dataclasses.replace(cfg, seed=seed, steps=cfg.start_steps, starts=1), folder)
+            sub = Trainer(dataclasses.replace(cfg, seed=seed, steps=cfg.start_steps, starts=1, finetune_last=0), folder)
             sub.fit(train, resume=(folder / "checkpoint.pt").exists())
             checks[seed] = sub.physics_check()
         best = min(checks, key=lambda seed: checks[seed]["kane"])

@@ -176,3 +176,30 @@ def test_starts_choose_the_most_physical_and_continue(tiny):
         torch.testing.assert_close(a, b)
     with pytest.raises(ValueError, match="start_steps"):
         TrainConfig.from_yaml(cfg, steps=2, settings=["starts=2", "start_steps=2"])
+
+
+def test_finetune_last_switches_to_the_finetuning_weights(tiny):
+    """``finetune_last = steps`` is exactly a run with the fine-tuning weights throughout; with
+    ``finetune_last = 2`` the first steps match the plain run and the last two do not."""
+    root, data, cfg = tiny
+    train = Dataset.open(data).load("train")
+
+    def run(name, **changes):
+        config = TrainConfig.from_yaml(cfg, steps=4)
+        for key, value in changes.items():
+            setattr(config, key, value)
+        trainer = Trainer(config, root / name)
+        trainer.fit(train)
+        return trainer
+
+    whole = run("ft_whole", finetune_last=4)
+    plain_ft = run("ft_plain", finetune=True)
+    for a, b in zip(whole.model.state_dict().values(), plain_ft.model.state_dict().values()):
+        torch.testing.assert_close(a, b)
+    plain = run("ft_none")
+    last2 = run("ft_last2", finetune_last=2)
+    kane = [(h["kane"], g["kane"]) for h, g in zip(plain.history, last2.history)]
+    assert kane[0][0] == kane[0][1] and kane[1][0] == kane[1][1]
+    assert kane[2][1] > 5 * kane[2][0]  # ×10 weight on a similar residual
+    with pytest.raises(ValueError, match="finetune_last"):
+        TrainConfig.from_yaml(cfg, steps=4, settings=["finetune_last=5"])
