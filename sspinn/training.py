@@ -557,14 +557,20 @@ class Trainer:
                 which.append(k)
                 starts.append(int(s))
         self.model.eval()
+        sums: dict[str, float] = {}
         try:
-            x, batch = make_batch(self.data, which, starts, cfg.window, self.segments, self.imu_std, self.device)
-            batch.placement = self.placement[which]
-            raw, _ = self.model(x)
-            terms = unit(decode(raw.float(), batch.out_scale, batch.out_offset, batch.dt), batch)
+            for i in range(0, len(which), 64):  # chunks bound the memory for large datasets
+                w, st = which[i:i + 64], starts[i:i + 64]
+                x, batch = make_batch(self.data, w, st, cfg.window, self.segments, self.imu_std, self.device)
+                batch.placement = self.placement[w]
+                raw, _ = self.model(x)
+                terms = unit(decode(raw.float(), batch.out_scale, batch.out_offset, batch.dt), batch)
+                for k, v in terms.items():
+                    if k not in ("grf", "total"):
+                        sums[k] = sums.get(k, 0.0) + float(v) * len(w)
         finally:
             self.model.train()
-        return {k: float(v) for k, v in terms.items() if k not in ("grf", "total")}
+        return {k: v / len(which) for k, v in sums.items()}
 
     def _agree(self, flag: bool) -> bool:
         """True on every rank if it is true on any (so all ranks stop at the same step)."""
