@@ -7,8 +7,8 @@ STAMP  := $(VENV)/.installed
 .PHONY: demo demo-smoke showcase test generate bench lint clean robustness
 
 # The main job on the embedded default: generate (or reuse) the synthetic dataset, train the
-# CPU-sized SSPINNpose configuration (five 500-step starts, then the chosen one to 6,000 steps; rerunning continues an
-# unfinished run) and evaluate it on the four held-out test subjects (walking and running). The
+# CPU-sized SSPINNpose configuration (five 500-step starts, then the chosen one to 6,000 steps;
+# rerunning continues an unfinished run) and evaluate it on the four held-out test subjects (walking and running). The
 # variables let CI run the same recipe on a tiny configuration (demo-smoke).
 SYNTH_CONFIG ?= configs/synth/default.yaml
 TRAIN_CONFIG ?= configs/sspinn/demo.yaml

@@ -19,8 +19,9 @@ bounds     10000   joint limits (hip, ankle [−π/3, π/3], knee [−π/3, 0.1]
                    sequence's mean forward pelvis velocity ≥ 0 (L_B; see below)
 torque     1       speed-weighted effort: (τ / (BW·BH) / max(ẋ_root, 1 m/s))² (L_τ)
 slide      30      (|ẋ_contact| / (1 m/s) · F_y / BW)² — no sliding under load
-stance     0       the same on the body model's own contact point (forward kinematics
-                   of q, u) instead of the separately estimated ankle's (L_S; see below)
+stance     0       on the body model's own contact points (forward kinematics of q, u):
+                   (|ẋ| / (1 m/s) · F_y/BW)² + (y / 5 cm · F_y/BW)² + (max(0, −y) / 5 cm)²
+                   — a loaded foot neither slides nor floats, no foot below the floor (L_S)
 foot_speed 1       foot-IMU horizontal speed vs a ZUPT Kalman estimate, penalised only
                    beyond 30 % of the sequence's maximum ZUPT speed (L_FS)
 =========  ======  ===================================================================
@@ -41,7 +42,8 @@ from the separately estimated ankle kinematics, which L_GC ties to the body mode
 running estimate could put its pelvis near 0 m/s and its stance on the foot that is really in
 swing (which then hardly moves). L_S penalises the same product on the forward kinematics of
 the estimated q, u — the model's own loaded foot must not slide, which fixes the pelvis speed
-to the leg's motion during stance. Its default weight is 0 (the paper's losses);
+to the leg's motion during stance — and, at the same load, the contact point's height above the
+floor, plus any depth below it (the loaded foot must be the one on the floor). Its default weight is 0 (the paper's losses);
 ``configs/sspinn/demo.yaml`` sets it.
 """
 
@@ -75,6 +77,11 @@ class LossWeights:
     slide: float = 30.0
     foot_speed: float = 1.0
     stance: float = 0.0
+
+    @classmethod
+    def unit(cls) -> LossWeights:
+        """Every λ = 1: the terms as they are, e.g. to compare estimates (``Trainer.physics_check``)."""
+        return cls(**{k: 1.0 for k in asdict(cls())})
 
     def finetune(self) -> LossWeights:
         """The paper's fine-tuning weights: kane, temporal and contact × 10."""

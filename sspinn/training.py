@@ -325,8 +325,7 @@ class Trainer:
         self.placement = torch.nn.Parameter(torch.as_tensor(np.stack([d.placement for d in self.data]), dtype=torch.float32, device=self.device))
         params = list(self.model.parameters()) + ([self.placement] if cfg.learn_placement else [])
         self.optimizer = torch.optim.Adam(params, lr=cfg.lr)
-        weights = cfg.weights.finetune() if cfg.finetune else cfg.weights
-        self.losses = PhysicsLosses(weights)
+        self.losses = PhysicsLosses(cfg.weights)
         self.finetune_losses = PhysicsLosses(cfg.weights.finetune())
         self.net: torch.nn.Module = self.model
         if self.world > 1:
@@ -449,7 +448,8 @@ class Trainer:
                 with autocast:
                     raw, _ = self.net(x)
                 est = decode(raw.float(), batch.out_scale, batch.out_offset, batch.dt)
-                losses = self.finetune_losses if self.step >= cfg.steps - cfg.finetune_last else self.losses
+                finetuning = cfg.finetune or self.step >= cfg.steps - cfg.finetune_last
+                losses = self.finetune_losses if finetuning else self.losses
                 terms = losses(est, batch)
                 loss = terms["total"]
                 if not torch.isfinite(loss):
@@ -550,7 +550,7 @@ class Trainer:
         recordings (network in eval mode, no input noise): a label-free measure of the estimate."""
         assert self.model is not None
         cfg = self.config
-        unit = PhysicsLosses(LossWeights(**{k: 1.0 for k in LossWeights().as_dict()}))
+        unit = PhysicsLosses(LossWeights.unit())
         which, starts = [], []
         for k, d in enumerate(self.data):
             for s in np.linspace(0, d.recording.n_samples - cfg.window, windows_per_recording).astype(int):

@@ -13,7 +13,7 @@ from sspinn.conventions import GRAVITY, SEGMENTS
 from sspinn.losses import Batch, LossWeights, PhysicsLosses
 from sspinn.network import Estimate
 
-UNIT = LossWeights(**{k: 1.0 for k in LossWeights().as_dict()})
+UNIT = LossWeights.unit()
 DT = 0.01
 
 
