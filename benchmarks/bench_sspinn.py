@@ -12,7 +12,10 @@
    baseline of the same model (same network, an MSE loss on its raw outputs, no physics) —
    the ratio is the cost of the physics.
 3. **Where a training step's time goes**: data preparation, network forward, physics losses,
-   backward, optimizer (:func:`profile_step`), for the demo and the paper configuration.
+   backward, optimizer (:func:`profile_step`), for the demo and the paper configuration —
+   before (eager physics, the default) and after ``compile: true`` (decoding + losses compiled
+   with ``torch.compile``, :class:`sspinn.training.PhysicsTerms`), measured in the same run, with
+   the one-off compile time (the first step) beside the throughput.
 
 Usage: ``python benchmarks/bench_sspinn.py [--quick] [--json PATH]``.
 """
@@ -39,7 +42,7 @@ from sspinn.dataset import Recording
 from sspinn.inference import StreamingEstimator
 from sspinn.losses import PhysicsLosses
 from sspinn.network import NetworkConfig, SSPINNposeNet, decode, input_features, output_affine
-from sspinn.training import TrainConfig, WindowSampler, make_batch, prepare
+from sspinn.training import PhysicsTerms, TrainConfig, WindowSampler, make_batch, prepare
 
 
 def fake_recording(n: int, rng: np.random.Generator) -> Recording:
@@ -136,13 +139,16 @@ def bench_training(config: NetworkConfig, batch: int, window: int, repeats: int,
 PHASES = ("data", "forward", "physics", "backward", "optimizer")
 
 
-def profile_step(config: NetworkConfig, batch: int, window: int, repeats: int, threads: int, rng: np.random.Generator) -> dict:
+def profile_step(config: NetworkConfig, batch: int, window: int, repeats: int, threads: int, rng: np.random.Generator,
+                 compiled: bool = False) -> dict:
     """Wall time of each phase of one :class:`sspinn.training.Trainer` step (median over
     ``repeats`` steps after one warm-up; CPU, so every phase has finished when the clock is
     read): window draw + :func:`make_batch` + input noise (data), the LSTM and head (forward),
     decoding + every physics loss (physics), ``loss.backward()`` (backward), gradient clipping +
     Adam (optimizer). Synthetic recordings without ZUPT speeds (L_FS off), as in
-    :func:`bench_training`."""
+    :func:`bench_training`. ``compiled``: the physics through ``torch.compile``
+    (:class:`~sspinn.training.PhysicsTerms`); the warm-up step's wall time, which includes the
+    compilation, is reported as ``first_step_s``."""
     torch.set_num_threads(threads)
     data = prepare([fake_recording(window * 8, rng) for _ in range(4)], SEGMENTS, zupt=False)
     sampler = WindowSampler(data, window, rng)
@@ -152,8 +158,10 @@ def profile_step(config: NetworkConfig, batch: int, window: int, repeats: int, t
     model = SSPINNposeNet(n_inputs, config)
     opt = torch.optim.Adam(model.parameters(), lr=1e-3)
     losses = PhysicsLosses()
+    physics = PhysicsTerms(compiled)
     noise = torch.full((n_inputs,), 0.25)
     times: dict[str, list[float]] = {k: [] for k in PHASES}
+    first_step = 0.0
     for r in range(repeats + 1):
         marks = [time.perf_counter()]
         which, starts = sampler.sample(batch)
@@ -162,7 +170,7 @@ def profile_step(config: NetworkConfig, batch: int, window: int, repeats: int, t
         marks.append(time.perf_counter())
         raw, _ = model(x)
         marks.append(time.perf_counter())
-        loss = losses(decode(raw, b.out_scale, b.out_offset, b.dt), b)["total"]
+        loss = physics(losses, raw, b)["total"]
         marks.append(time.perf_counter())
         opt.zero_grad(set_to_none=True)
         loss.backward()
@@ -173,10 +181,15 @@ def profile_step(config: NetworkConfig, batch: int, window: int, repeats: int, t
         if r > 0:
             for k, name in enumerate(PHASES):
                 times[name].append(marks[k + 1] - marks[k])
+        else:
+            first_step = marks[-1] - marks[0]
+    if compiled and not physics.compiled:
+        raise RuntimeError("torch.compile of the physics failed (see the CompileWarning above)")
     median = {k: statistics.median(v) for k, v in times.items()}
     total = sum(median.values())
     return {"ms": {k: 1e3 * v for k, v in median.items()}, "share": {k: v / total for k, v in median.items()},
-            "samples_per_s": batch * window / total, "batch": batch, "window": window, "threads": threads}
+            "samples_per_s": batch * window / total, "batch": batch, "window": window, "threads": threads,
+            "compiled": compiled, "first_step_s": first_step}
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -204,15 +217,23 @@ def main(argv: list[str] | None = None) -> dict:
     print(f"   sspinn (all physics losses)                             {t['sspinn_windows_per_s']:9.1f}")
     print(f"   physics overhead: sspinn / plain = {t['sspinn_windows_per_s'] / t['plain_windows_per_s']:.2f}×")
     demo = TrainConfig.from_yaml(Path(__file__).resolve().parents[1] / "configs" / "sspinn" / "demo.yaml")
-    demo_net, demo_size = (cfg, (4, 32)) if args.quick else (demo.network, (demo.batch_size, demo.window))
+    demo_net, demo_size = (cfg, (batch, window)) if args.quick else (demo.network, (demo.batch_size, demo.window))
     profiles = {}
     for name, net, (pb, pw) in (("demo", demo_net, demo_size), ("paper", cfg, (batch, window))):
         label = f"{name} (LSTM {net.layers}×{net.hidden}, batch {pb} × {pw})"
-        prof = profile_step(net, pb, pw, repeats if args.quick else 10, 2, rng)
-        profiles[label] = prof
-        print(f"\n3. one training step, {label}, 2 threads: {prof['samples_per_s']:,.0f} samples/s")
+        pair = {}
+        for compiled in (False, True):
+            prof = profile_step(net, pb, pw, repeats if args.quick else 10, 2, rng, compiled=compiled)
+            profiles[f"{label}, {'compiled' if compiled else 'eager'} physics"] = pair[compiled] = prof
+        print(f"\n3. one training step, {label}, 2 threads (ms per step; share)")
+        print(f"   {'phase':<10} {'before: eager physics':>24} {'after: compile: true':>24}")
         for phase in PHASES:
-            print(f"   {phase:<10} {prof['ms'][phase]:8.1f} ms  {prof['share'][phase]:6.1%}")
+            print(f"   {phase:<10} {pair[False]['ms'][phase]:14.1f} {pair[False]['share'][phase]:8.1%} "
+                  f"{pair[True]['ms'][phase]:14.1f} {pair[True]['share'][phase]:8.1%}")
+        print(f"   throughput {pair[False]['samples_per_s']:14,.0f} {'':8} {pair[True]['samples_per_s']:14,.0f}   samples/s"
+              f"  → after/before {pair[True]['samples_per_s'] / pair[False]['samples_per_s']:.2f}×")
+        print(f"   first step, compilation included (a few seconds when inductor's cache holds it): "
+              f"{pair[True]['first_step_s']:.1f} s, against {pair[False]['first_step_s']:.2f} s eager")
     torch.set_num_threads(threads_before)
     result = {"streaming": s, "training": t, "profile": profiles, "config": cfg.__dict__, "quick": args.quick}
     if args.json:

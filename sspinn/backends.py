@@ -10,7 +10,6 @@ type of an input. torch and CasADi are imported lazily so the NumPy path needs n
 from __future__ import annotations
 
 from collections.abc import Sequence
-from functools import cache
 from typing import Any
 
 import numpy as np
@@ -97,9 +96,16 @@ class CasadiOps:
         return ca.reshape(v, cols, rows).T  # elems are row-major, CasADi reshapes column-major
 
 
-@cache
+_NAMESPACES: dict[str, Any] = {}
+_KINDS = {"numpy": NumpyOps, "torch": TorchOps, "casadi": CasadiOps}
+
+
 def _namespace(kind: str) -> Any:
-    return {"numpy": NumpyOps, "torch": TorchOps, "casadi": CasadiOps}[kind]()
+    """One instance per kind, made on first use (a plain dict rather than ``functools.cache``,
+    which ``torch.compile`` traces through with a warning)."""
+    if kind not in _NAMESPACES:
+        _NAMESPACES[kind] = _KINDS[kind]()
+    return _NAMESPACES[kind]
 
 
 def backend_name(x: Any) -> str:

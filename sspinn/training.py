@@ -82,6 +82,15 @@ class TrainConfig:
             equations of motion (:meth:`Trainer.physics_check`: lowest mean Kane term on fixed
             training windows — no labels) continues to ``steps``. 1 = a single run.
         start_steps: steps of each start (counted in ``steps``: the chosen start continues from it).
+        compile: compile the decoding and the physics losses (forward and backward) with
+            ``torch.compile`` (:func:`physics_terms`); the network stays eager. The generated
+            equations of motion are thousands of small element-wise operations, so eager PyTorch
+            spends the physics' time dispatching them; inductor fuses them into a few C++ loops
+            (5× faster physics, 1.4× faster training steps on a 2-core CPU; ``make bench``). The
+            first step pays a one-off compilation (≈80 s on a 2-core AVX-512 machine; a few seconds
+            when inductor's cache in ``$TORCHINDUCTOR_CACHE_DIR`` already holds it). If compilation
+            fails (no C++ compiler), training warns and continues eagerly. The numbers agree with
+            the eager ones to float32 rounding, not bit for bit.
     """
 
     imus: str = "all"
@@ -107,6 +116,7 @@ class TrainConfig:
     amp: bool = True
     starts: int = 1
     start_steps: int = 750
+    compile: bool = False
 
     def __post_init__(self) -> None:
         if isinstance(self.network, dict):
@@ -275,6 +285,41 @@ def make_batch(
 
 
 # ------------------------------------------------------------------------------ trainer
+def physics_terms(losses: PhysicsLosses, raw: torch.Tensor, batch: Batch) -> dict[str, torch.Tensor]:
+    """Every loss term of the raw network outputs (B, T, 46): :func:`~sspinn.network.decode`,
+    then ``losses`` — the part of a training step that :attr:`TrainConfig.compile` compiles."""
+    return losses(decode(raw, batch.out_scale, batch.out_offset, batch.dt), batch)
+
+
+class CompileWarning(UserWarning):
+    """``torch.compile`` of the physics failed; training continues with the eager physics."""
+
+
+class PhysicsTerms:
+    """:func:`physics_terms`, compiled with ``torch.compile`` when asked (see
+    :attr:`TrainConfig.compile`); falls back to eager, with a :class:`CompileWarning`, if the
+    first compiled call fails."""
+
+    _shared: Any = None  # one torch.compile wrapper per process: a second trainer (a start) reuses its graphs
+
+    def __init__(self, compiled: bool) -> None:
+        self.compiled = compiled
+        if compiled and PhysicsTerms._shared is None:
+            PhysicsTerms._shared = torch.compile(physics_terms, dynamic=False)
+        self._fn = PhysicsTerms._shared if compiled else physics_terms
+
+    def __call__(self, losses: PhysicsLosses, raw: torch.Tensor, batch: Batch) -> dict[str, torch.Tensor]:
+        if not self.compiled:
+            return physics_terms(losses, raw, batch)
+        try:
+            return self._fn(losses, raw, batch)
+        except Exception as exc:  # inductor needs a working C++ compiler; training must not die for speed
+            message = f"torch.compile of the physics failed ({type(exc).__name__}: {str(exc)[:300]}); continuing eagerly"
+            warnings.warn(message, CompileWarning, stacklevel=2)
+            self.compiled = False
+            return physics_terms(losses, raw, batch)
+
+
 class NonFiniteLossError(RuntimeError):
     """Raised when a loss becomes NaN/inf; the message names the windows of the batch."""
 
@@ -327,6 +372,7 @@ class Trainer:
         self.optimizer = torch.optim.Adam(params, lr=cfg.lr)
         self.losses = PhysicsLosses(cfg.weights)
         self.finetune_losses = PhysicsLosses(cfg.weights.finetune())
+        self.physics = PhysicsTerms(cfg.compile)
         self.net: torch.nn.Module = self.model
         if self.world > 1:
             from torch.nn.parallel import DistributedDataParallel
@@ -447,10 +493,8 @@ class Trainer:
                 x = x + torch.randn_like(x) * cfg.input_noise * self.noise_std
                 with autocast:
                     raw, _ = self.net(x)
-                est = decode(raw.float(), batch.out_scale, batch.out_offset, batch.dt)
                 finetuning = cfg.finetune or self.step >= cfg.steps - cfg.finetune_last
-                losses = self.finetune_losses if finetuning else self.losses
-                terms = losses(est, batch)
+                terms = self.physics(self.finetune_losses if finetuning else self.losses, raw.float(), batch)
                 loss = terms["total"]
                 if not torch.isfinite(loss):
                     bad = [f"{self.data[k].recording.name}[{s}:{s + cfg.window}]" for k, s in zip(which, starts)]
@@ -564,7 +608,7 @@ class Trainer:
                 x, batch = make_batch(self.data, w, st, cfg.window, self.segments, self.imu_std, self.device)
                 batch.placement = self.placement[w]
                 raw, _ = self.model(x)
-                terms = unit(decode(raw.float(), batch.out_scale, batch.out_offset, batch.dt), batch)
+                terms = physics_terms(unit, raw.float(), batch)
                 for k, v in terms.items():
                     if k not in ("grf", "total"):
                         sums[k] = sums.get(k, 0.0) + float(v) * len(w)

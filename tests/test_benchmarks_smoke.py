@@ -56,7 +56,8 @@ def test_bench_sspinn(tmp_path: Path, capsys: pytest.CaptureFixture[str], torch_
     out = capsys.readouterr().out
     assert "streaming latency" in out and "training throughput" in out
     assert result["streaming"]["ours_ms"][0] > 0 and result["training"]["sspinn_windows_per_s"] > 0
-    assert "one training step" in out and len(result["profile"]) == 2
+    assert "one training step" in out and "after/before" in out and len(result["profile"]) == 4
+    assert sorted(p["compiled"] for p in result["profile"].values()) == [False, False, True, True]
     for prof in result["profile"].values():  # the phases partition the step
         assert sum(prof["share"].values()) == pytest.approx(1.0) and min(prof["ms"].values()) > 0
     assert json.loads((tmp_path / "r.json").read_text())["quick"] is True

@@ -3,6 +3,8 @@ streaming."""
 
 from __future__ import annotations
 
+import shutil
+
 import numpy as np
 import pytest
 import torch
@@ -203,3 +205,51 @@ def test_finetune_last_switches_to_the_finetuning_weights(tiny):
     assert kane[2][1] > 5 * kane[2][0]  # ×10 weight on a similar residual
     with pytest.raises(ValueError, match="finetune_last"):
         TrainConfig.from_yaml(cfg, steps=4, settings=["finetune_last=5"])
+
+
+@pytest.mark.skipif(shutil.which("g++") is None and shutil.which("clang++") is None, reason="inductor needs a C++ compiler")
+def test_compiled_physics_trains_like_the_eager_physics(tiny):
+    """``compile: true`` (torch.compile of decoding + losses) gives the eager run's losses and
+    weights to float32 rounding — and really compiled (no fallback warning)."""
+    import warnings
+
+    from sspinn.training import CompileWarning
+
+    root, data, cfg = tiny
+    train = Dataset.open(data).load("train")
+    runs = {}
+    for compiled in (False, True):
+        trainer = Trainer(TrainConfig.from_yaml(cfg, settings=[f"compile={str(compiled).lower()}"]), root / f"compiled_{compiled}")
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", CompileWarning)
+            trainer.fit(train)
+        assert trainer.physics.compiled is compiled
+        runs[compiled] = trainer
+    eager, compiled_run = runs[False], runs[True]
+    for a, b in zip(eager.history, compiled_run.history):
+        for k in ("kane", "imu", "contact", "stance", "total"):
+            assert b[k] == pytest.approx(a[k], rel=1e-3, abs=1e-6), k
+    for a, b in zip(eager.model.state_dict().values(), compiled_run.model.state_dict().values()):
+        torch.testing.assert_close(a, b, rtol=1e-3, atol=1e-5)
+
+
+def test_a_failed_compile_falls_back_to_the_eager_physics(tiny, monkeypatch):
+    from sspinn import training
+    from sspinn.training import CompileWarning
+
+    def broken(fn, **kwargs):
+        def call(*args):
+            raise RuntimeError("no C++ compiler found")
+        return call
+
+    monkeypatch.setattr(training.torch, "compile", broken)
+    root, data, cfg = tiny
+    train = Dataset.open(data).load("train")
+    trainer = Trainer(TrainConfig.from_yaml(cfg, settings=["compile=true"]), root / "compile_fails")
+    with pytest.warns(CompileWarning, match="no C\\+\\+ compiler"):
+        trainer.fit(train)
+    eager = Trainer(TrainConfig.from_yaml(cfg), root / "compile_eager")
+    eager.fit(train)
+    assert trainer.step == 4 and not trainer.physics.compiled
+    for a, b in zip(eager.model.state_dict().values(), trainer.model.state_dict().values()):
+        torch.testing.assert_close(a, b)
