@@ -24,6 +24,7 @@ stance     0       on the body model's own contact points (forward kinematics of
                    — a loaded foot neither slides nor floats, no foot below the floor (L_S)
 foot_speed 1       foot-IMU horizontal speed vs a ZUPT Kalman estimate, penalised only
                    beyond 30 % of the sequence's maximum ZUPT speed (L_FS)
+gyro       0       the gyroscope channels of L_IMU once more (L_G; see below)
 =========  ======  ===================================================================
 
 Fine-tuning multiplies the kane, temporal and contact weights by 10 (:meth:`LossWeights.finetune`).
@@ -45,6 +46,17 @@ the estimated q, u — the model's own loaded foot must not slide, which fixes t
 to the leg's motion during stance — and, at the same load, the contact point's height above the
 floor, plus any depth below it (the loaded foot must be the one on the floor). Its default weight is 0 (the paper's losses);
 ``configs/sspinn/demo.yaml`` sets it.
+
+**Angular rates weigh more (L_G, not in the paper).** L_IMU weighs every channel by its spread
+over the training data, but the channels are not equally trustworthy: a sensor mounted 3° off
+its nominal angle (the synthetic error model's misalignment, a real strap's rotation) puts
+g·sin 3° ≈ 0.5 m/s² of gravity into the wrong accelerometer axis for the whole recording — the
+same size as the pelvis accelerometer's gait signal — while its gyroscope still reads the
+segment's angular rate (the true kinematics of the synthetic training recordings miss the
+measured accelerometers by 10–64 % of their spread, the limbs' gyroscopes by 3–11 % — the
+pelvis's, whose rates are small, by 30–45 %). The network can
+only explain such offsets by tilting segments. L_G adds the gyroscope part of L_IMU again, so
+λ_G shifts the fit towards the rates. Its default weight is 0 (the paper's losses).
 """
 
 from __future__ import annotations
@@ -77,6 +89,7 @@ class LossWeights:
     slide: float = 30.0
     foot_speed: float = 1.0
     stance: float = 0.0
+    gyro: float = 0.0
 
     @classmethod
     def unit(cls) -> LossWeights:
@@ -179,7 +192,9 @@ class PhysicsLosses:
         placement = batch.placement[:, None, :]
         idx = [SEGMENTS.index(s) for s in batch.segments]
         virtual = kinematics.virtual_imu(q, u, qdd, placement, p)[..., idx, :]
-        terms["imu"] = ((virtual - batch.imu) / batch.imu_std).square().mean()
+        imu_error = ((virtual - batch.imu) / batch.imu_std).square()
+        terms["imu"] = imu_error.mean()
+        terms["gyro"] = imu_error[..., 2].mean()  # L_G: [acc_x, acc_y, gyr_z] per IMU
 
         # L_GC: ankle kinematics, estimated vs forward kinematics (x relative to the hip)
         pk = kinematics.point_kinematics(q, u, qdd, w, p)

@@ -91,6 +91,10 @@ def test_each_physics_term_detects_its_violation():
     assert losses(est3, batch3)["temporal"] > 100 * base3
     batch.imu = batch.imu + 0.5
     assert losses(est, batch)["imu"] == pytest.approx(0.25, rel=1e-6)
+    assert losses(est, batch)["gyro"] == pytest.approx(0.25, rel=1e-6)
+    batch.imu[..., :2] = batch.imu[..., :2] + 1.0  # accelerometers only: L_G does not see it
+    assert losses(est, batch)["gyro"] == pytest.approx(0.25, rel=1e-6)
+    assert losses(est, batch)["imu"] > 1.0
 
 
 def test_bounds_values():
