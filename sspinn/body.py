@@ -329,6 +329,33 @@ class JointLimits:
             if not self.lower[j] < self.upper[j]:
                 raise ParameterError(f"joint limits of {j}: lower {self.lower[j]} must be < upper {self.upper[j]}")
 
+    @classmethod
+    def per_type(cls, lower: tuple[float, float, float], upper: tuple[float, float, float]) -> JointLimits:
+        """The same (hip, knee, ankle) limits, rad, on both sides."""
+        lo, hi = dict(zip(("hip", "knee", "ankle"), lower)), dict(zip(("hip", "knee", "ankle"), upper))
+        return cls(lower={j: lo[j.split("_")[0]] for j in JOINTS}, upper={j: hi[j.split("_")[0]] for j in JOINTS})
+
+    @classmethod
+    def anatomical(cls) -> JointLimits:
+        """Human ranges of motion, wide enough for running: hip −30°…+120° (flexion +), knee
+        −140°…+0.1 rad (flexion −; the paper's small hyperextension allowance), ankle −50°…+40°
+        (dorsiflexion +). Hip and knee from the AAOS normal values (hip flexion 120°, extension
+        30°, knee flexion 135–140°, ankle plantarflexion 50°); the ankle's dorsiflexion from the
+        weight-bearing lunge test (≈ 40° of shank inclination; Bennell et al., Aust J Physiother
+        44:175, 1998), since a loaded ankle exceeds the 20° of passive dorsiflexion. The paper's
+        bounds (the default) stop the knee at 60° of flexion, which running swing exceeds by far
+        (≈ 90–130°; the synthetic running recordings reach 116°)."""
+        d = math.radians
+        return cls.per_type((d(-30), d(-140), d(-50)), (d(120), 0.1, d(40)))
+
+    @classmethod
+    def named(cls, name: str) -> JointLimits:
+        """``"paper"`` (the default bounds) or ``"anatomical"`` (:meth:`anatomical`)."""
+        choices = {"paper": cls, "anatomical": cls.anatomical}
+        if name not in choices:
+            raise ParameterError(f"joint limits: unknown set {name!r}; choose one of {sorted(choices)}")
+        return choices[name]()
+
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) as arrays in joint order."""
         return np.array([self.lower[j] for j in JOINTS]), np.array([self.upper[j] for j in JOINTS])

@@ -27,7 +27,7 @@ import numpy as np
 import torch
 import yaml
 
-from sspinn.body import BodyParameters
+from sspinn.body import BodyParameters, JointLimits
 from sspinn.conventions import SEGMENTS
 from sspinn.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.interrupt import DeferredInterrupt
@@ -82,6 +82,9 @@ class TrainConfig:
             equations of motion (:meth:`Trainer.physics_check`: lowest mean Kane term on fixed
             training windows — no labels) continues to ``steps``. 1 = a single run.
         start_steps: steps of each start (counted in ``steps``: the chosen start continues from it).
+        joint_limits: the bounds term's ranges of motion: ``"paper"`` (hip and ankle ±60°, knee
+            −60°…+0.1 rad) or ``"anatomical"`` (:meth:`~sspinn.body.JointLimits.anatomical`, wide
+            enough for the knee flexion of running).
         compile: compile the decoding and the physics losses (forward and backward) with
             ``torch.compile`` (:func:`physics_terms`); the network stays eager. The generated
             equations of motion are thousands of small element-wise operations, so eager PyTorch
@@ -116,6 +119,7 @@ class TrainConfig:
     amp: bool = True
     starts: int = 1
     start_steps: int = 750
+    joint_limits: str = "paper"
     compile: bool = False
 
     def __post_init__(self) -> None:
@@ -143,6 +147,7 @@ class TrainConfig:
             raise ValueError(f"start_steps ({self.start_steps}) must be fewer than steps ({self.steps}) with {self.starts} starts")
         if self.starts > 1 and self.lr_schedule != "constant":
             raise ValueError("starts > 1 needs lr_schedule 'constant' (a start would follow a schedule of its own length)")
+        JointLimits.named(self.joint_limits)  # raises with the choices for an unknown name
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}")
         if not math.isfinite(self.input_noise) or self.input_noise < 0:
@@ -370,8 +375,9 @@ class Trainer:
         self.placement = torch.nn.Parameter(torch.as_tensor(np.stack([d.placement for d in self.data]), dtype=torch.float32, device=self.device))
         params = list(self.model.parameters()) + ([self.placement] if cfg.learn_placement else [])
         self.optimizer = torch.optim.Adam(params, lr=cfg.lr)
-        self.losses = PhysicsLosses(cfg.weights)
-        self.finetune_losses = PhysicsLosses(cfg.weights.finetune())
+        limits = JointLimits.named(cfg.joint_limits)
+        self.losses = PhysicsLosses(cfg.weights, limits=limits)
+        self.finetune_losses = PhysicsLosses(cfg.weights.finetune(), limits=limits)
         self.physics = PhysicsTerms(cfg.compile)
         self.net: torch.nn.Module = self.model
         if self.world > 1:
@@ -594,7 +600,7 @@ class Trainer:
         recordings (network in eval mode, no input noise): a label-free measure of the estimate."""
         assert self.model is not None
         cfg = self.config
-        unit = PhysicsLosses(LossWeights.unit())
+        unit = PhysicsLosses(LossWeights.unit(), limits=JointLimits.named(cfg.joint_limits))
         which, starts = [], []
         for k, d in enumerate(self.data):
             for s in np.linspace(0, d.recording.n_samples - cfg.window, windows_per_recording).astype(int):

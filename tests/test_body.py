@@ -101,3 +101,18 @@ def test_imu_placement_and_limits():
         IMUPlacement(positions={"pelvis": (0.0, 0.0)})
     lo, hi = JointLimits().arrays()
     assert lo[1] == pytest.approx(-math.pi / 3) and hi[1] == pytest.approx(0.1)
+
+
+def test_anatomical_limits_admit_what_the_generator_may_produce():
+    """The estimator's anatomical bounds contain the synthetic generator's ranges of motion (so L_B
+    never fights a true synthetic gait); the paper's bounds stop the knee at 60°, short of the
+    generator's running swing (up to 120°)."""
+    from predictive.ocp.settings import default_joint_limits
+
+    gen_lo, gen_hi = default_joint_limits().arrays()
+    lo, hi = JointLimits.named("anatomical").arrays()
+    assert np.all(lo <= gen_lo) and np.all(hi >= gen_hi)
+    paper_lo, _ = JointLimits.named("paper").arrays()
+    assert paper_lo[1] > gen_lo[1] and lo[1] == pytest.approx(-math.radians(140))
+    with pytest.raises(ParameterError, match="unknown set 'loose'"):
+        JointLimits.named("loose")

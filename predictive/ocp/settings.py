@@ -117,12 +117,8 @@ class ProblemSettings:
 def default_joint_limits() -> JointLimits:
     """Human sagittal ranges of motion (rad): hip −30°…+90° (flexion +), knee −120°…0° (knee
     flexion is negative; hyperextension excluded), ankle −40°…+30° (dorsiflexion +)."""
-    lo = {"hip": -math.radians(30), "knee": -math.radians(120), "ankle": -math.radians(40)}
-    hi = {"hip": math.radians(90), "knee": 0.0, "ankle": math.radians(30)}
-    return JointLimits(
-        lower={j: lo[j.split("_")[0]] for j in JOINTS},
-        upper={j: hi[j.split("_")[0]] for j in JOINTS},
-    )
+    d = math.radians
+    return JointLimits.per_type((d(-30), d(-120), d(-40)), (d(90), 0.0, d(30)))
 
 
 def joint_type_values(values: tuple[float, float, float]) -> np.ndarray:
