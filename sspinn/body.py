@@ -337,16 +337,18 @@ class JointLimits:
 
     @classmethod
     def anatomical(cls) -> JointLimits:
-        """Human ranges of motion, wide enough for running: hip −30°…+120° (flexion +), knee
+        """Human ranges of motion, wide enough for running: hip −40°…+120° (flexion +), knee
         −140°…+0.1 rad (flexion −; the paper's small hyperextension allowance), ankle −50°…+40°
-        (dorsiflexion +). Hip and knee from the AAOS normal values (hip flexion 120°, extension
-        30°, knee flexion 135–140°, ankle plantarflexion 50°); the ankle's dorsiflexion from the
-        weight-bearing lunge test (≈ 40° of shank inclination; Bennell et al., Aust J Physiother
-        44:175, 1998), since a loaded ankle exceeds the 20° of passive dorsiflexion. The paper's
-        bounds (the default) stop the knee at 60° of flexion, which running swing exceeds by far
-        (≈ 90–130°; the synthetic running recordings reach 116°)."""
+        (dorsiflexion +). From the AAOS normal values (hip flexion 120°, knee flexion 135–140°,
+        ankle plantarflexion 50°), with the hip's extension widened from 30° to 40° because
+        running reaches it (the Hamner running trial of ``../shared/data``: −31°), and the
+        ankle's dorsiflexion from the weight-bearing lunge test (≈ 40° of shank inclination;
+        Bennell et al., Aust J Physiother 44:175, 1998), since a loaded ankle exceeds the 20° of
+        passive dorsiflexion. The paper's bounds (the default) stop the knee at 60° of flexion,
+        which running swing exceeds by far (the Hamner trial: 111°; the synthetic running
+        recordings: up to 116°)."""
         d = math.radians
-        return cls.per_type((d(-30), d(-140), d(-50)), (d(120), 0.1, d(40)))
+        return cls.per_type((d(-40), d(-140), d(-50)), (d(120), 0.1, d(40)))
 
     @classmethod
     def named(cls, name: str) -> JointLimits:
