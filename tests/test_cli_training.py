@@ -243,6 +243,7 @@ def test_a_failed_compile_falls_back_to_the_eager_physics(tiny, monkeypatch):
         return call
 
     monkeypatch.setattr(training.torch, "compile", broken)
+    monkeypatch.setattr(training.PhysicsTerms, "_shared", None)  # an earlier test's wrapper would be reused
     root, data, cfg = tiny
     train = Dataset.open(data).load("train")
     trainer = Trainer(TrainConfig.from_yaml(cfg, settings=["compile=true"]), root / "compile_fails")
