@@ -27,6 +27,7 @@ import numpy as np
 import torch
 import yaml
 
+from sspinn.backends import ops_for
 from sspinn.body import BodyParameters, JointLimits
 from sspinn.conventions import SEGMENTS
 from sspinn.dataset import SAMPLE_RATE_HZ, Recording
@@ -316,6 +317,9 @@ class PhysicsTerms:
     def __call__(self, losses: PhysicsLosses, raw: torch.Tensor, batch: Batch) -> dict[str, torch.Tensor]:
         if not self.compiled:
             return physics_terms(losses, raw, batch)
+        # create the backend namespace outside the trace: a graph traced while it was first
+        # created would guard on its absence and be compiled a second time on the next call
+        ops_for(raw)
         try:
             return self._fn(losses, raw, batch)
         except Exception as exc:  # inductor needs a working C++ compiler; training must not die for speed
