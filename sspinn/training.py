@@ -90,8 +90,9 @@ class TrainConfig:
             ``torch.compile`` (:func:`physics_terms`); the network stays eager. The generated
             equations of motion are thousands of small element-wise operations, so eager PyTorch
             spends the physics' time dispatching them; inductor fuses them into a few C++ loops
-            (5× faster physics, 1.4× faster training steps on a 2-core CPU; ``make bench``). The
-            first step pays a one-off compilation (≈80 s on a 2-core AVX-512 machine; a few seconds
+            (physics 3.6× faster, the demo-size step 1.51× on a 2-core CPU;
+            ``benchmarks/bench_sspinn.py``). The first step pays a one-off compilation (55–90 s
+            on a 2-core AVX-512 machine; a few seconds
             when inductor's cache in ``$TORCHINDUCTOR_CACHE_DIR`` already holds it). If compilation
             fails (no C++ compiler), training warns and continues eagerly. The numbers agree with
             the eager ones to float32 rounding, not bit for bit.
