@@ -311,23 +311,22 @@ class PhysicsTerms:
 
     def __init__(self, compiled: bool) -> None:
         self.compiled = compiled
-        if compiled and PhysicsTerms._shared is None:
-            PhysicsTerms._shared = torch.compile(physics_terms, dynamic=False)
-        self._fn = PhysicsTerms._shared if compiled else physics_terms
+        if compiled:
+            # create the backend namespace before any trace: a graph traced while it was first
+            # created would guard on its absence and be compiled a second time on the next call
+            ops_for(torch.zeros(()))
+            if PhysicsTerms._shared is None:
+                PhysicsTerms._shared = torch.compile(physics_terms, dynamic=False)
 
     def __call__(self, losses: PhysicsLosses, raw: torch.Tensor, batch: Batch) -> dict[str, torch.Tensor]:
-        if not self.compiled:
-            return physics_terms(losses, raw, batch)
-        # create the backend namespace outside the trace: a graph traced while it was first
-        # created would guard on its absence and be compiled a second time on the next call
-        ops_for(raw)
-        try:
-            return self._fn(losses, raw, batch)
-        except Exception as exc:  # inductor needs a working C++ compiler; training must not die for speed
-            message = f"torch.compile of the physics failed ({type(exc).__name__}: {str(exc)[:300]}); continuing eagerly"
-            warnings.warn(message, CompileWarning, stacklevel=2)
-            self.compiled = False
-            return physics_terms(losses, raw, batch)
+        if self.compiled:
+            try:
+                return PhysicsTerms._shared(losses, raw, batch)
+            except Exception as exc:  # inductor needs a working C++ compiler; training must not die for speed
+                message = f"torch.compile of the physics failed ({type(exc).__name__}: {str(exc)[:300]}); continuing eagerly"
+                warnings.warn(message, CompileWarning, stacklevel=2)
+                self.compiled = False
+        return physics_terms(losses, raw, batch)
 
 
 class NonFiniteLossError(RuntimeError):
