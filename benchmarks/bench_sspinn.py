@@ -146,18 +146,18 @@ def profile_step(config: NetworkConfig, batch: int, window: int, repeats: int, t
     read): window draw + :func:`make_batch` + input noise (data), the LSTM and head (forward),
     decoding + every physics loss (physics), ``loss.backward()`` (backward), gradient clipping +
     Adam (optimizer). Synthetic recordings without ZUPT speeds (L_FS off), as in
-    :func:`bench_training`. ``compiled``: the physics through ``torch.compile``
+    :func:`bench_training`; the losses of the network's ground contact (``config.grf``). ``compiled``: the physics through ``torch.compile``
     (:class:`~sspinn.training.PhysicsTerms`); the warm-up step's wall time, which includes the
     compilation, is reported as ``first_step_s``."""
     torch.set_num_threads(threads)
-    data = prepare([fake_recording(window * 8, rng) for _ in range(4)], SEGMENTS, zupt=False)
+    data = prepare([fake_recording(window * 8, rng) for _ in range(4)], SEGMENTS, zupt=False, grf=config.grf)
     sampler = WindowSampler(data, window, rng)
     imu_std = torch.ones(len(SEGMENTS), 3)
     n_inputs = input_features(data[0].recording.imu[:1], 1.75, 70.0, data[0].placement, SEGMENTS).shape[1]
     torch.manual_seed(0)
     model = SSPINNposeNet(n_inputs, config)
     opt = torch.optim.Adam(model.parameters(), lr=1e-3)
-    losses = PhysicsLosses()
+    losses = PhysicsLosses(grf=config.grf)
     physics = PhysicsTerms(compiled)
     noise = torch.full((n_inputs,), 0.25)
     times: dict[str, list[float]] = {k: [] for k in PHASES}
@@ -220,7 +220,7 @@ def main(argv: list[str] | None = None) -> dict:
     demo_net, demo_size = (cfg, (batch, window)) if args.quick else (demo.network, (demo.batch_size, demo.window))
     profiles = {}
     for name, net, (pb, pw) in (("demo", demo_net, demo_size), ("paper", cfg, (batch, window))):
-        label = f"{name} (LSTM {net.layers}×{net.hidden}, batch {pb} × {pw})"
+        label = f"{name} (LSTM {net.layers}×{net.hidden}, batch {pb} × {pw}, GRF {net.grf})"
         pair = {}
         for compiled in (False, True):
             prof = profile_step(net, pb, pw, repeats if args.quick else 10, 2, rng, compiled=compiled)

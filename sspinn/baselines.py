@@ -116,8 +116,6 @@ class TrivialPredictor:
             tau=np.zeros((T, N_TAU)),
             grf=grf,
             w=np.zeros((T, 2)),
-            ankle=np.zeros((T, 2, 6)),
-            mu_hat=np.zeros((T, 2)),
         )
 
 

@@ -91,6 +91,7 @@ NUMBA_KERNELS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "mass_matrix_forcing": (("mass_matrix", "forcing"), ("q", "u", "tau", "grf", "w", "p")),
     "contact_simulation": (("contact_forces_simulation", "contact_fraction"), ("q", "u", "p", "c")),
     "contact_learned_from_ankles": (("contact_from_ankles", "contact_fraction"), ("q", "u", "ankle", "mu_hat", "p", "c")),
+    "contact_point_fraction": (("contact_fraction",), ("q", "c")),
 }
 
 

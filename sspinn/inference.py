@@ -22,7 +22,7 @@ from sspinn.contact import ContactParameters
 from sspinn.conventions import GRAVITY
 from sspinn.dataset import SAMPLE_RATE_HZ, DataFormatError, Recording
 from sspinn.errors import UserError
-from sspinn.network import N_OUTPUTS, SSPINNposeNet, decode, input_features, output_affine
+from sspinn.network import SSPINNposeNet, decode, input_features, output_affine
 from sspinn.run_folder import atomic_path
 from sspinn.trajectory import Trajectory
 
@@ -48,15 +48,10 @@ PHYSICAL_LIMITS: dict[str, float] = {
 class GaitEstimate(Trajectory):
     """Estimated gait of one recording: a :class:`~sspinn.trajectory.Trajectory` over T samples
     at 100 Hz (time, q, u, qdd (T, 9); tau (T, 6) N·m; grf (T, 4) N; w (T, 2); SI units; built
-    with keywords) with the recording's ``name`` and the estimator's ankle kinematics
-    ``ankle`` (T, 2, 6) and friction factors ``mu_hat`` (T, 2).
+    with keywords) with the recording's ``name``.
     """
 
     name: str
-    ankle: np.ndarray
-    mu_hat: np.ndarray
-
-    SAMPLE_SHAPES = {**Trajectory.SAMPLE_SHAPES, "ankle": (2, 6), "mu_hat": (2,)}
 
     def check_finite(self) -> GaitEstimate:
         """``self`` if every estimated value is finite, else :class:`NonFiniteEstimateError`
@@ -112,17 +107,16 @@ def _check_segments(rec: Recording, segments: tuple[str, ...]) -> Recording:
     return rec.select_imus(segments)
 
 
-def _outputs(raw: torch.Tensor, body: BodyParameters) -> dict[str, torch.Tensor]:
-    """Decode raw outputs (1, T, 46) and evaluate the contact model (float64)."""
-    scale, offset = output_affine(body.height, body.mass, body.standing_hip_height, body.gravity)
-    est = decode(raw.double(), torch.as_tensor(scale)[None], torch.as_tensor(offset)[None], 1.0 / SAMPLE_RATE_HZ)
-    pt = torch.as_tensor(body.vector())
+def _outputs(raw: torch.Tensor, body: BodyParameters, grf: str) -> dict[str, torch.Tensor]:
+    """Decode the raw outputs (1, T, n_outputs) of a ``grf`` network and, for the paper's, evaluate
+    the contact model (float64): q, u, qdd, tau, grf and w."""
+    scale, offset = output_affine(body.height, body.mass, body.standing_hip_height, body.gravity, grf)
+    est = decode(raw.double(), torch.as_tensor(scale)[None], torch.as_tensor(offset)[None], 1.0 / SAMPLE_RATE_HZ, grf)
     c = torch.as_tensor(ContactParameters().vector())
-    gc = dynamics.contact_from_ankles(est.q, est.u, est.ankle_global(), est.mu_hat, pt, c)
-    return {
-        "q": est.q, "u": est.u, "qdd": est.qdd, "tau": est.tau, "ankle": est.ankle, "mu_hat": est.mu_hat,
-        "grf": gc[..., :2].flatten(-2), "w": dynamics.contact_fraction(est.q, c),
-    }
+    if est.grf is None:
+        gc = dynamics.contact_from_ankles(est.q, est.u, est.ankle_global(), est.mu_hat, torch.as_tensor(body.vector()), c)
+        est.grf = gc[..., :2].flatten(-2)
+    return {"q": est.q, "u": est.u, "qdd": est.qdd, "tau": est.tau, "grf": est.grf, "w": dynamics.contact_fraction(est.q, c)}
 
 
 @torch.no_grad()
@@ -136,7 +130,7 @@ def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str
     x = input_features(rec.imu, rec.height, rec.mass, placement, segments)
     raw, _ = model(torch.as_tensor(x, dtype=torch.float32, device=device)[None])
     body = BodyParameters.from_anthropometry(rec.height, rec.mass)
-    out = {k: v[0].cpu().numpy() for k, v in _outputs(raw.cpu(), body).items()}
+    out = {k: v[0].cpu().numpy() for k, v in _outputs(raw.cpu(), body, model.config.grf).items()}
     return GaitEstimate(name=rec.name, time=rec.time, **out).check_finite().check_physical(rec.height, rec.mass)
 
 
@@ -144,7 +138,9 @@ def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str
 # fastmath without nnan/ninf: reassociation lets LLVM vectorise the dot products, while
 # non-finite values still propagate as in torch.
 _FASTMATH = {"reassoc", "contract", "nsz", "arcp"}
-_N_RESULT = 9 + 9 + 9 + 6 + 12 + 2 + 4 + 2  # q, u, qdd, tau, ankle (2, 6), mu_hat, grf, w
+#: StreamingEstimator's result buffer: q, u, qdd, tau, grf, w, then (contact model only) the
+#: ankles (2, 6) and mu_hat.
+_N_RESULT = 9 + 9 + 9 + 6 + 4 + 2 + 12 + 2
 
 
 @numba.njit(fastmath=_FASTMATH, cache=True)
@@ -197,16 +193,17 @@ def _dense(w, b, a, out, elu):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def _network_step(
-    x, mean, std, w0, b0, wr, br, h, c, gates, wd, bd, wo, bo, dense, raw, scale, offset, dt, root, res, ankle_global
+    x, mean, std, w0, b0, wr, br, h, c, gates, wd, bd, wo, bo, dense, raw, scale, offset, dt, root, res, ankle_global, direct
 ):  # pragma: no cover - compiled (tested through StreamingEstimator.step)
     """One sample through the network and the decoding; False (and nothing changed) if ``x``
     is not finite.
 
     x (n_imu·3,) float64 IMU channels; mean/std their input statistics; w0/b0 the first layer
     with the subject's constant inputs folded into b0; wr/br (layers − 1, ...) the others;
-    h/c (layers, H) the carried state; dt the sample period; root [pelvis_tx, previous vx, started]; writes ``res``
-    (q, u, qdd, tau, ankle, mu_hat; grf and w are left to the contact kernel) and
-    ``ankle_global`` [x, y, vx, vy] per foot.
+    h/c (layers, H) the carried state; dt the sample period; root [pelvis_tx, previous vx, started];
+    ``direct``: a direct-GRF network (``network.decode``). Writes ``res`` (q, u, qdd, tau; then
+    the GRF of a direct-GRF network, else the ankles and mu_hat, the GRF and w being left to
+    the contact kernels) and, for the contact model, ``ankle_global`` [x, y, vx, vy] per foot.
     """
     n = x.shape[0]
     for k in range(n):
@@ -220,7 +217,11 @@ def _network_step(
         _lstm_layer(wr[layer], br[layer], h[layer], h[layer + 1], c[layer + 1], gates)
     _dense(wd, bd, h[h.shape[0] - 1], dense, True)
     _dense(wo, bo, dense, raw, False)
-    scaled = raw.astype(np.float64) * scale + offset
+    pre = raw.astype(np.float64)
+    if direct:  # vertical forces: softplus, as torch's (threshold 20)
+        for k in (33, 35):
+            pre[k] = pre[k] if pre[k] > 20.0 else math.log1p(math.exp(pre[k]))
+    scaled = pre * scale + offset
     vx = scaled[8]  # u[0], the horizontal root velocity
     if root[2] > 0.0:  # trapezoidal integral, as in network.decode
         root[0] += 0.5 * (vx + root[1]) * dt
@@ -228,9 +229,12 @@ def _network_step(
     root[2] = 1.0
     res[0] = root[0]
     res[1:33] = scaled[0:32]  # q[1:], u, qdd, tau
+    if direct:
+        res[33:37] = scaled[32:36]
+        return True
     for foot in range(2):
-        res[33 + 6 * foot : 39 + 6 * foot] = scaled[32 + 7 * foot : 38 + 7 * foot]
-        res[45 + foot] = scaled[38 + 7 * foot]
+        res[39 + 6 * foot : 45 + 6 * foot] = scaled[32 + 7 * foot : 38 + 7 * foot]
+        res[51 + foot] = scaled[38 + 7 * foot]
         ankle_global[4 * foot : 4 * foot + 4] = scaled[32 + 7 * foot : 36 + 7 * foot]
         ankle_global[4 * foot] += root[0]
     return True
@@ -272,7 +276,8 @@ class StreamingEstimator:
         body = BodyParameters.from_anthropometry(height, mass)
         self.p = body.vector()
         self.c = ContactParameters().vector()
-        self.scale, self.offset = output_affine(height, mass, body.standing_hip_height, body.gravity)
+        self.direct = model.config.grf == "direct"
+        self.scale, self.offset = output_affine(height, mass, body.standing_hip_height, body.gravity, model.config.grf)
         self.reset()
 
     def _pack(self) -> None:
@@ -312,7 +317,7 @@ class StreamingEstimator:
         self._c = np.zeros((cfg.layers, H), np.float32)
         self._gates = np.empty(4 * H, np.float32)
         self._dense_out = np.empty(cfg.dense, np.float32)
-        self._raw = np.empty(N_OUTPUTS, np.float32)
+        self._raw = np.empty(model.config.n_outputs, np.float32)
         self._ankle_global = np.empty(8)
         self._gc = np.empty((2, 6))
 
@@ -335,8 +340,8 @@ class StreamingEstimator:
 
     def step(self, sample: np.ndarray) -> dict[str, np.ndarray]:
         """One sample (n_imu, 3) [acc_x, acc_y, gyr_z] in the model's segment order → dict of
-        q (9), u (9), qdd (9), tau (6), grf (4), w (2), ankle (2, 6) (x relative to pelvis_tx)
-        and mu_hat (2) at that sample (NumPy, SI units)."""
+        q (9), u (9), qdd (9), tau (6), grf (4), w (2) and, for the paper's contact model, its
+        inputs ankle (2, 6) (x relative to pelvis_tx) and mu_hat (2) at that sample (NumPy, SI units)."""
         sample = np.asarray(sample, dtype=np.float64)
         if sample.shape != (len(self.segments), 3):
             raise ValueError(f"expected a finite ({len(self.segments)}, 3) sample for IMUs {self.segments}, got {sample.shape}")
@@ -344,13 +349,14 @@ class StreamingEstimator:
         if not _network_step(
             sample.reshape(-1), net["mean"], net["std"], net["w0"], net["b0"], net["wr"], net["br"], self._h, self._c,
             self._gates, net["wd"], net["bd"], net["wo"], net["bo"], self._dense_out, self._raw, self.scale, self.offset,
-            1.0 / SAMPLE_RATE_HZ, self._root, res, self._ankle_global,
+            1.0 / SAMPLE_RATE_HZ, self._root, res, self._ankle_global, self.direct,
         ):
             raise ValueError(f"expected a finite ({len(self.segments)}, 3) sample for IMUs {self.segments}, got non-finite values")
         q, u = res[0:9], res[9:18]
-        model_numba.contact_learned_from_ankles(q, u, self._ankle_global, res[45:47], self.p, self.c, self._gc, res[51:53])
-        res[47:51].reshape(2, 2)[:] = self._gc[:, :2]
-        return {
-            "q": q, "u": u, "qdd": res[18:27], "tau": res[27:33], "ankle": res[33:45].reshape(2, 6),
-            "mu_hat": res[45:47], "grf": res[47:51], "w": res[51:53],
-        }
+        out = {"q": q, "u": u, "qdd": res[18:27], "tau": res[27:33], "grf": res[33:37], "w": res[37:39]}
+        if self.direct:
+            model_numba.contact_point_fraction(q, self.c, res[37:39])
+            return out
+        model_numba.contact_learned_from_ankles(q, u, self._ankle_global, res[51:53], self.p, self.c, self._gc, res[37:39])
+        res[33:37].reshape(2, 2)[:] = self._gc[:, :2]
+        return {**out, "ankle": res[39:51].reshape(2, 6), "mu_hat": res[51:53]}

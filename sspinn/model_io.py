@@ -92,7 +92,7 @@ def load_model(path: str | Path, device: str | torch.device = "cpu") -> tuple[SS
 # ------------------------------------------------------------------------------------------ export
 class StreamingStep(torch.nn.Module):
     """One time step of a unidirectional network with its LSTM state carried by the caller:
-    ``(x (B, F), h (L, B, H), c (L, B, H)) → (raw outputs (B, 46), h, c)`` (L LSTM layers of H
+    ``(x (B, F), h (L, B, H), c (L, B, H)) → (raw outputs (B, n_outputs), h, c)`` (L LSTM layers of H
     units). The form a real-time system runs, and the form :func:`export_streaming` exports."""
 
     def __init__(self, model: SSPINNposeNet) -> None:
@@ -139,7 +139,7 @@ def export_streaming(model: SSPINNposeNet, path: str | Path) -> Path:
 
 
 def run_exported(step: torch.nn.Module, x: torch.Tensor, layers: int, hidden: int) -> torch.Tensor:
-    """Raw outputs (B, T, 46) of an exported (or eager) :class:`StreamingStep` over inputs
+    """Raw outputs (B, T, n_outputs) of an exported (or eager) :class:`StreamingStep` over inputs
     x (B, T, F), from the zero state: the same as the network's forward pass on x."""
     h = torch.zeros(layers, x.shape[0], hidden)
     c = torch.zeros_like(h)

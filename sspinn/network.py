@@ -2,7 +2,7 @@
 
 Architecture (Gambietz et al., SSPINNpose): an LSTM (2 layers, hidden 512, dropout 0.4;
 unidirectional for real time, optionally bidirectional offline), a dense layer of 128 units and
-a linear layer with 46 outputs per time step:
+a linear layer with 46 outputs per time step (36 with direct ground reaction forces):
 
 ==========  =====  ====================================================================
 block       size   content (decoded by :func:`decode`; SI units, conventions module)
@@ -12,9 +12,23 @@ q           8      all coordinates but pelvis_tx (the horizontal root position i
 u           9      generalized speeds
 qdd         9      generalized accelerations
 tau         6      joint torques
-contact     14     per foot (r, l): ankle [x − pelvis_tx, y, vx, vy, ax, ay] estimated
-                   separately from the kinematic chain, and the friction factor μ̂
+contact     14     ``grf: contact_model`` (the paper's): per foot (r, l) the ankle
+                   [x − pelvis_tx, y, vx, vy, ax, ay] estimated separately from the
+                   kinematic chain and the friction factor μ̂; the GRF is the contact
+                   model's (:func:`sspinn.dynamics.contact_from_ankles`)
+grf         4      ``grf: direct`` (not in the paper): the GRF itself,
+                   [F_x, F_y] per foot, F_y = BW·softplus(raw) ≥ 0, F_x = BW/2·raw
 ==========  =====  ====================================================================
+
+Why the direct GRF (:attr:`NetworkConfig.grf`): the paper's contact model makes the vertical
+force a stiff function of the estimated ankle height (1 BW per centimetre of penetration), so a
+network output must be right to a millimetre for the force to be right to a few per cent of
+body weight; and the labels' own kinematics pass through the model's (assumed, Winter-scaled)
+feet a few centimetres off the floor, so the true motion is far from the losses' optimum. With
+the forces as outputs, the translational rows of the equations of motion tie them linearly to
+the measured accelerations, and the contact conditions become losses on the body model's own
+feet (:mod:`sspinn.losses`, L_S and the friction cone) — the contact-implicit formulation of
+trajectory optimisation (Posa, Cantu & Tedrake 2014, Int. J. Robot. Res. 33:69–81).
 
 Raw outputs are dimensionless; :func:`decode` scales them by body size (height, body weight)
 and typical gait magnitudes so that a unit output is a plausible amount of each quantity.
@@ -33,40 +47,67 @@ from torch import nn
 
 from sspinn.conventions import N_Q, N_TAU, SEGMENTS
 
-N_OUTPUTS = (N_Q - 1) + N_Q + N_Q + N_TAU + 14
-assert N_OUTPUTS == 46
+#: The ground-contact outputs of :attr:`NetworkConfig.grf`: name → number of outputs.
+GRF_OUTPUTS: dict[str, int] = {"contact_model": 14, "direct": 4}
+#: Outputs before the ground-contact block: q without pelvis_tx, u, q̈, τ.
+N_BODY_OUTPUTS = (N_Q - 1) + N_Q + N_Q + N_TAU
+assert N_BODY_OUTPUTS == 32
 
 
 @dataclass(frozen=True)
 class NetworkConfig:
-    """LSTM size. Defaults are the paper's; ``configs/sspinn/demo.yaml`` uses a CPU-sized one."""
+    """LSTM size and output layout. Defaults are the paper's; ``configs/sspinn/demo.yaml`` uses
+    a CPU-sized one.
+
+    Attributes:
+        hidden, layers, dropout, dense: the LSTM's units per layer, its layers and the dropout
+            between them, and the dense layer's units.
+        bidirectional: an offline network that reads the recording both ways (cannot stream).
+        grf: ``"contact_model"`` (the paper's: separately estimated ankle kinematics and a
+            friction factor drive the contact model) or ``"direct"`` (the ground reaction forces
+            are outputs; see the module docstring).
+    """
 
     hidden: int = 512
     layers: int = 2
     dropout: float = 0.4
     dense: int = 128
     bidirectional: bool = False
+    grf: str = "contact_model"
 
     def __post_init__(self) -> None:
         if self.hidden < 1 or self.layers < 1 or self.dense < 1:
             raise ValueError(f"network sizes must be positive: {self}")
         if not 0.0 <= self.dropout < 1.0:
             raise ValueError(f"dropout must be in [0, 1), got {self.dropout}")
+        if self.grf not in GRF_OUTPUTS:
+            raise ValueError(f"grf must be one of {list(GRF_OUTPUTS)}, got {self.grf!r}")
+
+    @property
+    def n_outputs(self) -> int:
+        """Outputs per time step: 46 (contact model) or 36 (direct GRF)."""
+        return N_BODY_OUTPUTS + GRF_OUTPUTS[self.grf]
 
 
 @dataclass
 class Estimate:
-    """Decoded network outputs, each (..., T, n) in SI units (see the module docstring)."""
+    """Decoded network outputs, each (..., T, n) in SI units (see the module docstring).
+
+    ``ankle`` and ``mu_hat`` are the contact model's inputs (``grf: contact_model``; else None),
+    ``grf`` the forces of a direct-GRF network (else None: the contact model gives them)."""
 
     q: torch.Tensor  # (..., T, 9), pelvis_tx integrated from u
     u: torch.Tensor  # (..., T, 9)
     qdd: torch.Tensor  # (..., T, 9)
     tau: torch.Tensor  # (..., T, 6)
-    ankle: torch.Tensor  # (..., T, 2, 6): [x − pelvis_tx, y, vx, vy, ax, ay] per foot (r, l)
-    mu_hat: torch.Tensor  # (..., T, 2)
+    ankle: torch.Tensor | None = None  # (..., T, 2, 6): [x − pelvis_tx, y, vx, vy, ax, ay] per foot (r, l)
+    mu_hat: torch.Tensor | None = None  # (..., T, 2)
+    grf: torch.Tensor | None = None  # (..., T, 4): [Fx_r, Fy_r, Fx_l, Fy_l], N
 
     def ankle_global(self) -> torch.Tensor:
         """(..., T, 8): [x, y, vx, vy] per foot with x made global by adding pelvis_tx."""
+        if self.ankle is None:
+            raise ValueError("a direct-GRF estimate has no separately estimated ankles")
         a = self.ankle[..., :4].clone()
         a[..., 0] = a[..., 0] + self.q[..., :1]
         return a.flatten(-2)
@@ -95,7 +136,7 @@ def feature_std_floor(segments: tuple[str, ...]) -> torch.Tensor:
 
 
 class SSPINNposeNet(nn.Module):
-    """LSTM → dense(128) → 46 outputs per time step (see the module docstring).
+    """LSTM → dense(128) → 46 (or 36) outputs per time step (see the module docstring).
 
     Args:
         n_inputs: features per time step (IMU channels + constants).
@@ -115,7 +156,7 @@ class SSPINNposeNet(nn.Module):
             bidirectional=config.bidirectional,
         )
         width = config.hidden * (2 if config.bidirectional else 1)
-        self.head = nn.Sequential(nn.Linear(width, config.dense), nn.ELU(), nn.Linear(config.dense, N_OUTPUTS))
+        self.head = nn.Sequential(nn.Linear(width, config.dense), nn.ELU(), nn.Linear(config.dense, config.n_outputs))
         self.register_buffer("input_mean", torch.zeros(n_inputs))
         self.register_buffer("input_std", torch.ones(n_inputs))
 
@@ -137,7 +178,7 @@ class SSPINNposeNet(nn.Module):
     def forward(
         self, x: torch.Tensor, state: tuple[torch.Tensor, torch.Tensor] | None = None
     ) -> tuple[torch.Tensor, tuple[torch.Tensor, torch.Tensor]]:
-        """x (B, T, n_inputs) in physical units → raw outputs (B, T, 46) and the LSTM state."""
+        """x (B, T, n_inputs) in physical units → raw outputs (B, T, n_outputs) and the LSTM state."""
         if x.shape[-1] != self.n_inputs:
             raise ValueError(f"expected {self.n_inputs} input features, got {x.shape[-1]}")
         h, state = self.lstm((x - self.input_mean) / self.input_std, state)
@@ -152,49 +193,58 @@ class SSPINNposeNet(nn.Module):
 TYPICAL_U: tuple[float, ...] = (1.5, 0.5) + (4.0,) * 7
 TYPICAL_QDD: tuple[float, ...] = (10.0, 10.0) + (50.0,) * 7
 
-#: Blocks of the 46 outputs (see the module docstring).
-BLOCKS = {"q": slice(0, 8), "u": slice(8, 17), "qdd": slice(17, 26), "tau": slice(26, 32), "contact": slice(32, 46)}
+#: Blocks of the outputs (see the module docstring); "contact" or "grf" by :attr:`NetworkConfig.grf`.
+BLOCKS = {"q": slice(0, 8), "u": slice(8, 17), "qdd": slice(17, 26), "tau": slice(26, 32), "contact": slice(32, 46), "grf": slice(32, 36)}
+#: Scale of a direct-GRF network's horizontal forces, in body weights per unit raw output.
+GRF_X_SCALE = 0.5
 
 
-def output_affine(height: float, mass: float, leg_length: float, gravity: float = 9.81) -> tuple[np.ndarray, np.ndarray]:
-    """(scale, offset), each (46,): physical output = raw · scale + offset for one subject.
+def output_affine(height: float, mass: float, leg_length: float, gravity: float = 9.81, grf: str = "contact_model") -> tuple[np.ndarray, np.ndarray]:
+    """(scale, offset), each (n_outputs,): physical output = raw · scale + offset for one
+    subject (for a direct-GRF network, after the softplus of the vertical forces' raw outputs).
 
     Lengths scale with height, torques with m·g·h (10 %BW·BH ≈ 120 N·m at 1.75 m, 70 kg), rates
-    and accelerations with typical gait magnitudes; pelvis_ty is offset by the standing hip
-    height ``leg_length`` and the ankle heights by the standing ankle height (≈ 0.039·height).
+    and accelerations with typical gait magnitudes, forces with the body weight; pelvis_ty is
+    offset by the standing hip height ``leg_length`` and the ankle heights by the standing ankle
+    height (≈ 0.039·height).
     """
-    torque = 0.1 * mass * gravity * height
+    weight = mass * gravity
+    torque = 0.1 * weight * height
     q = [0.05 * height] + [0.5] * 7
     u = list(TYPICAL_U)
     qdd = list(TYPICAL_QDD)
-    ankle = [0.2 * height, 0.05 * height, 2.0, 1.0, 20.0, 20.0, 1.0]
-    scale = np.array(q + u + qdd + [torque] * N_TAU + ankle + ankle)
-    offset = np.zeros(N_OUTPUTS)
+    body = q + u + qdd + [torque] * N_TAU
+    if grf == "direct":
+        scale = np.array(body + [GRF_X_SCALE * weight, weight] * 2)
+        offset = np.zeros(scale.size)
+    else:
+        ankle = [0.2 * height, 0.05 * height, 2.0, 1.0, 20.0, 20.0, 1.0]
+        scale = np.array(body + ankle + ankle)
+        offset = np.zeros(scale.size)
+        offset[32 + 1] = offset[32 + 7 + 1] = 0.039 * height
     offset[0] = leg_length
-    offset[32 + 1] = offset[32 + 7 + 1] = 0.039 * height
     return scale, offset
 
 
-def split_outputs(scaled, root_x):
-    """Blocks of physical outputs (..., 46) (NumPy or torch) as a dict of q (with the given
-    ``root_x`` as pelvis_tx), u, qdd, tau, ankle (..., 2, 6) and mu_hat (..., 2)."""
-    cat = torch.cat if isinstance(scaled, torch.Tensor) else np.concatenate
-    contact = scaled[..., BLOCKS["contact"]].reshape(*scaled.shape[:-1], 2, 7)
-    return {
-        "q": cat([root_x[..., None], scaled[..., BLOCKS["q"]]], -1),
-        "u": scaled[..., BLOCKS["u"]],
-        "qdd": scaled[..., BLOCKS["qdd"]],
-        "tau": scaled[..., BLOCKS["tau"]],
-        "ankle": contact[..., :6],
-        "mu_hat": contact[..., 6],
-    }
-
-
-def decode(raw: torch.Tensor, scale: torch.Tensor, offset: torch.Tensor, dt: float) -> Estimate:
-    """Raw outputs (B, T, 46) → :class:`Estimate`, with per-sequence ``scale``/``offset`` (B, 46)
-    from :func:`output_affine`; pelvis_tx is the cumulative (trapezoidal) integral of the
-    estimated horizontal root velocity, starting at 0 in each sequence."""
+def decode(raw: torch.Tensor, scale: torch.Tensor, offset: torch.Tensor, dt: float, grf: str = "contact_model") -> Estimate:
+    """Raw outputs (B, T, n_outputs) of a ``grf`` network → :class:`Estimate`, with
+    per-sequence ``scale``/``offset`` (B, n_outputs) from :func:`output_affine`; pelvis_tx is the
+    cumulative (trapezoidal) integral of the estimated horizontal root velocity, starting at 0
+    in each sequence."""
+    if grf == "direct":  # vertical forces ≥ 0
+        f = raw[..., BLOCKS["grf"]]
+        f = torch.stack([f[..., 0], nn.functional.softplus(f[..., 1]), f[..., 2], nn.functional.softplus(f[..., 3])], dim=-1)
+        raw = torch.cat([raw[..., : BLOCKS["grf"].start], f], dim=-1)
     scaled = raw * scale[:, None, :] + offset[:, None, :]
     vx = scaled[..., BLOCKS["u"].start]
     tx = torch.cat([torch.zeros_like(vx[:, :1]), torch.cumsum(0.5 * (vx[:, 1:] + vx[:, :-1]) * dt, dim=1)], dim=1)
-    return Estimate(**split_outputs(scaled, tx))
+    body = {
+        "q": torch.cat([tx[..., None], scaled[..., BLOCKS["q"]]], -1),
+        "u": scaled[..., BLOCKS["u"]],
+        "qdd": scaled[..., BLOCKS["qdd"]],
+        "tau": scaled[..., BLOCKS["tau"]],
+    }
+    if grf == "direct":
+        return Estimate(**body, grf=scaled[..., BLOCKS["grf"]])
+    contact = scaled[..., BLOCKS["contact"]].reshape(*scaled.shape[:-1], 2, 7)
+    return Estimate(**body, ankle=contact[..., :6], mu_hat=contact[..., 6])

@@ -32,7 +32,7 @@ from sspinn.body import BodyParameters, JointLimits
 from sspinn.conventions import SEGMENTS
 from sspinn.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.interrupt import DeferredInterrupt
-from sspinn.losses import Batch, LossWeights, PhysicsLosses
+from sspinn.losses import Batch, IMUNoise, LossWeights, PhysicsLosses
 from sspinn.model_file import CHECKPOINT, MODEL, ModelFileError, check_finite_weights, load_torch_file, save_torch_file
 from sspinn.model_io import MODEL_ENTRIES, MODEL_HINT, load_weights, save_model
 from sspinn.network import NetworkConfig, SSPINNposeNet, decode, feature_std_floor, input_features, output_affine
@@ -55,8 +55,11 @@ class TrainConfig:
 
     Attributes:
         imus: IMU configuration, a key of :data:`IMU_CONFIGURATIONS`.
-        network: LSTM size (:class:`~sspinn.network.NetworkConfig`).
+        network: LSTM size and ground-contact outputs (:class:`~sspinn.network.NetworkConfig`).
         weights: loss weights λ (:class:`~sspinn.losses.LossWeights`).
+        imu_noise: divide L_IMU's errors by each channel's expected error
+            (:class:`~sspinn.losses.IMUNoise`) instead of its standard deviation (None, the
+            paper's).
         finetune: use the fine-tuning weights (kane, temporal and contact × 10).
         finetune_last: the last this many steps use the fine-tuning weights (the paper's
             fine-tuning as the end of one run; 0 = none).
@@ -101,6 +104,7 @@ class TrainConfig:
     imus: str = "all"
     network: NetworkConfig = field(default_factory=NetworkConfig)
     weights: LossWeights = field(default_factory=LossWeights)
+    imu_noise: IMUNoise | None = None
     finetune: bool = False
     finetune_last: int = 0
     learn_placement: bool = False
@@ -129,6 +133,8 @@ class TrainConfig:
             self.network = NetworkConfig(**self.network)
         if isinstance(self.weights, dict):
             self.weights = LossWeights(**self.weights)
+        if isinstance(self.imu_noise, dict):
+            self.imu_noise = IMUNoise(**self.imu_noise)
         if self.imus not in IMU_CONFIGURATIONS:
             raise ValueError(f"unknown IMU configuration {self.imus!r}; choose one of {list(IMU_CONFIGURATIONS)}")
         for name in ("steps", "batch_size", "window", "log_every", "checkpoint_every", "starts", "start_steps"):
@@ -206,18 +212,21 @@ class PreparedRecording:
     p: np.ndarray  # (41,) body parameters from height/mass (what the estimator assumes)
     placement: np.ndarray  # (21,) nominal IMU placement
     zupt_speed: np.ndarray | None  # (T, 2) or None
-    out_scale: np.ndarray  # (46,) network output scales (see network.output_affine)
-    out_offset: np.ndarray  # (46,)
+    out_scale: np.ndarray  # (n_outputs,) network output scales (see network.output_affine)
+    out_offset: np.ndarray  # (n_outputs,)
 
 
-def prepare(recordings: list[Recording], segments: tuple[str, ...], zupt: bool = True) -> list[PreparedRecording]:
-    """Select the IMUs, compute body parameters (Winter scaling) and ZUPT foot speeds."""
+def prepare(
+    recordings: list[Recording], segments: tuple[str, ...], zupt: bool = True, grf: str = "contact_model"
+) -> list[PreparedRecording]:
+    """Select the IMUs, compute body parameters (Winter scaling), ZUPT foot speeds and the
+    output scaling of a ``grf`` network (:attr:`~sspinn.network.NetworkConfig.grf`)."""
     out = []
     for rec in recordings:
         sel = rec.select_imus(segments)
         speed = foot_zupt_speeds(sel) if zupt else None
         body = BodyParameters.from_anthropometry(rec.height, rec.mass)
-        scale, offset = output_affine(rec.height, rec.mass, body.standing_hip_height, body.gravity)
+        scale, offset = output_affine(rec.height, rec.mass, body.standing_hip_height, body.gravity, grf)
         out.append(PreparedRecording(sel, body.vector(), rec.placement.vector(), speed, scale, offset))
     return out
 
@@ -293,9 +302,10 @@ def make_batch(
 
 # ------------------------------------------------------------------------------ trainer
 def physics_terms(losses: PhysicsLosses, raw: torch.Tensor, batch: Batch) -> dict[str, torch.Tensor]:
-    """Every loss term of the raw network outputs (B, T, 46): :func:`~sspinn.network.decode`,
-    then ``losses`` — the part of a training step that :attr:`TrainConfig.compile` compiles."""
-    return losses(decode(raw, batch.out_scale, batch.out_offset, batch.dt), batch)
+    """Every loss term of the raw network outputs (B, T, n_outputs): :func:`~sspinn.network.decode`
+    (for the losses' ground contact), then ``losses`` — the part of a training step that
+    :attr:`TrainConfig.compile` compiles."""
+    return losses(decode(raw, batch.out_scale, batch.out_offset, batch.dt, losses.grf), batch)
 
 
 class CompileWarning(UserWarning):
@@ -362,10 +372,12 @@ class Trainer:
         if cfg.threads > 0:
             torch.set_num_threads(cfg.threads)
         self.rng = np.random.default_rng([cfg.seed, self.rank])  # but different windows
-        self.data = prepare(train, self.segments)
+        self.data = prepare(train, self.segments, grf=cfg.network.grf)
         self.sampler = WindowSampler(self.data, cfg.window, self.rng)
         all_imu = np.concatenate([d.recording.imu for d in self.data])  # (N, n_imu, 3)
         self.imu_std = torch.as_tensor(all_imu.std(axis=0).clip(min=1e-3), dtype=torch.float32)
+        if cfg.imu_noise is not None:
+            self.imu_std = cfg.imu_noise.scales(self.imu_std)
         feats = np.concatenate([
             input_features(d.recording.imu, d.recording.height, d.recording.mass, d.placement, self.segments)
             for d in self.data
@@ -380,8 +392,8 @@ class Trainer:
         params = list(self.model.parameters()) + ([self.placement] if cfg.learn_placement else [])
         self.optimizer = torch.optim.Adam(params, lr=cfg.lr)
         limits = JointLimits.named(cfg.joint_limits)
-        self.losses = PhysicsLosses(cfg.weights, limits=limits)
-        self.finetune_losses = PhysicsLosses(cfg.weights.finetune(), limits=limits)
+        self.losses = PhysicsLosses(cfg.weights, limits=limits, grf=cfg.network.grf)
+        self.finetune_losses = PhysicsLosses(cfg.weights.finetune(), limits=limits, grf=cfg.network.grf)
         self.physics = PhysicsTerms(cfg.compile)
         self.net: torch.nn.Module = self.model
         if self.world > 1:
@@ -604,7 +616,7 @@ class Trainer:
         recordings (network in eval mode, no input noise): a label-free measure of the estimate."""
         assert self.model is not None
         cfg = self.config
-        unit = PhysicsLosses(LossWeights.unit(), limits=JointLimits.named(cfg.joint_limits))
+        unit = PhysicsLosses(LossWeights.unit(), limits=JointLimits.named(cfg.joint_limits), grf=cfg.network.grf)
         which, starts = [], []
         for k, d in enumerate(self.data):
             for s in np.linspace(0, d.recording.n_samples - cfg.window, windows_per_recording).astype(int):

@@ -136,6 +136,40 @@ def test_streaming_matches_whole_sequence(tiny):
         stream.step(np.full((7, 3), np.nan))
 
 
+def test_a_direct_grf_network_with_imu_noise_trains_infers_streams_and_exports(tiny):
+    """``network.grf: direct`` and ``imu_noise`` through the whole path: the saved model outputs
+    36 values, its GRFs come from them (not the contact model), the stream matches the whole
+    recording, the exported step reproduces the network, and the L_IMU scales are the noise
+    model's, not the standard deviations."""
+    root, data, cfg = tiny
+    config = yaml.safe_load(cfg.read_text())
+    config["train"]["network"]["grf"] = "direct"
+    config["train"]["imu_noise"] = {"acc": 2.0, "gyr": 0.2, "acc_relative": 0.1, "gyr_relative": 0.02}
+    direct_cfg = root / "direct.yaml"
+    direct_cfg.write_text(yaml.safe_dump(config))
+    run = root / "direct"
+    assert main(["train", "--config", str(direct_cfg), "--data", str(data), "--out", str(run)]) == 0
+    model, segments, saved = load_model(run / "model.pt")
+    assert model.config.grf == "direct" and model.head[-1].out_features == 36
+    assert saved["imu_noise"] == config["train"]["imu_noise"]
+    state = torch.load(run / "model.pt", weights_only=False)
+    train = Dataset.open(data).load("train")
+    std = torch.as_tensor(np.concatenate([r.imu for r in train]).std(axis=0), dtype=torch.float32)
+    torch.testing.assert_close(state["imu_std"], torch.sqrt(torch.tensor([4.0, 4.0, 0.04]) + (torch.tensor([0.1, 0.1, 0.02]) * std) ** 2))
+    rec = Dataset.open(data).load("test")[0]
+    whole = estimate_recording(model, rec, segments)
+    assert (whole.grf[:, 1::2] >= 0).all()
+    stream = StreamingEstimator(model, segments, rec.height, rec.mass, rec.placement.vector())
+    outs = [stream.step(rec.imu[k]) for k in range(40)]
+    np.testing.assert_allclose(np.array([o["grf"] for o in outs]), whole.grf[:40], rtol=1e-4, atol=1e-2)
+    np.testing.assert_allclose(np.array([o["w"] for o in outs]), whole.w[:40], atol=1e-5)
+    assert main(["export", "--model", str(run / "model.pt"), "--out", str(root / "direct.pt2")]) == 0
+    exported = torch.export.load(str(root / "direct.pt2")).module()
+    x = torch.randn(2, 15, model.n_inputs)
+    torch.testing.assert_close(run_exported(exported, x, model.config.layers, model.config.hidden), model(x)[0])
+    assert main(["evaluate", "--model", str(run / "model.pt"), "--data", str(data), "--out", str(root / "direct_report"), "--skip", "10"]) == 0
+
+
 def test_a_bidirectional_network_is_not_exported_as_a_streaming_step() -> None:
     from sspinn.model_io import StreamingStep
     from sspinn.network import NetworkConfig, SSPINNposeNet

@@ -183,3 +183,93 @@ def test_stance_term_ties_the_loaded_foot_to_the_body_model():
     sunk = Estimate(**{**est.__dict__, "q": est.q.clone()})
     sunk.q[..., 1] -= 0.10  # 10 cm below the floor: (−0.1 / 0.05)² = 4 even without load
     assert float(losses(sunk, batch)["stance"]) > 3.0
+
+
+def direct(est: Estimate, grf: torch.Tensor) -> Estimate:
+    """The same motion as a direct-GRF network's estimate with the forces ``grf`` (B, T, 4)."""
+    return Estimate(q=est.q, u=est.u, qdd=est.qdd, tau=est.tau, grf=grf)
+
+
+def test_direct_grf_satisfies_the_equations_of_motion_exactly():
+    """With the contact model's forces as the direct outputs, the exact motion has zero Kane and
+    IMU loss, and the terms on separately estimated ankles are 0 (there are none)."""
+    est, batch, grf = exact_case()
+    losses = PhysicsLosses(UNIT, grf="direct")
+    terms = losses(direct(est, grf), batch)
+    assert terms["kane"] < 1e-20 and terms["imu"] < 1e-20
+    assert terms["contact"] == 0.0 and terms["slide"] == 0.0
+    wrong = grf.clone()
+    wrong[..., 1] += 70.0 * GRAVITY * 0.1  # 0.1 BW too much on the right foot
+    assert losses(direct(est, wrong), batch)["kane"] > 1e-3
+    with pytest.raises(ValueError, match="no separately estimated ankles"):
+        PhysicsLosses(UNIT)(direct(est, grf), batch)
+
+
+def test_direct_grf_friction_cone():
+    est, batch, grf = exact_case()
+    losses = PhysicsLosses(UNIT, grf="direct")
+    bw = 70.0 * GRAVITY
+    inside = grf.clone()
+    inside[..., 0::2] = 0.8 * inside[..., 1::2]  # on the cone: free
+    base = float(losses(direct(est, inside), batch)["bounds"])
+    outside = inside.clone()
+    outside[..., 0] += 0.1 * bw  # 0.1 BW beyond the cone on the right foot, every sample
+    assert float(losses(direct(est, outside), batch)["bounds"]) - base == pytest.approx(0.1**2 / 2, rel=1e-6)
+
+
+def test_direct_grf_stance_band():
+    """L_S with direct GRFs: a loaded foot may sit anywhere from 5 cm below to 1 cm above the
+    floor (the assumed body is not the subject's), not higher, and no foot sinks deeper."""
+    est, batch, _ = standing_case()
+    losses = PhysicsLosses(UNIT, grf="direct")
+    T = est.q.shape[1]
+    bw = 70.0 * GRAVITY
+    grf = torch.tensor([0.0, 0.5 * bw, 0.0, 0.5 * bw], dtype=torch.float64).expand(1, T, 4)
+    still = float(losses(direct(est, grf), batch)["stance"])
+    assert still < 1e-12
+    lowered = Estimate(**{**direct(est, grf).__dict__, "q": est.q.clone()})
+    lowered.q[..., 1] -= 0.04  # 4 cm into the floor: inside the band
+    assert float(losses(lowered, batch)["stance"]) < 1e-12
+    raised = Estimate(**{**direct(est, grf).__dict__, "q": est.q.clone()})
+    raised.q[..., 1] += 0.03  # ≈ 3 cm up: ≈ 2 cm beyond the 1 cm clearance, loaded with 0.5 BW
+    y = kinematics.point_kinematics(raised.q, raised.u, raised.qdd, dynamics.contact_fraction(raised.q), batch.p[:, None])
+    height = y[..., [kinematics.point_index("contact_r"), kinematics.point_index("contact_l")], 1]
+    expected = (torch.relu(height - 0.01) / 0.05 * 0.5).square().mean()
+    assert float(losses(raised, batch)["stance"]) == pytest.approx(float(expected), rel=1e-9)
+    assert float(expected) > 0.03
+    sunk = Estimate(**{**direct(est, torch.zeros_like(grf)).__dict__, "q": est.q.clone()})
+    sunk.q[..., 1] -= 0.08  # 8 cm down, unloaded: ≈ 3 cm beyond the band
+    assert float(losses(sunk, batch)["stance"]) > 0.25
+
+
+def test_direct_grf_decoding_keeps_vertical_forces_positive():
+    from sspinn.network import NetworkConfig, decode, output_affine
+
+    config = NetworkConfig(grf="direct")
+    assert config.n_outputs == 36 and NetworkConfig().n_outputs == 46
+    scale, offset = (torch.as_tensor(a)[None] for a in output_affine(1.75, 70.0, 0.9, grf="direct"))
+    raw = torch.randn(1, 50, 36, dtype=torch.float64) * 5
+    est = decode(raw, scale, offset, 0.01, "direct")
+    assert est.ankle is None and est.mu_hat is None
+    assert (est.grf[..., 1::2] >= 0).all()
+    bw = 70.0 * 9.81
+    torch.testing.assert_close(est.grf[..., 0], 0.5 * bw * raw[..., 32])
+    torch.testing.assert_close(est.grf[..., 1], bw * torch.nn.functional.softplus(raw[..., 33]))
+    with pytest.raises(ValueError, match="grf must be one of"):
+        NetworkConfig(grf="springs")
+
+
+def test_imu_noise_scales_weigh_small_signals_less():
+    """σ = √(σ_abs² + (κ·std)²): a limb gyroscope (std 2.5 rad/s) keeps about its weight relative
+    to its accelerometer's, the pelvis (std 0.45 rad/s, 3 m/s²) is no longer weighted as if its
+    small signals were precise; bad settings are refused."""
+    from sspinn.losses import IMUNoise
+
+    std = torch.tensor([[3.0, 10.0, 0.45], [12.0, 11.0, 2.5]], dtype=torch.float64)
+    sigma = IMUNoise().scales(std)
+    expected = torch.sqrt(torch.tensor([2.0, 2.0, 0.2], dtype=torch.float64) ** 2 + (torch.tensor([0.1, 0.1, 0.02], dtype=torch.float64) * std) ** 2)
+    torch.testing.assert_close(sigma, expected)
+    assert sigma[0, 2] > 0.4 * std[0, 2] and sigma[1, 2] < 0.1 * std[1, 2]
+    for bad in ({"acc": -1.0}, {"gyr": float("nan")}, {"acc_relative": float("inf")}, {"gyr": 0.0, "gyr_relative": 0.0}):
+        with pytest.raises(ValueError, match="imu_noise"):
+            IMUNoise(**bad)

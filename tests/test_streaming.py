@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import torch
 
-from sspinn.body import IMUPlacement
+from sspinn.body import BodyParameters, IMUPlacement
 from sspinn.conventions import GRAVITY, SEGMENTS
 from sspinn.dataset import Recording
 from sspinn.inference import StreamingEstimator, estimate_recording
-from sspinn.network import NetworkConfig, SSPINNposeNet, input_features
+from sspinn.network import NetworkConfig, SSPINNposeNet, decode, input_features, output_affine
 from sspinn.training import IMU_CONFIGURATIONS
 
 T = 240
@@ -44,8 +44,17 @@ def _assert_matches(streamed: dict[str, np.ndarray], whole, n: int) -> None:
     for key, tol in TOL.items():
         diff = np.abs(streamed[key] - getattr(whole, key)[:n]).max()
         assert diff <= tol, f"{key}: max |stream − whole| = {diff:.3g} > {tol}"
-    np.testing.assert_allclose(streamed["ankle"], whole.ankle[:n], atol=1e-4)
-    np.testing.assert_allclose(streamed["mu_hat"], whole.mu_hat[:n], atol=1e-5)
+
+
+def _assert_contact_inputs_match(streamed: dict[str, np.ndarray], model: SSPINNposeNet, rec: Recording, segments) -> None:
+    """The contact model's inputs (ankles, μ̂) of a stream equal the decoded torch outputs."""
+    body = BodyParameters.from_anthropometry(rec.height, rec.mass)
+    scale, offset = output_affine(rec.height, rec.mass, body.standing_hip_height, body.gravity)
+    x = torch.as_tensor(input_features(rec.imu, rec.height, rec.mass, rec.placement.vector(), segments), dtype=torch.float32)
+    with torch.no_grad():
+        est = decode(model(x[None])[0].double(), torch.as_tensor(scale)[None], torch.as_tensor(offset)[None], 0.01)
+    np.testing.assert_allclose(streamed["ankle"], est.ankle[0].numpy(), atol=1e-4)
+    np.testing.assert_allclose(streamed["mu_hat"], est.mu_hat[0].numpy(), atol=1e-5)
 
 
 @pytest.mark.parametrize(
@@ -54,6 +63,7 @@ def _assert_matches(streamed: dict[str, np.ndarray], whole, n: int) -> None:
         ("all", NetworkConfig(hidden=32, layers=2, dense=16, dropout=0.4)),
         ("shanks_pelvis", NetworkConfig(hidden=24, layers=1, dense=8, dropout=0.0)),
         ("feet_thighs", NetworkConfig(hidden=16, layers=3, dense=12, dropout=0.2)),
+        ("all", NetworkConfig(hidden=32, layers=2, dense=16, dropout=0.4, grf="direct")),
     ],
 )
 def test_stream_matches_whole_sequence(imus, config, rng):
@@ -65,6 +75,10 @@ def test_stream_matches_whole_sequence(imus, config, rng):
     streamed = _stream(est, rec.imu)
     whole = estimate_recording(model, rec, segments)
     _assert_matches(streamed, whole, T)
+    if config.grf == "contact_model":
+        _assert_contact_inputs_match(streamed, model, rec, segments)
+    else:
+        assert "ankle" not in streamed and "mu_hat" not in streamed
     # the carried state is torch's final state of the whole sequence
     x = torch.as_tensor(input_features(rec.imu, rec.height, rec.mass, rec.placement.vector(), segments), dtype=torch.float32)
     with torch.no_grad():

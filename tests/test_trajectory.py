@@ -233,15 +233,21 @@ def test_labels_give_a_trajectory_when_complete() -> None:
 
 
 def test_the_subclasses_check_their_own_per_sample_fields() -> None:
+    from predictive.synth.chain import ChainResult
     from sspinn.inference import GaitEstimate, NonFiniteEstimateError
 
     arrays = random_trajectory().arrays()
-    est = GaitEstimate(**arrays, name="e", ankle=np.zeros((12, 2, 6)), mu_hat=np.zeros((12, 2)))
-    assert isinstance(est, Trajectory) and type(est[2:4]) is Trajectory
-    with pytest.raises(TrajectoryError, match=r"GaitEstimate\.ankle: expected shape \(12, 2, 6\)"):
-        GaitEstimate(**arrays, name="e", ankle=np.zeros((12, 12)), mu_hat=np.zeros((12, 2)))
-    est.mu_hat[7, 0] = np.nan
-    with pytest.raises(NonFiniteEstimateError, match="e: the estimate's mu_hat is not finite from sample 7 on"):
+    n = len(arrays["time"])
+    extra = {"q_prev": np.zeros(9), "u_prev": np.zeros(9), "strides": [], "h": 0.01}
+    chain = ChainResult(**arrays, speed=np.ones(n), stride=np.zeros(n), **extra)
+    assert isinstance(chain, Trajectory) and type(chain[2:4]) is Trajectory
+    with pytest.raises(TrajectoryError, match=rf"ChainResult\.speed: expected shape \({n},\)"):
+        ChainResult(**arrays, speed=np.ones((n, 2)), stride=np.zeros(n), **extra)
+    chain.stride[7] = np.nan
+    assert chain.non_finite() == ("stride", 7, 1)
+    est = GaitEstimate(**arrays, name="e")
+    est.grf[7, 0] = np.nan
+    with pytest.raises(NonFiniteEstimateError, match="e: the estimate's grf is not finite from sample 7 on"):
         est.check_finite()
 
 

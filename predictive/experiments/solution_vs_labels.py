@@ -119,8 +119,7 @@ def solution_at_times(sol: GaitSolution, times: np.ndarray, shift: float = 0.0, 
     (s). pelvis_tx continues by v·t."""
     times = np.asarray(times, dtype=float)
     at = sol.resample(times + shift, period=sol.duration, speed=sol.speed)
-    n = len(times)
-    return GaitEstimate(**{**at.arrays(), "time": times}, name=name, ankle=np.zeros((n, 2, 6)), mu_hat=np.zeros((n, 2)))
+    return GaitEstimate(**{**at.arrays(), "time": times}, name=name)
 
 
 def _heel_strike_pct(fy_bw: np.ndarray) -> float:

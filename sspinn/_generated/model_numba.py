@@ -550,3 +550,18 @@ def contact_learned_from_ankles(q, u, ankle, mu_hat, p, c, contact_from_ankles, 
     contact_from_ankles[1, 5] = t21
     contact_fraction[0] = t3
     contact_fraction[1] = t16
+
+
+@njit(cache=True)
+def contact_point_fraction(q, c, contact_fraction):
+    """Write contact_fraction for one state."""
+    pelvis_tilt = q[2]
+    hip_r = q[3]
+    knee_r = q[4]
+    ankle_r = q[5]
+    hip_l = q[6]
+    knee_l = q[7]
+    ankle_l = q[8]
+    contact_sharpness = c[6]
+    contact_fraction[0] = (1/2)*math.tanh(contact_sharpness*(ankle_r + hip_r + knee_r + pelvis_tilt)) + 1/2
+    contact_fraction[1] = (1/2)*math.tanh(contact_sharpness*(ankle_l + hip_l + knee_l + pelvis_tilt)) + 1/2
