@@ -63,6 +63,11 @@ class NetworkConfig:
         hidden, layers, dropout, dense: the LSTM's units per layer, its layers and the dropout
             between them, and the dense layer's units.
         bidirectional: an offline network that reads the recording both ways (cannot stream).
+        body_inputs: read the subject's height, mass and IMU placement besides the IMU signals
+            (the paper's θ_b and θ_IMU). False: the IMU signals only — the constants stay in
+            the input layout (:func:`input_features`) but are normalised to 0
+            (:meth:`SSPINNposeNet.set_normalisation`), so that a subject taller or shorter
+            than every training subject is not an input the network never saw.
         grf: ``"contact_model"`` (the paper's: separately estimated ankle kinematics and a
             friction factor drive the contact model) or ``"direct"`` (the ground reaction forces
             are outputs; see the module docstring).
@@ -73,6 +78,7 @@ class NetworkConfig:
     dropout: float = 0.4
     dense: int = 128
     bidirectional: bool = False
+    body_inputs: bool = True
     grf: str = "contact_model"
 
     def __post_init__(self) -> None:
@@ -160,9 +166,13 @@ class SSPINNposeNet(nn.Module):
         self.register_buffer("input_mean", torch.zeros(n_inputs))
         self.register_buffer("input_std", torch.ones(n_inputs))
 
-    def set_normalisation(self, mean: torch.Tensor, std: torch.Tensor, floor: torch.Tensor | None = None) -> None:
+    def set_normalisation(
+        self, mean: torch.Tensor, std: torch.Tensor, floor: torch.Tensor | None = None, constants: int = 0
+    ) -> None:
         """Per-feature statistics of the training inputs, the std at least ``floor``
-        (:func:`feature_std_floor`).
+        (:func:`feature_std_floor`); ``constants``: how many trailing features are the
+        subject's constants (:func:`input_features`), which a network without
+        :attr:`~NetworkConfig.body_inputs` must not read (their std is :data:`UNSEEN_STD`).
 
         A feature that did not vary in training at all (std ≤ 1e-6 × max(1, |mean|), e.g. the
         IMU placement when every training recording has the same) gets std :data:`UNSEEN_STD`:
@@ -172,6 +182,8 @@ class SSPINNposeNet(nn.Module):
         saturated the LSTM on real data."""
         self.input_mean.copy_(mean)
         constant = std <= 1e-6 * mean.abs().clamp_min(1.0)
+        if not self.config.body_inputs and constants:
+            constant[-constants:] = True
         floored = std if floor is None else torch.maximum(std, floor.to(std))
         self.input_std.copy_(torch.where(constant, torch.full_like(std, UNSEEN_STD), floored))
 

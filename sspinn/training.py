@@ -384,7 +384,8 @@ class Trainer:
         ])
         self.model = SSPINNposeNet(feats.shape[1], cfg.network).to(self.device)
         self.model.set_normalisation(torch.as_tensor(feats.mean(0), dtype=torch.float32),
-                                     torch.as_tensor(feats.std(0), dtype=torch.float32), feature_std_floor(self.segments))
+                                     torch.as_tensor(feats.std(0), dtype=torch.float32), feature_std_floor(self.segments),
+                                     constants=feats.shape[1] - 3 * len(self.segments))
         self.noise_std = torch.as_tensor(feats.std(0), dtype=torch.float32, device=self.device)
         self.noise_std[3 * len(self.segments):] = 0.0  # no noise on the constants
         # learnable IMU placement per recording (the paper's placement optimisation)

@@ -53,3 +53,25 @@ def test_old_model_files_get_the_mask_on_load(tmp_path) -> None:
     saturated.load_state_dict(net.state_dict())  # the stored normalisation as it was
     z = (input_features(rec.imu, rec.height, rec.mass, moved.vector(), SEGMENTS) - x.mean(0)) / saturated.input_std.numpy()
     assert np.abs(z).max() > 1e4  # what the LSTM received before
+
+
+def test_a_network_without_body_inputs_ignores_height_mass_and_placement(tmp_path) -> None:
+    """``body_inputs: false``: the constants stay in the layout but are normalised to 0, so two
+    subjects of other sizes with the same IMU signals get the same raw outputs — also after a
+    save and load (the mask lives in the saved statistics)."""
+    rec = walking_recording(n=150)
+    x = input_features(rec.imu, rec.height, rec.mass, rec.placement.vector(), SEGMENTS)
+    n_const = x.shape[1] - 3 * len(SEGMENTS)
+    torch.manual_seed(0)
+    net = SSPINNposeNet(x.shape[1], NetworkConfig(hidden=16, layers=1, dense=16, body_inputs=False))
+    net.set_normalisation(torch.as_tensor(x.mean(0), dtype=torch.float32), torch.full((x.shape[1],), 2.0),
+                          feature_std_floor(SEGMENTS), constants=n_const)
+    assert (net.input_std[-n_const:] == UNSEEN_STD).all() and (net.input_std[:-n_const] == 2.0).all()
+    tall = input_features(rec.imu, 1.95, 95.0, IMUPlacement.default(1.95).vector(), SEGMENTS)
+    with torch.no_grad():
+        a, _ = net(torch.as_tensor(x, dtype=torch.float32)[None])
+        b, _ = net(torch.as_tensor(tall, dtype=torch.float32)[None])
+    torch.testing.assert_close(a, b, atol=1e-6, rtol=0)
+    path = save_model(net, tmp_path / "model.pt", SEGMENTS, {}, torch.ones(len(SEGMENTS), 3))
+    loaded, _, _ = load_model(path)
+    assert not loaded.config.body_inputs and (loaded.input_std[-n_const:] == UNSEEN_STD).all()
