@@ -159,7 +159,7 @@ def test_cli_reports_size_time_and_residual(generated, tmp_path: Path, capsys: p
 def test_config_files_load() -> None:
     default = SynthConfig.from_yaml(CONFIGS / "default.yaml")
     full = SynthConfig.from_yaml(CONFIGS / "full.yaml")
-    assert default.n_subjects == 12 and default.splits == {"train": 6, "val": 2, "test": 4} and default.duration_s >= 15
+    assert default.n_subjects == 20 and default.splits == {"train": 12, "val": 2, "test": 6} and default.duration_s >= 15
     assert sorted({v for p in full.programs for v in p}) == [0.9, 1.3, 1.8, 2.5, 3.0, 3.5]
     assert SynthConfig.from_dict(default.to_dict()) == default
     assert default.key() != full.key()
