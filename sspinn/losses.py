@@ -58,8 +58,8 @@ the forces (:mod:`sspinn.network`), L_GC and L_slide have no separate ankles to 
 0) and L_S carries the contact conditions alone: a loaded contact point must not slide, and its
 height must lie in a band, [−:data:`STANCE_SINK`, +:data:`STANCE_CLEARANCE`] around the floor,
 not at 0: the subject's feet are not the assumed model's (Winter scaling; segment lengths differ
-by a few per cent), so the true motion puts the model's loaded contact points 1–5 cm below or
-above the floor (synthetic training recordings, labels through the assumed body), and the
+by a few per cent), so the true motion puts the model's loaded contact points up to 5.2 cm below
+or 1.3 cm above the floor (synthetic training recordings, labels through the assumed body), and the
 pelvis height, which no IMU sees, takes up a constant offset. No foot may sink deeper than the
 band. The friction cone |F_x| ≤ 0.8·F_y joins L_B.
 
@@ -244,6 +244,8 @@ class PhysicsLosses:
 
         direct = self.grf == "direct"
         if direct:
+            if est.grf is None:
+                raise ValueError("the direct-GRF losses need an estimate with forces (a network with grf: direct)")
             grf = est.grf
         else:  # ground contact on the separately estimated ankle kinematics
             gc = dynamics.contact_from_ankles(q, u, est.ankle_global(), est.mu_hat, p, c)  # (B, T, 2, 6)

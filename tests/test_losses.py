@@ -203,6 +203,8 @@ def test_direct_grf_satisfies_the_equations_of_motion_exactly():
     assert losses(direct(est, wrong), batch)["kane"] > 1e-3
     with pytest.raises(ValueError, match="no separately estimated ankles"):
         PhysicsLosses(UNIT)(direct(est, grf), batch)
+    with pytest.raises(ValueError, match="need an estimate with forces"):
+        losses(est, batch)  # a contact-model estimate under the direct-GRF losses
 
 
 def test_direct_grf_friction_cone():
