@@ -77,6 +77,7 @@ only explain such offsets by tilting segments. L_G adds the gyroscope part of L_
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, replace
 
 import torch
@@ -159,7 +160,7 @@ class IMUNoise:
     def __post_init__(self) -> None:
         for name in ("acc", "gyr", "acc_relative", "gyr_relative"):
             value = getattr(self, name)
-            if not value >= 0 or value == float("inf"):
+            if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"imu_noise.{name} must be a finite number >= 0, got {value}")
         if self.acc == 0 and self.acc_relative == 0 or self.gyr == 0 and self.gyr_relative == 0:
             raise ValueError(f"imu_noise: an accelerometer or gyroscope error of zero would divide by zero ({self})")

@@ -226,15 +226,12 @@ def output_affine(height: float, mass: float, leg_length: float, gravity: float 
     u = list(TYPICAL_U)
     qdd = list(TYPICAL_QDD)
     body = q + u + qdd + [torque] * N_TAU
-    if grf == "direct":
-        scale = np.array(body + [GRF_X_SCALE * weight, weight] * 2)
-        offset = np.zeros(scale.size)
-    else:
-        ankle = [0.2 * height, 0.05 * height, 2.0, 1.0, 20.0, 20.0, 1.0]
-        scale = np.array(body + ankle + ankle)
-        offset = np.zeros(scale.size)
-        offset[32 + 1] = offset[32 + 7 + 1] = 0.039 * height
+    ankle = [0.2 * height, 0.05 * height, 2.0, 1.0, 20.0, 20.0, 1.0]
+    scale = np.array(body + ([GRF_X_SCALE * weight, weight] * 2 if grf == "direct" else ankle + ankle))
+    offset = np.zeros(scale.size)
     offset[0] = leg_length
+    if grf != "direct":
+        offset[32 + 1] = offset[32 + 7 + 1] = 0.039 * height
     return scale, offset
 
 
