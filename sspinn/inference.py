@@ -22,7 +22,7 @@ from sspinn.contact import ContactParameters
 from sspinn.conventions import GRAVITY
 from sspinn.dataset import SAMPLE_RATE_HZ, DataFormatError, Recording
 from sspinn.errors import UserError
-from sspinn.network import SSPINNposeNet, decode, input_features, output_affine
+from sspinn.network import BLOCKS, VERTICAL_FORCE_OUTPUTS, SSPINNposeNet, decode, input_features, output_affine
 from sspinn.run_folder import atomic_path
 from sspinn.trajectory import Trajectory
 
@@ -193,7 +193,8 @@ def _dense(w, b, a, out, elu):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def _network_step(
-    x, mean, std, w0, b0, wr, br, h, c, gates, wd, bd, wo, bo, dense, raw, scale, offset, dt, root, res, ankle_global, direct
+    x, mean, std, w0, b0, wr, br, h, c, gates, wd, bd, wo, bo, dense, raw, scale, offset, dt, root, res, ankle_global, direct,
+    vertical, vx_at, n_body,
 ):  # pragma: no cover - compiled (tested through StreamingEstimator.step)
     """One sample through the network and the decoding; False (and nothing changed) if ``x``
     is not finite.
@@ -201,9 +202,13 @@ def _network_step(
     x (n_imu·3,) float64 IMU channels; mean/std their input statistics; w0/b0 the first layer
     with the subject's constant inputs folded into b0; wr/br (layers − 1, ...) the others;
     h/c (layers, H) the carried state; dt the sample period; root [pelvis_tx, previous vx, started];
-    ``direct``: a direct-GRF network (``network.decode``). Writes ``res`` (q, u, qdd, tau; then
-    the GRF of a direct-GRF network, else the ankles and mu_hat, the GRF and w being left to
-    the contact kernels) and, for the contact model, ``ankle_global`` [x, y, vx, vy] per foot.
+    ``direct``: a direct-GRF network (``network.decode``). The output layout comes from
+    :data:`sspinn.network.BLOCKS`: ``vertical`` the outputs with a softplus
+    (``VERTICAL_FORCE_OUTPUTS``), ``vx_at`` the horizontal root velocity's output, ``n_body`` the
+    end of the body block (q[1:], u, qdd, tau), which the ground-contact block follows. Writes
+    ``res`` (q, u, qdd, tau; then the GRF of a direct-GRF network, else the ankles and mu_hat,
+    the GRF and w being left to the contact kernels) and, for the contact model,
+    ``ankle_global`` [x, y, vx, vy] per foot.
     """
     n = x.shape[0]
     for k in range(n):
@@ -218,24 +223,24 @@ def _network_step(
     _dense(wd, bd, h[h.shape[0] - 1], dense, True)
     _dense(wo, bo, dense, raw, False)
     pre = raw.astype(np.float64)
-    if direct:  # vertical forces: softplus, as torch's (threshold 20)
-        for k in (33, 35):
-            pre[k] = pre[k] if pre[k] > 20.0 else math.log1p(math.exp(pre[k]))
+    for k in vertical:  # vertical forces of a direct-GRF network: softplus, as torch's (threshold 20)
+        pre[k] = pre[k] if pre[k] > 20.0 else math.log1p(math.exp(pre[k]))
     scaled = pre * scale + offset
-    vx = scaled[8]  # u[0], the horizontal root velocity
+    vx = scaled[vx_at]  # u[0], the horizontal root velocity
     if root[2] > 0.0:  # trapezoidal integral, as in network.decode
         root[0] += 0.5 * (vx + root[1]) * dt
     root[1] = vx
     root[2] = 1.0
     res[0] = root[0]
-    res[1:33] = scaled[0:32]  # q[1:], u, qdd, tau
+    res[1 : 1 + n_body] = scaled[0:n_body]  # q[1:], u, qdd, tau
     if direct:
-        res[33:37] = scaled[32:36]
+        res[1 + n_body : 5 + n_body] = scaled[n_body : n_body + 4]
         return True
-    for foot in range(2):
-        res[39 + 6 * foot : 45 + 6 * foot] = scaled[32 + 7 * foot : 38 + 7 * foot]
-        res[51 + foot] = scaled[38 + 7 * foot]
-        ankle_global[4 * foot : 4 * foot + 4] = scaled[32 + 7 * foot : 36 + 7 * foot]
+    for foot in range(2):  # per foot: ankle [x, y, vx, vy, ax, ay], mu_hat
+        a = n_body + 7 * foot
+        res[1 + n_body + 6 + 6 * foot : 1 + n_body + 12 + 6 * foot] = scaled[a : a + 6]
+        res[1 + n_body + 18 + foot] = scaled[a + 6]
+        ankle_global[4 * foot : 4 * foot + 4] = scaled[a : a + 4]
         ankle_global[4 * foot] += root[0]
     return True
 
@@ -277,6 +282,7 @@ class StreamingEstimator:
         self.p = body.vector()
         self.c = ContactParameters().vector()
         self.direct = model.config.grf == "direct"
+        self._vertical = np.array(VERTICAL_FORCE_OUTPUTS if self.direct else (), dtype=np.int64)
         self.scale, self.offset = output_affine(height, mass, body.standing_hip_height, body.gravity, model.config.grf)
         self.reset()
 
@@ -349,7 +355,8 @@ class StreamingEstimator:
         if not _network_step(
             sample.reshape(-1), net["mean"], net["std"], net["w0"], net["b0"], net["wr"], net["br"], self._h, self._c,
             self._gates, net["wd"], net["bd"], net["wo"], net["bo"], self._dense_out, self._raw, self.scale, self.offset,
-            1.0 / SAMPLE_RATE_HZ, self._root, res, self._ankle_global, self.direct,
+            1.0 / SAMPLE_RATE_HZ, self._root, res, self._ankle_global, self.direct, self._vertical, BLOCKS["u"].start,
+            BLOCKS["tau"].stop,
         ):
             raise ValueError(f"expected a finite ({len(self.segments)}, 3) sample for IMUs {self.segments}, got non-finite values")
         q, u = res[0:9], res[9:18]

@@ -45,7 +45,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from sspinn.conventions import N_Q, N_TAU, SEGMENTS
+from sspinn.conventions import GRF, N_Q, N_TAU, SEGMENTS
 
 #: The ground-contact outputs of :attr:`NetworkConfig.grf`: name → number of outputs.
 GRF_OUTPUTS: dict[str, int] = {"contact_model": 14, "direct": 4}
@@ -207,6 +207,9 @@ TYPICAL_QDD: tuple[float, ...] = (10.0, 10.0) + (50.0,) * 7
 
 #: Blocks of the outputs (see the module docstring); "contact" or "grf" by :attr:`NetworkConfig.grf`.
 BLOCKS = {"q": slice(0, 8), "u": slice(8, 17), "qdd": slice(17, 26), "tau": slice(26, 32), "contact": slice(32, 46), "grf": slice(32, 36)}
+#: Output positions of a direct-GRF network's vertical forces (F_y of the right and left foot,
+#: in the order of :data:`sspinn.conventions.GRF`), which pass through a softplus (F_y ≥ 0).
+VERTICAL_FORCE_OUTPUTS: tuple[int, ...] = tuple(BLOCKS["grf"].start + GRF.index(f) for f in ("grf_y_r", "grf_y_l"))
 #: Scale of a direct-GRF network's horizontal forces, in body weights per unit raw output.
 GRF_X_SCALE = 0.5
 
@@ -241,9 +244,11 @@ def decode(raw: torch.Tensor, scale: torch.Tensor, offset: torch.Tensor, dt: flo
     cumulative (trapezoidal) integral of the estimated horizontal root velocity, starting at 0
     in each sequence."""
     if grf == "direct":  # vertical forces ≥ 0
-        f = raw[..., BLOCKS["grf"]]
-        f = torch.stack([f[..., 0], nn.functional.softplus(f[..., 1]), f[..., 2], nn.functional.softplus(f[..., 3])], dim=-1)
-        raw = torch.cat([raw[..., : BLOCKS["grf"].start], f], dim=-1)
+        block = BLOCKS["grf"]
+        f = [raw[..., k] for k in range(block.start, block.stop)]
+        for k in VERTICAL_FORCE_OUTPUTS:
+            f[k - block.start] = nn.functional.softplus(f[k - block.start])
+        raw = torch.cat([raw[..., : block.start], torch.stack(f, dim=-1)], dim=-1)
     scaled = raw * scale[:, None, :] + offset[:, None, :]
     vx = scaled[..., BLOCKS["u"].start]
     tx = torch.cat([torch.zeros_like(vx[:, :1]), torch.cumsum(0.5 * (vx[:, 1:] + vx[:, :-1]) * dt, dim=1)], dim=1)
