@@ -69,7 +69,8 @@ class TrainConfig:
         window: samples per window (>= 8).
         lr: Adam learning rate (the peak, with a schedule).
         lr_schedule: "constant", or "cosine": half a cosine from ``lr`` down to ``lr_final`` over
-            ``steps`` (set from the step count every step, so a resumed run follows it exactly).
+            ``steps`` (set from the step count every step, so a resumed run follows it exactly;
+            with ``starts`` the starts run at ``lr`` and the chosen one continues on the schedule).
         lr_final: the cosine schedule's last learning rate, as a fraction of ``lr``.
         input_noise: η, input noise std as a fraction of each channel's std.
         grad_clip: gradient-norm clipping threshold.
@@ -153,8 +154,6 @@ class TrainConfig:
             raise ValueError(f"finetune_last must be in [0, steps={self.steps}], got {self.finetune_last}")
         if self.starts > 1 and self.start_steps >= self.steps:
             raise ValueError(f"start_steps ({self.start_steps}) must be fewer than steps ({self.steps}) with {self.starts} starts")
-        if self.starts > 1 and self.lr_schedule != "constant":
-            raise ValueError("starts > 1 needs lr_schedule 'constant' (a start would follow a schedule of its own length)")
         JointLimits.named(self.joint_limits)  # raises with the choices for an unknown name
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}")
@@ -600,7 +599,8 @@ class Trainer:
         for k in range(cfg.starts):
             seed = cfg.seed + k
             folder = self.out / "starts" / f"seed{seed}"
-            sub = Trainer(dataclasses.replace(cfg, seed=seed, steps=cfg.start_steps, starts=1, finetune_last=0), folder)
+            # a start runs at the constant peak rate; the schedule (over ``steps``) is the chosen start's continuation's
+            sub = Trainer(dataclasses.replace(cfg, seed=seed, steps=cfg.start_steps, starts=1, finetune_last=0, lr_schedule="constant"), folder)
             sub.fit(train, resume=(folder / "checkpoint.pt").exists())
             checks[seed] = sub.physics_check()
         best = min(checks, key=lambda seed: checks[seed]["kane"])
