@@ -214,6 +214,23 @@ def test_starts_choose_the_most_physical_and_continue(tiny):
         TrainConfig.from_yaml(cfg, steps=2, settings=["starts=2", "start_steps=2"])
 
 
+def test_starts_with_a_learning_rate_schedule(tiny):
+    """With ``starts`` and a cosine schedule the starts run at the peak rate (their saved
+    configs say constant) and the chosen start continues on the schedule over ``steps``."""
+    import yaml
+
+    root, data, cfg = tiny
+    train = Dataset.open(data).load("train")
+    config = TrainConfig.from_yaml(cfg, steps=5, settings=["starts=2", "start_steps=2", "lr_schedule=cosine", "lr_final=0.1"])
+    trainer = Trainer(config, root / "cosine")
+    trainer.fit(train)
+    for seed in (0, 1):
+        sub = yaml.safe_load((root / "cosine" / "starts" / f"seed{seed}" / "config.yaml").read_text())["train"]
+        assert sub["lr_schedule"] == "constant" and sub["steps"] == 2
+    assert trainer.step == 5
+    assert trainer.optimizer.param_groups[0]["lr"] == pytest.approx(config.lr_at(4)) and config.lr_at(4) < config.lr
+
+
 def test_finetune_last_switches_to_the_finetuning_weights(tiny):
     """``finetune_last = steps`` is exactly a run with the fine-tuning weights throughout; with
     ``finetune_last = 2`` the first steps match the plain run and the last two do not."""
