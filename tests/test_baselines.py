@@ -10,12 +10,12 @@ import pytest
 from sspinn.baselines import ALL, TrivialPredictor, program_of
 from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS, SEGMENTS
 from sspinn.dataset import Labels, Recording
-from sspinn.evaluation import compare_with_baseline, compute_metrics, write_report
+from sspinn.evaluation import compare_with_baseline, compute_metrics, speed_tracking_error, write_report
 
 T = 300
 
 
-def _recording(name: str, program: str, speed: float, grf_bw: float, seed: int, mass: float = 70.0) -> Recording:
+def _recording(name: str, program: str, speed: float, grf_bw: float, seed: int, mass: float = 70.0, T: int = T) -> Recording:
     rng = np.random.default_rng(seed)
     t = np.arange(T) / 100.0
     imu = rng.standard_normal((T, len(SEGMENTS), 3))
@@ -66,8 +66,28 @@ def test_report_says_plainly_when_the_estimate_is_worse(tmp_path: Path) -> None:
     assert set(cmp) == {"walk", "run", "all"} and all(not c["worse_than_baseline"] for c in cmp.values())
     # the trivial predictor itself is never better than itself: every metric flagged
     cmp = compare_with_baseline([pred.predict(r) for r in tests], tests, pred)
-    assert set(cmp["walk"]["worse_than_baseline"]) == {"jae_deg", "jte_pct_bwbh", "grfe_pct_bw", "speed_error_mps"}
+    assert set(cmp["walk"]["worse_than_baseline"]) == {"jae_deg", "jte_pct_bwbh", "grfe_pct_bw", "speed_error_mps", "speed_tracking_mps"}
     result = write_report([pred.predict(r) for r in tests], tests, tmp_path, "t", baseline=pred)
     text = (tmp_path / "report.md").read_text()
     assert "WORSE than the baseline" in text and "### walk" in text and "### run" in text
     assert result["by_program"]["run"]["baseline"]["speed_error_mps"] == pytest.approx(0.2)
+
+
+def test_speed_tracking_sees_what_the_mean_speed_error_cannot() -> None:
+    """A recording at 1.0 then 1.6 m/s (mean 1.3): the trivial predictor that knows the mean has
+    no speed error but a tracking error of 0.3 m/s; an estimate that follows the speed, 10 %
+    slow, has a speed error of 0.13 and a tracking error of 0.13."""
+    n = 400  # two 2-s windows
+    rec = _recording("w", "walk", 1.3, 0.5, 0, T=n)
+    speed = np.where(np.arange(n) < n // 2, 1.0, 1.6)
+    rec.labels.speed[:] = speed
+    pred = TrivialPredictor.fit([_recording("t", "walk", 1.3, 0.5, 1)], "train")
+    m = compute_metrics(pred.predict(rec), rec)
+    assert m.speed_error_mps == pytest.approx(0.0, abs=1e-12) and m.speed_tracking_mps == pytest.approx(0.3)
+    est = pred.predict(rec)
+    est.u[:, 0] = 0.9 * speed
+    m = compute_metrics(est, rec)
+    assert m.speed_error_mps == pytest.approx(0.13) and m.speed_tracking_mps == pytest.approx(0.1 * np.sqrt(0.5 * (1.0 + 1.6**2)))
+    # only whole windows count; none fits → NaN
+    assert speed_tracking_error(np.r_[np.ones(200), 5 * np.ones(50)], np.zeros(250), 100.0) == pytest.approx(1.0)
+    assert np.isnan(speed_tracking_error(np.ones(199), np.zeros(199), 100.0))
