@@ -78,6 +78,7 @@ def angle_jitter(angles: np.ndarray, rate_hz: float) -> float:
         return float("nan")
     return float(np.mean(np.abs(np.diff(angles, n=3, axis=0)))) * rate_hz**3
 
+
 #: Window of the speed-tracking metric, s.
 SPEED_WINDOW_S = 2.0
 
