@@ -27,7 +27,7 @@ paper's "averaged" protocol, which by design trains and evaluates on the same un
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -117,8 +117,11 @@ def compute_metrics(est: GaitEstimate, rec: Recording, skip: int = 0, physics: b
     gr = [g for g in GRF if g in have]
     bw = rec.mass * GRAVITY
     grfe = 100 * _pooled_rmse(est.grf[sl][:, [GRF.index(g) for g in gr]], np.stack([lab.column(g)[sl] for g in gr], -1)) / bw if gr else float("nan")
-    speed = abs(float(np.mean(est.u[sl, 0])) - float(np.mean(lab.column("speed")[sl]))) if "speed" in have else float("nan")
-    tracking = speed_tracking_error(est.u[sl, 0], lab.column("speed")[sl], SAMPLE_RATE_HZ) if "speed" in have else float("nan")
+    speed = tracking = float("nan")
+    if "speed" in have:
+        true_speed = lab.column("speed")[sl]
+        speed = abs(float(np.mean(est.u[sl, 0])) - float(np.mean(true_speed)))
+        tracking = speed_tracking_error(est.u[sl, 0], true_speed, SAMPLE_RATE_HZ)
     angles = est.q[sl][:, 2:]
     jitter = angle_jitter(angles, SAMPLE_RATE_HZ)
     residual = est.kane_residual(BodyParameters.from_anthropometry(rec.height, rec.mass))[sl] if physics else np.empty(0)
@@ -145,8 +148,7 @@ def mean_metrics(items: list[Metrics]) -> Metrics:
     """Sample-weighted mean of per-recording metrics (NaN-aware)."""
     w = np.array([m.n_samples for m in items], dtype=float)
     out = {}
-    for key in ("jae_deg", "jte_pct_bwbh", "grfe_pct_bw", "speed_error_mps", "speed_tracking_mps", "jitter", "kane_residual",
-                "hs_timing_ms", "hs_matched"):
+    for key in (f.name for f in fields(Metrics) if f.name != "n_samples"):
         v = np.array([getattr(m, key) for m in items])
         ok = np.isfinite(v)
         out[key] = float(np.sum(v[ok] * w[ok]) / np.sum(w[ok])) if ok.any() else float("nan")

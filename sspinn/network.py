@@ -233,8 +233,9 @@ def output_affine(height: float, mass: float, leg_length: float, gravity: float 
     scale = np.array(body + ([GRF_X_SCALE * weight, weight] * 2 if grf == "direct" else ankle + ankle))
     offset = np.zeros(scale.size)
     offset[0] = leg_length
-    if grf != "direct":
-        offset[32 + 1] = offset[32 + 7 + 1] = 0.039 * height
+    if grf != "direct":  # the ankle heights (y, the second output of each foot's block)
+        start = BLOCKS["contact"].start
+        offset[start + 1] = offset[start + len(ankle) + 1] = 0.039 * height
     return scale, offset
 
 
