@@ -8,12 +8,15 @@ STAMP  := $(VENV)/.installed
 
 # The main job on the embedded default: generate (or reuse) the synthetic dataset, train the
 # CPU-sized SSPINNpose configuration (five 500-step starts, then the chosen one to 6,000 steps;
-# rerunning continues an unfinished run) and evaluate it on the four held-out test subjects (walking and running). The
-# variables let CI run the same recipe on a tiny configuration (demo-smoke).
+# rerunning continues an unfinished run), evaluate it on the six held-out test subjects (walking
+# and running; test/), then adapt it, self-supervised, to their unlabeled IMU recordings (1,000
+# steps; labels never read) and evaluate again (test_adapted/). The variables let CI run the
+# same recipe on a tiny configuration (demo-smoke).
 SYNTH_CONFIG ?= configs/synth/default.yaml
 TRAIN_CONFIG ?= configs/sspinn/demo.yaml
 SYNTH        ?= data/synth_default
 DEMO         ?= results/demo
+ADAPT_FLAGS  ?=
 CACHE        ?=
 
 $(STAMP): pyproject.toml
@@ -26,14 +29,17 @@ demo: $(STAMP)
 	$(BIN)/python -m predictive synth --config $(SYNTH_CONFIG) --out $(SYNTH) $(if $(CACHE),--cache-dir $(CACHE))
 	$(BIN)/python -m sspinn train --config $(TRAIN_CONFIG) --data $(SYNTH) --out $(DEMO)/run --auto-resume
 	$(BIN)/python -m sspinn evaluate --model $(DEMO)/run/model.pt --data $(SYNTH) --split test --out $(DEMO)/test
+	$(BIN)/python -m sspinn adapt --model $(DEMO)/run/model.pt --data $(SYNTH) --split test --out $(DEMO)/adapted --auto-resume $(ADAPT_FLAGS)
+	$(BIN)/python -m sspinn evaluate --model $(DEMO)/adapted/model.pt --data $(SYNTH) --split test --out $(DEMO)/test_adapted
 
 # CI: the main job's path end to end from a cold start (tiny dataset generated into a fresh cache,
 # 20 training steps, evaluation, report), so that a broken `make demo` cannot land.
 demo-smoke: $(STAMP)
 	rm -rf results/demo_smoke
 	$(MAKE) demo SYNTH_CONFIG=configs/synth/smoke.yaml TRAIN_CONFIG=configs/sspinn/smoke.yaml \
-		SYNTH=results/demo_smoke/data DEMO=results/demo_smoke CACHE=results/demo_smoke/cache
+		SYNTH=results/demo_smoke/data DEMO=results/demo_smoke CACHE=results/demo_smoke/cache ADAPT_FLAGS="--steps 5"
 	test -s results/demo_smoke/test/report.md
+	test -s results/demo_smoke/test_adapted/report.md
 
 showcase: $(STAMP)
 	$(BIN)/python -m sspinn showcase --out results/showcase

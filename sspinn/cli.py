@@ -1,8 +1,8 @@
 """Command-line interface: ``sspinn <command>`` (or ``python -m sspinn <command>``).
 
 Commands: ``showcase`` (a physics showcase; the main job, ``make demo``, chains ``python -m
-predictive synth`` → ``sspinn train`` → ``sspinn evaluate``), ``train``, ``finetune``, ``evaluate``,
-``infer``, ``export``. ``--data`` accepts a dataset folder (with ``dataset.json``), a folder with an
+predictive synth`` → ``sspinn train`` → ``sspinn evaluate`` → ``sspinn adapt`` → ``sspinn
+evaluate``), ``train``, ``finetune``, ``adapt``, ``evaluate``, ``infer``, ``export``. ``--data`` accepts a dataset folder (with ``dataset.json``), a folder with an
 averaged stride (``signals.csv`` + ``meta.json``) or a single recording ``.csv``.
 """
 
@@ -63,13 +63,18 @@ def _data_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--mass", type=_bounded(float, 10.0, 300.0, " kg"), default=70.0, help="assumed mass (kg) for averaged data without one")
 
 
-def _train(args: argparse.Namespace, finetune: bool) -> int:
-    from sspinn.training import TrainConfig, Trainer
+def _train(args: argparse.Namespace, command: str) -> int:
+    from sspinn.model_io import load_model
+    from sspinn.training import TrainConfig, Trainer, adaptation_config
 
-    config = TrainConfig.from_yaml(args.config, settings=args.set, **flag_overrides(args))
-    if finetune:
+    if command == "adapt":
+        trained = load_model(args.model)[2]
+        config = adaptation_config(trained, str(args.model), args.set, **flag_overrides(args))
+    else:
+        config = TrainConfig.from_yaml(args.config, settings=args.set, **flag_overrides(args))
+    if command == "finetune":
         config.finetune = True
-    train = load_recordings(args.data, "train", args.periods, args.height, args.mass)
+    train = load_recordings(args.data, getattr(args, "split", "train"), args.periods, args.height, args.mass)
     trainer = Trainer(config, args.out)
     resume = args.resume or (args.auto_resume and (args.out / "checkpoint.pt").exists())
     trainer.fit(train, resume=resume, init_from=None if resume else getattr(args, "model", None))
@@ -177,15 +182,24 @@ def _main(argv: list[str]) -> int:
     demo.add_argument("--out", type=Path, default=Path("results/showcase"), help="output folder")
     demo.add_argument("--body", type=Path, default=None, help="body YAML (default: 1.75 m, 70 kg)")
 
-    for name, help_text in (("train", "self-supervised training"), ("finetune", "continue training with the fine-tuning weights")):
+    for name, help_text in (
+        ("train", "self-supervised training"),
+        ("finetune", "continue training with the fine-tuning weights"),
+        ("adapt", "adapt a trained model to unlabeled recordings (the model's own config, fewer steps, a low constant rate)"),
+    ):
         p = sub.add_parser(name, help=help_text)
-        p.add_argument("--config", type=Path, default=Path("configs/sspinn/demo.yaml"))
+        if name == "adapt":
+            p.add_argument("--model", type=Path, required=True, help="trained model.pt to adapt")
+        else:
+            p.add_argument("--config", type=Path, default=Path("configs/sspinn/demo.yaml"))
         _data_args(p)
+        if name == "adapt":
+            p.add_argument("--split", default="test", help="the dataset split to adapt to (its labels are never read)")
         p.add_argument("--out", type=Path, required=True, help="run folder (checkpoints, TensorBoard, model.pt)")
         p.add_argument("--resume", action="store_true", help="continue from <out>/checkpoint.pt")
         p.add_argument("--auto-resume", action="store_true", help="continue from <out>/checkpoint.pt if it exists, else start")
         # flags that override config fields: typed, checked and documented by TrainConfig itself
-        add_config_flags(p, TrainConfig, TRAIN_FLAGS, flags={"time_limit_s": "--time-limit"})
+        add_config_flags(p, TrainConfig, TRAIN_FLAGS + (("lr",) if name == "adapt" else ()), flags={"time_limit_s": "--time-limit"})
         p.add_argument(
             "--set", action="append", default=[], metavar="KEY=VALUE",
             help="override a config entry, dotted for sections (repeatable), e.g. --set weights.kane=0",
@@ -223,8 +237,8 @@ def _main(argv: list[str]) -> int:
         body = BodyParameters.from_yaml(args.body) if args.body else None
         demo_mod.main(args.out, body)
         return 0
-    if args.command in ("train", "finetune"):
-        return _train(args, args.command == "finetune")
+    if args.command in ("train", "finetune", "adapt"):
+        return _train(args, args.command)
     if args.command == "evaluate":
         return _evaluate(args)
     if args.command == "infer":

@@ -37,7 +37,7 @@ from sspinn.model_file import CHECKPOINT, MODEL, ModelFileError, check_finite_we
 from sspinn.model_io import MODEL_ENTRIES, MODEL_HINT, load_weights, save_model
 from sspinn.network import NetworkConfig, SSPINNposeNet, decode, feature_std_floor, input_features, output_affine
 from sspinn.run_folder import RunLock, atomic_write_text
-from sspinn.yaml_config import load_config
+from sspinn.yaml_config import apply_setting, config_from_mapping, load_config, set_option
 
 #: Named IMU configurations of the paper (sparse sets keep λ_IMU's relative weight; see losses).
 IMU_CONFIGURATIONS: dict[str, tuple[str, ...]] = {
@@ -87,6 +87,11 @@ class TrainConfig:
             equations of motion (:meth:`Trainer.physics_check`: lowest mean Kane term on fixed
             training windows — no labels) continues to ``steps``. 1 = a single run.
         start_steps: steps of each start (counted in ``steps``: the chosen start continues from it).
+        weights_after_starts: loss weights that change from step ``start_steps`` on (the chosen
+            start's continuation; in a single run the same steps), e.g. ``{foot_speed: 0}``:
+            L_FS helps the starts find the gait's direction and phase, but the ZUPT foot speeds
+            it compares with are biased low, and so was the estimated walking and running speed
+            while it stayed on (docs/estimator.md, session 10).
         joint_limits: the bounds term's ranges of motion: ``"paper"`` (hip and ankle ±60°, knee
             −60°…+0.1 rad) or ``"anatomical"`` (:meth:`~sspinn.body.JointLimits.anatomical`, wide
             enough for the knee flexion of running).
@@ -126,6 +131,7 @@ class TrainConfig:
     amp: bool = True
     starts: int = 1
     start_steps: int = 750
+    weights_after_starts: dict[str, float] = field(default_factory=dict)
     joint_limits: str = "paper"
     compile: bool = False
 
@@ -155,6 +161,12 @@ class TrainConfig:
         if self.starts > 1 and self.start_steps >= self.steps:
             raise ValueError(f"start_steps ({self.start_steps}) must be fewer than steps ({self.steps}) with {self.starts} starts")
         JointLimits.named(self.joint_limits)  # raises with the choices for an unknown name
+        known = LossWeights().as_dict()
+        for name, value in self.weights_after_starts.items():
+            if name not in known:
+                raise ValueError(f"weights_after_starts: unknown loss term {name!r}; known: {sorted(known)}")
+            if not math.isfinite(value) or value < 0:
+                raise ValueError(f"weights_after_starts.{name} must be a finite number >= 0, got {value}")
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}")
         if not math.isfinite(self.input_noise) or self.input_noise < 0:
@@ -175,6 +187,36 @@ class TrainConfig:
             return self.lr
         frac = min(step, self.steps) / self.steps
         return self.lr * (self.lr_final + (1 - self.lr_final) * 0.5 * (1 + math.cos(math.pi * frac)))
+
+
+#: Self-supervised adaptation (``sspinn adapt``): optimiser steps and constant learning rate.
+ADAPT_STEPS = 1000
+ADAPT_LR = 5e-4
+
+
+def adaptation_config(trained: dict[str, Any], source: str, settings: list[str] | None = None, **overrides: Any) -> TrainConfig:
+    """The configuration that adapts a trained model to new, unlabeled recordings (a new
+    subject's, or a held-out test split's; their labels are never read): the model's own
+    training configuration (``trained``, as saved in its model file) with the loss weights it
+    ended with (``weights_after_starts`` applied), one run of :data:`ADAPT_STEPS` at the constant
+    :data:`ADAPT_LR` — small beside training's peak of 0.002, so the gait's phase, which the
+    starts chose, stays. ``overrides`` (None = keep) and ``settings`` (``"a.b=value"``) apply
+    last, as in :meth:`TrainConfig.from_yaml`; ``source`` names the model file in messages.
+
+    Why: on subjects it has not seen the trained network fits their gyroscopes 1.5–5× worse
+    than on its training subjects (docs/estimator.md, session 10); the physics losses need no
+    labels, so a thousand steps on the new recordings close most of that gap.
+    """
+    data = json.loads(json.dumps(trained))  # a deep copy of plain data
+    data["weights"] = {**data.get("weights", {}), **data.get("weights_after_starts", {})}
+    data.update(starts=1, weights_after_starts={}, steps=ADAPT_STEPS, lr=ADAPT_LR, lr_schedule="constant",
+                finetune=False, finetune_last=0)
+    for key, value in overrides.items():
+        if value is not None:
+            set_option(data, key, value, source)
+    for assignment in settings or ():
+        apply_setting(data, assignment, source)
+    return config_from_mapping(TrainConfig, data, source, what="train option")
 
 
 def resolve_device(name: str) -> torch.device:
@@ -392,8 +434,14 @@ class Trainer:
         params = list(self.model.parameters()) + ([self.placement] if cfg.learn_placement else [])
         self.optimizer = torch.optim.Adam(params, lr=cfg.lr)
         limits = JointLimits.named(cfg.joint_limits)
-        self.losses = PhysicsLosses(cfg.weights, limits=limits, grf=cfg.network.grf)
-        self.finetune_losses = PhysicsLosses(cfg.weights.finetune(), limits=limits, grf=cfg.network.grf)
+        later = dataclasses.replace(cfg.weights, **cfg.weights_after_starts)
+        # (weights, fine-tuning weights) before and from step start_steps on
+        self.losses = {
+            False: (PhysicsLosses(cfg.weights, limits=limits, grf=cfg.network.grf),
+                    PhysicsLosses(cfg.weights.finetune(), limits=limits, grf=cfg.network.grf)),
+            True: (PhysicsLosses(later, limits=limits, grf=cfg.network.grf),
+                   PhysicsLosses(later.finetune(), limits=limits, grf=cfg.network.grf)),
+        }
         self.physics = PhysicsTerms(cfg.compile)
         self.net: torch.nn.Module = self.model
         if self.world > 1:
@@ -516,7 +564,8 @@ class Trainer:
                 with autocast:
                     raw, _ = self.net(x)
                 finetuning = cfg.finetune or self.step >= cfg.steps - cfg.finetune_last
-                terms = self.physics(self.finetune_losses if finetuning else self.losses, raw.float(), batch)
+                losses = self.losses[bool(cfg.weights_after_starts) and self.step >= cfg.start_steps][finetuning]
+                terms = self.physics(losses, raw.float(), batch)
                 loss = terms["total"]
                 if not torch.isfinite(loss):
                     bad = [f"{self.data[k].recording.name}[{s}:{s + cfg.window}]" for k, s in zip(which, starts)]

@@ -3,6 +3,7 @@ streaming."""
 
 from __future__ import annotations
 
+import dataclasses
 import shutil
 
 import numpy as np
@@ -15,7 +16,7 @@ from sspinn.dataset import Dataset
 from sspinn.inference import StreamingEstimator, estimate_recording
 from sspinn.model_io import load_model, run_exported
 from sspinn.testing import make_recording
-from sspinn.training import NonFiniteLossError, TrainConfig, Trainer
+from sspinn.training import ADAPT_LR, NonFiniteLossError, TrainConfig, Trainer, adaptation_config
 
 
 @pytest.fixture(scope="module")
@@ -59,6 +60,31 @@ def test_train_resume_evaluate_infer_export(tiny):
     x = torch.randn(3, 20, model.n_inputs)  # another batch size than the export's example
     torch.testing.assert_close(run_exported(exported, x, model.config.layers, model.config.hidden), model(x)[0])
     assert main(["finetune", "--config", str(cfg), "--model", str(run / "model.pt"), "--data", str(data), "--out", str(root / "ft")]) == 0
+
+
+def test_adapt_continues_a_model_on_the_unlabeled_test_split(tiny):
+    """``sspinn adapt`` starts from the model's weights, trains on the chosen split (the test
+    split by default) with the model's own configuration — the weights it ended with, one run
+    at a constant low rate — and its labels play no part: stripped of them, the same weights result."""
+    root, data, cfg = tiny
+    trained = root / "adapt_base"
+    assert main(["train", "--config", str(cfg), "--data", str(data), "--out", str(trained),
+                 "--set", "weights_after_starts={foot_speed: 0}"]) == 0
+    config = adaptation_config(load_model(trained / "model.pt")[2], "m", steps=3)
+    assert (config.steps, config.lr, config.lr_schedule, config.starts) == (3, ADAPT_LR, "constant", 1)
+    assert config.weights.foot_speed == 0 and config.weights_after_starts == {} and config.window == 32
+    out = root / "adapted"
+    assert main(["adapt", "--model", str(trained / "model.pt"), "--data", str(data), "--out", str(out), "--steps", "3"]) == 0
+    state = torch.load(out / "checkpoint.pt", weights_only=False)
+    assert state["step"] == 3 and state["recordings"] == ["c"]
+    base = load_model(trained / "model.pt")[0].state_dict()
+    assert any(not torch.equal(a, b) for a, b in zip(base.values(), load_model(out / "model.pt")[0].state_dict().values()))
+    test = Dataset.open(data).load("test")
+    unlabeled = root / "unlabeled"
+    Dataset.write(unlabeled, {"test": [dataclasses.replace(r, labels=None) for r in test]})
+    assert main(["adapt", "--model", str(trained / "model.pt"), "--data", str(unlabeled), "--out", str(root / "adapted2"), "--steps", "3"]) == 0
+    for a, b in zip(load_model(out / "model.pt")[0].state_dict().values(), load_model(root / "adapted2" / "model.pt")[0].state_dict().values()):
+        torch.testing.assert_close(a, b)
 
 
 def test_resume_reproduces_an_uninterrupted_run(tiny):
@@ -256,6 +282,29 @@ def test_finetune_last_switches_to_the_finetuning_weights(tiny):
     assert kane[2][1] > 5 * kane[2][0]  # ×10 weight on a similar residual
     with pytest.raises(ValueError, match="finetune_last"):
         TrainConfig.from_yaml(cfg, steps=4, settings=["finetune_last=5"])
+
+
+def test_weights_after_starts_change_the_losses_from_start_steps_on(tiny):
+    """``weights_after_starts`` leaves the first ``start_steps`` steps exactly as the plain run
+    and weighs the terms anew from then on; unknown terms and negative weights are refused."""
+    root, data, cfg = tiny
+    train = Dataset.open(data).load("train")
+
+    def run(name, *settings):
+        trainer = Trainer(TrainConfig.from_yaml(cfg, steps=4, settings=["log_every=1", "start_steps=2", *settings]), root / name)
+        trainer.fit(train)
+        return trainer
+
+    plain = run("after_none")
+    kane = plain.config.weights.kane
+    later = run("after_kane", f"weights_after_starts={{kane: {10 * kane}, foot_speed: 0}}")
+    pairs = [(h["kane"], g["kane"]) for h, g in zip(plain.history, later.history)]
+    assert pairs[0][0] == pairs[0][1] and pairs[1][0] == pairs[1][1]
+    assert pairs[2][1] > 5 * pairs[2][0]  # ×10 weight on a similar residual
+    assert all(g["foot_speed"] == 0 for g in later.history[2:])
+    for bad, match in (("{kane2: 1}", "unknown loss term 'kane2'"), ("{kane: -1}", "finite number >= 0")):
+        with pytest.raises(ValueError, match=match):
+            TrainConfig.from_yaml(cfg, steps=4, settings=[f"weights_after_starts={bad}"])
 
 
 @pytest.mark.skipif(shutil.which("g++") is None and shutil.which("clang++") is None, reason="inductor needs a C++ compiler")
