@@ -103,15 +103,20 @@ def _estimates(args: argparse.Namespace, recs: list[Recording]) -> list[GaitEsti
 
 def _evaluate(args: argparse.Namespace) -> int:
     from sspinn.evaluation import EvaluationError, check_evaluable, write_report
+    from sspinn.model_io import trained_on
 
     recs = load_recordings(args.data, args.split, args.periods, args.height, args.mass)
     ests = _estimates(args, recs)
+    seen = [r.name for r in recs if r.name in (trained_on(args.model) or ())]
+    title = f"{args.model} on {args.data} ({args.split})"
+    if seen:  # transductive: say so wherever the figures go
+        title += (f" — the model's self-supervised training saw the IMU signals (never the labels) of {len(seen)} of "
+                  f"these {len(recs)} recordings: {', '.join(seen)}")
+        print(f"NOTE: {title.split(' — ', 1)[1]}")
     try:
         check_evaluable(ests, recs, args.skip)
         baseline = _trivial_predictor(args.data, args.split, recs)
-        result = write_report(
-            ests, recs, args.out, title=f"{args.model} on {args.data} ({args.split})", skip=args.skip, baseline=baseline
-        )
+        result = write_report(ests, recs, args.out, title=title, skip=args.skip, baseline=baseline)
     except EvaluationError as exc:
         raise EvaluationError(f"{args.data} ({args.split} split), recording {exc}") from None
     print(json.dumps(result["mean"], indent=2))

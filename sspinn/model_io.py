@@ -4,8 +4,11 @@ A model file (``model.pt`` of a ``sspinn train`` run) is a ``"sspinn-model"`` fi
 :mod:`sspinn.model_file` (the safe, versioned ``.pt`` format) with the entries
 :data:`MODEL_ENTRIES`: the network's weights, the hyperparameters that rebuild it
 (:class:`~sspinn.network.SSPINNposeNet`), the IMU segments it reads, the training configuration
-(a plain dict) and the per-channel IMU standard deviations. A training checkpoint holds the same
-entries and more, so it can be loaded as a model too.
+(a plain dict) and the per-channel IMU standard deviations, and (files written since session 10)
+``trained_on``: the names of the recordings whose IMU signals its self-supervised training saw,
+those of the model it was fine-tuned or adapted from included (:func:`trained_on`; evaluation
+names the evaluated recordings among them). A training checkpoint holds the same entries and
+more, so it can be loaded as a model too.
 """
 
 from __future__ import annotations
@@ -26,17 +29,28 @@ MODEL_HINT = "pass the model.pt (or checkpoint.pt) of a finished `sspinn train` 
 
 
 def save_model(
-    model: SSPINNposeNet, path: Path, segments: tuple[str, ...], config: dict[str, Any], imu_std: torch.Tensor
+    model: SSPINNposeNet, path: Path, segments: tuple[str, ...], config: dict[str, Any], imu_std: torch.Tensor,
+    trained_on: tuple[str, ...] = (),
 ) -> Path:
     """The trained model alone (weights + what is needed to rebuild and run it), written
     atomically in the safe format of :mod:`sspinn.model_file`; ``config`` is the training
-    configuration as a plain dict (``TrainConfig.to_dict()``)."""
+    configuration as a plain dict (``TrainConfig.to_dict()``), ``trained_on`` the names of the
+    recordings its training saw."""
     check_finite_weights(path, model.state_dict(), "training diverged: nothing written")
     return save_torch_file(
         path, MODEL,
         {"model": model.state_dict(), "hyperparameters": model.hyperparameters(), "segments": tuple(segments),
-         "config": config, "imu_std": imu_std},
+         "config": config, "imu_std": imu_std, "trained_on": tuple(trained_on)},
     )
+
+
+def trained_on(path: str | Path) -> tuple[str, ...] | None:
+    """Names of the recordings whose IMU signals the training of the model (or checkpoint) at
+    ``path`` saw, those of the models it started from included; None for a file written before
+    the entry existed (unknown)."""
+    state = load_torch_file(Path(path), (MODEL, CHECKPOINT), MODEL_ENTRIES, MODEL_HINT)
+    names = state.get("trained_on")
+    return None if names is None else tuple(str(n) for n in names)
 
 
 def _network_config(state: dict[str, Any], path: Path) -> tuple[int, NetworkConfig]:

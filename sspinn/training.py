@@ -34,7 +34,7 @@ from sspinn.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.interrupt import DeferredInterrupt
 from sspinn.losses import Batch, IMUNoise, LossWeights, PhysicsLosses
 from sspinn.model_file import CHECKPOINT, MODEL, ModelFileError, check_finite_weights, load_torch_file, save_torch_file
-from sspinn.model_io import MODEL_ENTRIES, MODEL_HINT, load_weights, save_model
+from sspinn.model_io import MODEL_ENTRIES, MODEL_HINT, load_weights, save_model, trained_on
 from sspinn.network import NetworkConfig, SSPINNposeNet, decode, feature_std_floor, input_features, output_affine
 from sspinn.run_folder import RunLock, atomic_write_text
 from sspinn.yaml_config import apply_setting, config_from_mapping, load_config, set_option
@@ -414,6 +414,9 @@ class Trainer:
             torch.set_num_threads(cfg.threads)
         self.rng = np.random.default_rng([cfg.seed, self.rank])  # but different windows
         self.data = prepare(train, self.segments, grf=cfg.network.grf)
+        #: names of the recordings whose IMU signals this model's training saw (with init_from,
+        #: the starting model's too)
+        self.trained_on: tuple[str, ...] = tuple(d.recording.name for d in self.data)
         self.sampler = WindowSampler(self.data, cfg.window, self.rng)
         all_imu = np.concatenate([d.recording.imu for d in self.data])  # (N, n_imu, 3)
         self.imu_std = torch.as_tensor(all_imu.std(axis=0).clip(min=1e-3), dtype=torch.float32)
@@ -465,6 +468,7 @@ class Trainer:
             "optimizer": self.optimizer.state_dict(),
             "placement": self.placement.detach().cpu(),
             "recordings": [d.recording.name for d in self.data],
+            "trained_on": self.trained_on,
             "imu_std": self.imu_std,
             "rng": rng or self._rng_state(),
             "history": self.history,
@@ -497,6 +501,7 @@ class Trainer:
             return
         if state["recordings"] != [d.recording.name for d in self.data]:
             raise ModelFileError(f"{path}: checkpoint was trained on other recordings; resume needs the same --data")
+        self.trained_on = tuple(state.get("trained_on", self.trained_on))
         try:
             self.optimizer.load_state_dict(state["optimizer"])
             with torch.no_grad():
@@ -536,6 +541,8 @@ class Trainer:
             self.load_checkpoint(ckpt)
         elif init_from is not None:
             self.load_checkpoint(Path(init_from), weights_only=True)
+            earlier = trained_on(init_from) or ()
+            self.trained_on = tuple(dict.fromkeys(earlier + self.trained_on))
         elif cfg.starts > 1:
             self.load_checkpoint(self._best_start(train))
         lead = self.rank == 0  # only rank 0 writes files and shows progress
@@ -624,7 +631,7 @@ class Trainer:
                 writer.close()
         if lead:
             self.save_checkpoint()
-            save_model(self.model, self.out / "model.pt", self.segments, self.config.to_dict(), self.imu_std)
+            save_model(self.model, self.out / "model.pt", self.segments, self.config.to_dict(), self.imu_std, self.trained_on)
             summary = {
                 "steps": self.step,
                 "steps_planned": cfg.steps,

@@ -14,7 +14,7 @@ import yaml
 from sspinn.cli import main
 from sspinn.dataset import Dataset
 from sspinn.inference import StreamingEstimator, estimate_recording
-from sspinn.model_io import load_model, run_exported
+from sspinn.model_io import load_model, run_exported, trained_on
 from sspinn.testing import make_recording
 from sspinn.training import ADAPT_LR, NonFiniteLossError, TrainConfig, Trainer, adaptation_config
 
@@ -62,10 +62,11 @@ def test_train_resume_evaluate_infer_export(tiny):
     assert main(["finetune", "--config", str(cfg), "--model", str(run / "model.pt"), "--data", str(data), "--out", str(root / "ft")]) == 0
 
 
-def test_adapt_continues_a_model_on_the_unlabeled_test_split(tiny):
+def test_adapt_continues_a_model_on_the_unlabeled_test_split(tiny, capsys):
     """``sspinn adapt`` starts from the model's weights, trains on the chosen split (the test
     split by default) with the model's own configuration — the weights it ended with, one run
-    at a constant low rate — and its labels play no part: stripped of them, the same weights result."""
+    at a constant low rate — and its labels play no part: stripped of them, the same weights
+    result. The adapted model remembers what it saw, and its evaluation says so."""
     root, data, cfg = tiny
     trained = root / "adapt_base"
     assert main(["train", "--config", str(cfg), "--data", str(data), "--out", str(trained),
@@ -85,6 +86,13 @@ def test_adapt_continues_a_model_on_the_unlabeled_test_split(tiny):
     assert main(["adapt", "--model", str(trained / "model.pt"), "--data", str(unlabeled), "--out", str(root / "adapted2"), "--steps", "3"]) == 0
     for a, b in zip(load_model(out / "model.pt")[0].state_dict().values(), load_model(root / "adapted2" / "model.pt")[0].state_dict().values()):
         torch.testing.assert_close(a, b)
+    assert trained_on(trained / "model.pt") == ("a", "b") and trained_on(out / "model.pt") == ("a", "b", "c")
+    capsys.readouterr()
+    assert main(["evaluate", "--model", str(trained / "model.pt"), "--data", str(data), "--out", str(root / "ev0"), "--skip", "10"]) == 0
+    assert "NOTE" not in capsys.readouterr().out
+    assert main(["evaluate", "--model", str(out / "model.pt"), "--data", str(data), "--out", str(root / "ev1"), "--skip", "10"]) == 0
+    assert "saw the IMU signals (never the labels) of 1 of these 1 recordings: c" in capsys.readouterr().out
+    assert "saw the IMU signals" in (root / "ev1" / "report.md").read_text()
 
 
 def test_resume_reproduces_an_uninterrupted_run(tiny):
