@@ -235,6 +235,18 @@ class PhysicsLosses:
 
     def __call__(self, est: Estimate, batch: Batch) -> dict[str, torch.Tensor]:
         """Dict of every weighted term plus ``total`` (scalars) and ``grf`` (B, T, 4, N) for logging."""
+        return self.weigh(self.terms(est, batch))
+
+    def weigh(self, terms: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+        """:meth:`terms`' output weighted by λ, with their sum ``total``. Apart from :meth:`terms`
+        so that a compiled :meth:`terms` does not depend on the weights (they change within a
+        run: ``finetune_last``, ``weights_after_starts``; each change would recompile)."""
+        lam = self.weights.as_dict()
+        weighted = {k: lam[k] * v for k, v in terms.items() if k != "grf"}
+        return {**weighted, "total": sum(weighted.values()), "grf": terms["grf"]}
+
+    def terms(self, est: Estimate, batch: Batch) -> dict[str, torch.Tensor]:
+        """Every term, unweighted (scalars), and ``grf`` (B, T, 4, N) for logging."""
         q, u, qdd, tau = est.q, est.u, est.qdd, est.tau
         like = q
         p = batch.p[:, None, :]
@@ -337,7 +349,4 @@ class PhysicsLosses:
         else:
             terms["foot_speed"] = torch.zeros((), dtype=like.dtype, device=like.device)
 
-        lam = self.weights.as_dict()
-        weighted = {k: lam[k] * v for k, v in terms.items()}
-        total = sum(weighted.values())
-        return {**{k: v for k, v in weighted.items()}, "total": total, "grf": grf.detach()}
+        return {**terms, "grf": grf.detach()}

@@ -343,10 +343,11 @@ def make_batch(
 
 # ------------------------------------------------------------------------------ trainer
 def physics_terms(losses: PhysicsLosses, raw: torch.Tensor, batch: Batch) -> dict[str, torch.Tensor]:
-    """Every loss term of the raw network outputs (B, T, n_outputs): :func:`~sspinn.network.decode`
-    (for the losses' ground contact), then ``losses`` — the part of a training step that
-    :attr:`TrainConfig.compile` compiles."""
-    return losses(decode(raw, batch.out_scale, batch.out_offset, batch.dt, losses.grf), batch)
+    """Every loss term, unweighted, of the raw network outputs (B, T, n_outputs):
+    :func:`~sspinn.network.decode` (for the losses' ground contact), then
+    :meth:`PhysicsLosses.terms` — the part of a training step that :attr:`TrainConfig.compile`
+    compiles (the weighting, :meth:`PhysicsLosses.weigh`, stays outside)."""
+    return losses.terms(decode(raw, batch.out_scale, batch.out_offset, batch.dt, losses.grf), batch)
 
 
 class CompileWarning(UserWarning):
@@ -370,14 +371,15 @@ class PhysicsTerms:
                 PhysicsTerms._shared = torch.compile(physics_terms, dynamic=False)
 
     def __call__(self, losses: PhysicsLosses, raw: torch.Tensor, batch: Batch) -> dict[str, torch.Tensor]:
+        """The weighted terms and their ``total`` (:meth:`PhysicsLosses.__call__`)."""
         if self.compiled:
             try:
-                return PhysicsTerms._shared(losses, raw, batch)
+                return losses.weigh(PhysicsTerms._shared(losses, raw, batch))
             except Exception as exc:  # inductor needs a working C++ compiler; training must not die for speed
                 message = f"torch.compile of the physics failed ({type(exc).__name__}: {str(exc)[:300]}); continuing eagerly"
                 warnings.warn(message, CompileWarning, stacklevel=2)
                 self.compiled = False
-        return physics_terms(losses, raw, batch)
+        return losses.weigh(physics_terms(losses, raw, batch))
 
 
 class NonFiniteLossError(RuntimeError):

@@ -318,21 +318,30 @@ def test_weights_after_starts_change_the_losses_from_start_steps_on(tiny):
 @pytest.mark.skipif(shutil.which("g++") is None and shutil.which("clang++") is None, reason="inductor needs a C++ compiler")
 def test_compiled_physics_trains_like_the_eager_physics(tiny):
     """``compile: true`` (torch.compile of decoding + losses) gives the eager run's losses and
-    weights to float32 rounding — and really compiled (no fallback warning)."""
+    weights to float32 rounding — and really compiled (no fallback warning), into one graph
+    although the loss weights change half-way (``weights_after_starts``: the weighting stays
+    outside the compiled graph, so a change costs no recompilation)."""
     import warnings
+
+    import torch._dynamo
+    from torch._dynamo.utils import counters
 
     from sspinn.training import CompileWarning
 
     root, data, cfg = tiny
     train = Dataset.open(data).load("train")
     runs = {}
+    torch._dynamo.reset()
+    graphs = counters["stats"]["unique_graphs"]
     for compiled in (False, True):
-        trainer = Trainer(TrainConfig.from_yaml(cfg, settings=[f"compile={str(compiled).lower()}"]), root / f"compiled_{compiled}")
+        settings = [f"compile={str(compiled).lower()}", "start_steps=2", "weights_after_starts={kane: 30, foot_speed: 0}"]
+        trainer = Trainer(TrainConfig.from_yaml(cfg, settings=settings), root / f"compiled_{compiled}")
         with warnings.catch_warnings():
             warnings.simplefilter("error", CompileWarning)
             trainer.fit(train)
         assert trainer.physics.compiled is compiled
         runs[compiled] = trainer
+    assert counters["stats"]["unique_graphs"] - graphs == 1
     eager, compiled_run = runs[False], runs[True]
     for a, b in zip(eager.history, compiled_run.history):
         for k in ("kane", "imu", "contact", "stance", "total"):
