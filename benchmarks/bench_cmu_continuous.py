@@ -8,13 +8,16 @@ and with a mock stiff knee (``CSStiffKnee``), with 8 Xsens IMUs in unknown mount
    plane from the data, GRF aligned by cross-correlation, belt speed as the speed label):
    Sub01–Sub04 into the train split, Sub05–Sub06 into the test split. Cached: a trial already
    imported by this importer version is reused.
-2. **Three starts**, each evaluated on Sub05–Sub06, which none of them trained on:
+2. **Four arms**, each evaluated on Sub05–Sub06:
    ``scratch`` (self-supervised training on the real training trials, no labels),
-   ``zero_shot`` (the model ``make demo`` trains on synthetic data only, ``--pretrained``) and
+   ``zero_shot`` (the model ``make demo`` trains on synthetic data only, ``--pretrained``),
    ``finetune`` (that model, fine-tuned self-supervised on the real training trials; the CLI's
-   ``sspinn finetune``). Both trainings use the demo configuration with ``--steps`` steps; they
-   stop on the step count, continue from their checkpoint when rerun, and can run as two
-   processes side by side (``--arms scratch`` and ``--arms finetune``, one thread each).
+   ``sspinn finetune``) — none of these three saw the test subjects — and ``adapted`` (that
+   model adapted to the test subjects' own unlabeled IMU recordings, ``sspinn adapt``'s
+   :func:`~sspinn.training.adaptation_config`: it saw their IMU signals, never their labels).
+   The two trainings use the demo configuration with ``--steps`` steps; every arm stops on its
+   step count, continues from its checkpoint when rerun, and arms can run as processes side by
+   side (``--arms scratch`` and ``--arms finetune``, one thread each).
 3. **Metrics** over each aligned test trial after a 1 s warm-up: vertical and horizontal GRF RMSE
    (%BW, both feet), heel-strike and toe-off timing error (ms; :mod:`sspinn.gait_events`, 5 %BW
    threshold on estimated and measured force alike), and the speed error against the belt speed.
@@ -27,7 +30,7 @@ and with a mock stiff knee (``CSStiffKnee``), with 8 Xsens IMUs in unknown mount
    and plots of estimated vs measured GRF over a few strides (``<out>/plots``).
 
 Usage: ``python benchmarks/bench_cmu_continuous.py [--out results/cmu] [--pretrained
-results/demo/run/model.pt] [--steps 6000] [--arms scratch finetune zero_shot] [--threads 1]``.
+results/demo/run/model.pt] [--steps 6000] [--arms scratch finetune zero_shot adapted] [--threads 1]``.
 """
 
 from __future__ import annotations
@@ -50,13 +53,13 @@ from sspinn.gait_events import grf_event_timing
 from sspinn.imu_import import IMPORTER_VERSION, import_imu
 from sspinn.inference import GaitEstimate, estimate_recording
 from sspinn.model_io import load_model
-from sspinn.training import TrainConfig, Trainer
+from sspinn.training import TrainConfig, Trainer, adaptation_config
 
 REPO = Path(__file__).resolve().parents[1]
 TRAIN_SUBJECTS = ("Sub01", "Sub02", "Sub03", "Sub04")
 TEST_SUBJECTS = ("Sub05", "Sub06")
 CONDITIONS = {"CSBaseline": "normal walking", "CSStiffKnee": "stiff-knee walking"}
-ARMS = ("scratch", "zero_shot", "finetune")
+ARMS = ("scratch", "zero_shot", "finetune", "adapted")
 WARMUP = 100  # samples (1 s) of LSTM warm-up left out of every metric
 TARGETS = {"grf_rmse": 15.0, "hs_ms": 30.0, "speed": 0.10}
 EVENT_WINDOW_S = 0.3  # an estimated event further than this from the measured one counts as missed
@@ -91,15 +94,22 @@ def import_trials(source: Path, data: Path, train_subjects: tuple[str, ...], tes
 
 # ------------------------------------------------------------------------------------- 2. train
 def train_arm(arm: str, train: list[Recording], out: Path, config_path: Path, steps: int, threads: int, pretrained: Path) -> Path:
-    """Train one arm (``scratch`` or ``finetune``) to ``steps`` steps; returns its model file."""
+    """Train one arm (``scratch`` or ``finetune`` to ``steps`` steps on ``train``, ``adapted``
+    to :data:`~sspinn.training.ADAPT_STEPS` on the test recordings passed as ``train``); returns
+    its model file."""
     run = out / arm
+    if arm == "adapted":
+        config = adaptation_config(load_model(pretrained)[2], str(pretrained), threads=threads, time_limit_s=4 * 3600.0)
+        if steps < config.steps:  # the smoke run
+            config = dataclasses.replace(config, steps=steps)
+    else:
+        config = TrainConfig.from_yaml(config_path, threads=threads, time_limit_s=4 * 3600.0)
+        # a run shorter than the configuration's starts (the smoke run) trains one start
+        config = dataclasses.replace(config, steps=steps, starts=config.starts if steps > config.start_steps else 1)
+        config.finetune = arm == "finetune"
     summary = run / "training_summary.json"
-    if summary.exists() and json.loads(summary.read_text())["steps"] >= steps:
+    if summary.exists() and json.loads(summary.read_text())["steps"] >= config.steps:
         return run / "model.pt"
-    config = TrainConfig.from_yaml(config_path, threads=threads, time_limit_s=4 * 3600.0)
-    # a run shorter than the configuration's starts (the smoke run) trains one start
-    config = dataclasses.replace(config, steps=steps, starts=config.starts if steps > config.start_steps else 1)
-    config.finetune = arm == "finetune"
     resume = (run / "checkpoint.pt").exists()
     trainer = Trainer(config, run)
     trainer.fit(train, resume=resume, init_from=None if resume or arm == "scratch" else pretrained)
@@ -273,7 +283,7 @@ def main(argv: list[str] | None = None) -> dict:
     steps = 3 if args.quick else args.steps
     if not args.source.exists():
         parser.error(f"{args.source}: the CMU treadmill data is not there (see ../shared/data/README.md)")
-    needs_pretrained = {"zero_shot", "finetune"} & set(args.arms)
+    needs_pretrained = {"zero_shot", "finetune", "adapted"} & set(args.arms)
     if needs_pretrained and not args.pretrained.exists():
         parser.error(f"{args.pretrained}: no synthetic-only model for {sorted(needs_pretrained)}; run `make demo` first or pass --pretrained")
     data = args.out / "data"
@@ -287,12 +297,13 @@ def main(argv: list[str] | None = None) -> dict:
             models[arm] = args.pretrained
             training[arm] = {"model": str(args.pretrained), "real-data steps": 0}
             continue
-        models[arm] = train_arm(arm, train, args.out, args.config, steps, args.threads, args.pretrained)
+        models[arm] = train_arm(arm, test if arm == "adapted" else train, args.out, args.config, steps, args.threads, args.pretrained)
         summary = json.loads((args.out / arm / "training_summary.json").read_text())
         training[arm] = {"steps": summary["steps"], "stopped_by": summary["stopped_by"],
                          "wall_s_last_session": summary["wall_s_this_run"], "threads": args.threads,
-                         "from": str(args.pretrained) if arm == "finetune" else "random initialisation",
-                         "config": args.config.name + (" (fine-tuning weights)" if arm == "finetune" else "")}
+                         "from": str(args.pretrained) if arm != "scratch" else "random initialisation",
+                         "config": {"finetune": args.config.name + " (fine-tuning weights)",
+                                    "adapted": "the pretrained model's own (sspinn adapt), on the TEST subjects' unlabeled IMU"}.get(arm, args.config.name)}
     if args.no_report:
         return {}
     results, estimates, profile_grf = evaluate(models, test, train)

@@ -2,8 +2,9 @@
 
 Commands: ``showcase`` (a physics showcase; the main job, ``make demo``, chains ``python -m
 predictive synth`` → ``sspinn train`` → ``sspinn evaluate`` → ``sspinn adapt`` → ``sspinn
-evaluate``), ``train``, ``finetune``, ``adapt``, ``evaluate``, ``infer``, ``export``. ``--data`` accepts a dataset folder (with ``dataset.json``), a folder with an
-averaged stride (``signals.csv`` + ``meta.json``) or a single recording ``.csv``.
+evaluate``), ``train``, ``finetune``, ``adapt``, ``evaluate``, ``infer``, ``export``. ``--data``
+accepts a dataset folder (with ``dataset.json``), a folder with an averaged stride
+(``signals.csv`` + ``meta.json``) or a single recording ``.csv``.
 """
 
 from __future__ import annotations
@@ -78,7 +79,7 @@ def _train(args: argparse.Namespace, command: str) -> int:
     trainer = Trainer(config, args.out)
     resume = args.resume or (args.auto_resume and (args.out / "checkpoint.pt").exists())
     trainer.fit(train, resume=resume, init_from=None if resume else getattr(args, "model", None))
-    print(f"trained {trainer.step} steps → {args.out / 'model.pt'}")
+    print(f"{'adapted' if command == 'adapt' else 'trained'} {trainer.step} steps → {args.out / 'model.pt'}")
     if trainer.stopped_by == "time_limit":
         print(
             f"WARNING: stopped by the safety time limit ({config.time_limit_s:.0f} s) at step {trainer.step} of "

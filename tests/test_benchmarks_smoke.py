@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+import torch
 
 from tests.conftest import shared_data
 
@@ -64,7 +65,8 @@ def test_bench_sspinn(tmp_path: Path, capsys: pytest.CaptureFixture[str], torch_
 
 
 def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str], tiny_run, torch_threads) -> None:
-    """Real CMU data (skipped without it): import, both trainings, zero-shot, report, plots."""
+    """Real CMU data (skipped without it): import, both trainings, zero-shot, adaptation to the
+    test trials, report, plots."""
     source = shared_data("cmu_treadmill_imu_grf")
     _, _, cfg, _, run = tiny_run
     bench = runpy.run_path(str(BENCHMARKS / "bench_cmu_continuous.py"), run_name="bench_cmu_continuous")
@@ -73,10 +75,11 @@ def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     out = capsys.readouterr().out
     assert set(results) == {"Sub05_CSBaseline", "Sub05_CSStiffKnee"}
     row = results["Sub05_CSBaseline"]
-    assert {"scratch", "zero_shot", "finetune", "constant mean GRF / mean speed", "mean GRF profile (measured timing)"} <= set(row)
+    assert {"scratch", "zero_shot", "finetune", "adapted", "constant mean GRF / mean speed", "mean GRF profile (measured timing)"} <= set(row)
     # the baselines are what they claim: the profile at measured timing beats the constant mean GRF
     assert row["mean GRF profile (measured timing)"]["all"] < row["constant mean GRF / mean speed"]["all"]
     assert row["mean GRF profile (measured timing)"]["hs_ms"] == 0.0 and row["belt_speed"] == pytest.approx(0.7791, abs=1e-3)
     assert "per condition" in out.lower() and (tmp_path / "cmu" / "plots" / "Sub05_CSBaseline.png").exists()
     saved = json.loads((tmp_path / "cmu" / "metrics.json").read_text())
-    assert saved["training"]["scratch"]["steps"] == 3
+    assert saved["training"]["scratch"]["steps"] == 3 and saved["training"]["adapted"]["steps"] == 3
+    assert torch.load(tmp_path / "cmu" / "adapted" / "checkpoint.pt", weights_only=False)["recordings"] == ["Sub05_CSBaseline", "Sub05_CSStiffKnee"]
