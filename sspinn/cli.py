@@ -178,7 +178,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _main(argv: list[str]) -> int:
-    from sspinn.training import TrainConfig  # its fields define the train/finetune flags
+    from sspinn.training import ADAPT_LR, ADAPT_STEPS, TrainConfig  # its fields define the train/finetune/adapt flags
 
     parser = ArgumentParser(prog="sspinn", description="Sagittal gait dynamics from IMUs, self-supervised.",
                                      epilog="--debug anywhere shows the traceback of an error")
@@ -205,7 +205,11 @@ def _main(argv: list[str]) -> int:
         p.add_argument("--resume", action="store_true", help="continue from <out>/checkpoint.pt")
         p.add_argument("--auto-resume", action="store_true", help="continue from <out>/checkpoint.pt if it exists, else start")
         # flags that override config fields: typed, checked and documented by TrainConfig itself
-        add_config_flags(p, TrainConfig, TRAIN_FLAGS + (("lr",) if name == "adapt" else ()), flags={"time_limit_s": "--time-limit"})
+        add_config_flags(
+            p, TrainConfig, TRAIN_FLAGS + (("lr",) if name == "adapt" else ()), flags={"time_limit_s": "--time-limit"},
+            helps={"lr": f"constant Adam learning rate (default {ADAPT_LR:g})", "steps": f"optimiser steps (default {ADAPT_STEPS})"}
+            if name == "adapt" else None,
+        )
         p.add_argument(
             "--set", action="append", default=[], metavar="KEY=VALUE",
             help="override a config entry, dotted for sections (repeatable), e.g. --set weights.kane=0",
