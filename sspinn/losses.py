@@ -237,11 +237,12 @@ class PhysicsLosses:
         """Dict of every weighted term plus ``total`` (scalars) and ``grf`` (B, T, 4, N) for logging."""
         return self.weigh(self.terms(est, batch))
 
-    def weigh(self, terms: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
-        """:meth:`terms`' output weighted by λ, with their sum ``total``. Apart from :meth:`terms`
-        so that a compiled :meth:`terms` does not depend on the weights (they change within a
-        run: ``finetune_last``, ``weights_after_starts``; each change would recompile)."""
-        lam = self.weights.as_dict()
+    def weigh(self, terms: dict[str, torch.Tensor], weights: LossWeights | None = None) -> dict[str, torch.Tensor]:
+        """:meth:`terms`' output weighted by λ (``weights``, default :attr:`weights`), with their
+        sum ``total``. Apart from :meth:`terms` so that a compiled :meth:`terms` does not depend
+        on the weights (they change within a run: ``finetune_last``, ``weights_after_starts``;
+        each change would recompile)."""
+        lam = (weights or self.weights).as_dict()
         weighted = {k: lam[k] * v for k, v in terms.items() if k != "grf"}
         return {**weighted, "total": sum(weighted.values()), "grf": terms["grf"]}
 

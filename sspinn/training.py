@@ -181,6 +181,15 @@ class TrainConfig:
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
 
+    def weights_at(self, step: int) -> LossWeights:
+        """The loss weights of step ``step`` (0-based): :attr:`weights`, changed by
+        :attr:`weights_after_starts` from ``start_steps`` on, × the fine-tuning factors with
+        :attr:`finetune` or in the last :attr:`finetune_last` steps."""
+        weights = self.weights
+        if self.weights_after_starts and step >= self.start_steps:
+            weights = dataclasses.replace(weights, **self.weights_after_starts)
+        return weights.finetune() if self.finetune or step >= self.steps - self.finetune_last else weights
+
     def lr_at(self, step: int) -> float:
         """The learning rate of step ``step`` (0-based) under :attr:`lr_schedule`."""
         if self.lr_schedule == "constant":
@@ -370,16 +379,19 @@ class PhysicsTerms:
             if PhysicsTerms._shared is None:
                 PhysicsTerms._shared = torch.compile(physics_terms, dynamic=False)
 
-    def __call__(self, losses: PhysicsLosses, raw: torch.Tensor, batch: Batch) -> dict[str, torch.Tensor]:
-        """The weighted terms and their ``total`` (:meth:`PhysicsLosses.__call__`)."""
+    def __call__(
+        self, losses: PhysicsLosses, raw: torch.Tensor, batch: Batch, weights: LossWeights | None = None
+    ) -> dict[str, torch.Tensor]:
+        """The terms weighted by ``weights`` (default ``losses.weights``) and their ``total``
+        (:meth:`PhysicsLosses.weigh`)."""
         if self.compiled:
             try:
-                return losses.weigh(PhysicsTerms._shared(losses, raw, batch))
+                return losses.weigh(PhysicsTerms._shared(losses, raw, batch), weights)
             except Exception as exc:  # inductor needs a working C++ compiler; training must not die for speed
                 message = f"torch.compile of the physics failed ({type(exc).__name__}: {str(exc)[:300]}); continuing eagerly"
                 warnings.warn(message, CompileWarning, stacklevel=2)
                 self.compiled = False
-        return losses.weigh(physics_terms(losses, raw, batch))
+        return losses.weigh(physics_terms(losses, raw, batch), weights)
 
 
 class NonFiniteLossError(RuntimeError):
@@ -439,14 +451,7 @@ class Trainer:
         params = list(self.model.parameters()) + ([self.placement] if cfg.learn_placement else [])
         self.optimizer = torch.optim.Adam(params, lr=cfg.lr)
         limits = JointLimits.named(cfg.joint_limits)
-        later = dataclasses.replace(cfg.weights, **cfg.weights_after_starts)
-        # (weights, fine-tuning weights) before and from step start_steps on
-        self.losses = {
-            False: (PhysicsLosses(cfg.weights, limits=limits, grf=cfg.network.grf),
-                    PhysicsLosses(cfg.weights.finetune(), limits=limits, grf=cfg.network.grf)),
-            True: (PhysicsLosses(later, limits=limits, grf=cfg.network.grf),
-                   PhysicsLosses(later.finetune(), limits=limits, grf=cfg.network.grf)),
-        }
+        self.losses = PhysicsLosses(cfg.weights, limits=limits, grf=cfg.network.grf)  # weighted per step: cfg.weights_at
         self.physics = PhysicsTerms(cfg.compile)
         self.net: torch.nn.Module = self.model
         if self.world > 1:
@@ -572,9 +577,7 @@ class Trainer:
                 x = x + torch.randn_like(x) * cfg.input_noise * self.noise_std
                 with autocast:
                     raw, _ = self.net(x)
-                finetuning = cfg.finetune or self.step >= cfg.steps - cfg.finetune_last
-                losses = self.losses[bool(cfg.weights_after_starts) and self.step >= cfg.start_steps][finetuning]
-                terms = self.physics(losses, raw.float(), batch)
+                terms = self.physics(self.losses, raw.float(), batch, cfg.weights_at(self.step))
                 loss = terms["total"]
                 if not torch.isfinite(loss):
                     bad = [f"{self.data[k].recording.name}[{s}:{s + cfg.window}]" for k, s in zip(which, starts)]
