@@ -74,6 +74,7 @@ def test_adapt_continues_a_model_on_the_unlabeled_test_split(tiny, capsys):
     config = adaptation_config(load_model(trained / "model.pt")[2], "m", steps=3)
     assert (config.steps, config.lr, config.lr_schedule, config.starts) == (3, ADAPT_LR, "constant", 1)
     assert config.weights.foot_speed == 0 and config.weights_after_starts == {} and config.window == 32
+    assert config.input_noise == 0 and load_model(trained / "model.pt")[2]["input_noise"] > 0
     out = root / "adapted"
     assert main(["adapt", "--model", str(trained / "model.pt"), "--data", str(data), "--out", str(out), "--steps", "3"]) == 0
     state = torch.load(out / "checkpoint.pt", weights_only=False)
