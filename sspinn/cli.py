@@ -191,7 +191,7 @@ def _main(argv: list[str]) -> int:
     for name, help_text in (
         ("train", "self-supervised training"),
         ("finetune", "continue training with the fine-tuning weights"),
-        ("adapt", "adapt a trained model to unlabeled recordings (the model's own config, fewer steps, a low constant rate)"),
+        ("adapt", "adapt a trained model to unlabeled recordings (the model's own config, fewer steps, a low constant rate, no input noise)"),
     ):
         p = sub.add_parser(name, help=help_text)
         if name == "adapt":
