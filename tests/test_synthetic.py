@@ -225,6 +225,29 @@ def test_subjects_are_deterministic_and_split() -> None:
     assert len({s.height for s in a}) == 5
 
 
+def test_paces_scale_the_speeds_and_stratify_the_splits() -> None:
+    """Each subject runs its program at its own pace; the test split of the default holds every
+    gait at every pace once, so the training subjects' mean speed is no oracle for it."""
+    default = SynthConfig.from_yaml(CONFIGS / "default.yaml")
+    assert default.paces == (0.85, 1.0, 1.1)
+    subjects = sample_subjects(default)
+    cells = sorted((s.index % 2, default.pace(s.index)) for s in subjects if s.split == "test")
+    assert cells == [(p, pace) for p in (0, 1) for pace in (0.85, 1.0, 1.1)]
+    for s in subjects:
+        program = s.index % 2
+        assert default.speeds(s.index, program) == [round(v * default.pace(s.index), 2) for v in default.programs[program]]
+    walking = {v for s in subjects if s.index % 2 == 0 for v in default.speeds(s.index, 0)}
+    assert max(walking) < 2.0 <= min(v for v in default.all_speeds() if v not in walking)  # walks stay walks
+    # one pace: the speeds are the program's and the splits those of the one-pace stratification
+    one = dataclasses.replace(default, paces=(1.0,))
+    assert {tuple(one.speeds(i, i % 2)) for i in range(20)} == {tuple(p) for p in one.programs}
+    assert sorted(s.index % 2 for s in sample_subjects(one) if s.split == "test") == [0, 0, 0, 1, 1, 1]
+    with pytest.raises(ValueError, match="paces"):
+        SynthConfig(paces=())
+    with pytest.raises(ValueError, match="paces"):
+        SynthConfig(paces=(0.0,))
+
+
 class _FakeReference:
     """PeriodicReference stand-in: stride duration 1.4 − 0.2·v (s)."""
 

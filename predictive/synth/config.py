@@ -89,6 +89,11 @@ class SynthConfig:
         programs: speed programs, m/s; a recording runs through one program's speeds in order.
         program_names: one name per program (used in recording names).
         programs_per_subject: recordings per subject: subject i gets programs i, i+1, … (cyclic).
+        paces: the subjects' own paces, factors on a program's speeds: subject i walks or runs
+            every program at ``paces[(i // len(programs)) % len(paces)]`` × its speeds (rounded
+            to 0.01 m/s; :meth:`speeds`), so that held-out subjects do not all share the training
+            subjects' speeds and the training subjects' mean speed is no oracle. ``(1.0,)``:
+            every subject at the program's speeds.
         shuffle_speeds: visit a program's speeds in a random order per recording.
         duration_s: minimal duration of a recording, s (whole strides are kept).
         subjects: height and BMI distribution.
@@ -110,6 +115,7 @@ class SynthConfig:
     programs: tuple[tuple[float, ...], ...] = ((0.9, 1.3, 1.8), (2.5, 3.0, 3.5))
     program_names: tuple[str, ...] = ("walk", "run")
     programs_per_subject: int = 1
+    paces: tuple[float, ...] = (1.0,)
     shuffle_speeds: bool = False
     duration_s: float = 20.0
     subjects: SubjectDistribution = field(default_factory=SubjectDistribution)
@@ -138,6 +144,8 @@ class SynthConfig:
             raise ValueError(
                 f"programs_per_subject must be in 1..{len(self.programs)}, got {self.programs_per_subject}"
             )
+        if not self.paces or any(not 0.5 <= p <= 2.0 for p in self.paces):
+            raise ValueError(f"paces must be non-empty factors in [0.5, 2] on the program speeds, got {self.paces}")
         if not self.duration_s > 0:
             raise ValueError(f"duration_s must be > 0, got {self.duration_s}")
         if self.workers < 1:
@@ -166,6 +174,21 @@ class SynthConfig:
         data.pop("cache_dir")
         data.pop("workers")
         return stable_hash({"config": data, "code": CODE_VERSION})
+
+    def pace(self, subject: int) -> float:
+        """The pace factor of subject index ``subject`` (see :attr:`paces`)."""
+        return self.paces[(subject // len(self.programs)) % len(self.paces)]
+
+    def speeds(self, subject: int, program: int) -> list[float]:
+        """The target speeds (m/s) of program ``program`` for subject index ``subject``: the
+        program's speeds × the subject's pace, rounded to 0.01 m/s, in the program's order."""
+        pace = self.pace(subject)
+        return [float(round(v * pace, 2)) for v in self.programs[program]]
+
+    def all_speeds(self) -> list[float]:
+        """Every target speed of the dataset (all programs at all paces), sorted, m/s."""
+        return sorted({v for i in range(len(self.programs) * len(self.paces)) for j in range(len(self.programs))
+                       for v in self.speeds(i, j)})
 
     def rng(self, *stream: int) -> np.random.Generator:
         """An independent generator for a named stream of :attr:`seed` (streams: 0 splits,

@@ -119,7 +119,7 @@ def generate_subject(
     stride_cfg = config.stride
     model = imu_model(config)
     programs = [(subject.index + j) % len(config.programs) for j in range(config.programs_per_subject)]
-    speeds_needed = sorted({v for j in programs for v in config.programs[j]})
+    speeds_needed = sorted({v for j in programs for v in config.speeds(subject.index, j)})
 
     def report(stage: str, seconds: float = 0.0) -> None:
         if on_progress is not None:
@@ -133,7 +133,7 @@ def generate_subject(
     strides: list[StrideRecord] = []
     for j in programs:
         name = f"{subject.id}_{config.program_names[j]}"
-        speeds = list(config.programs[j])
+        speeds = config.speeds(subject.index, j)
         if config.shuffle_speeds:
             speeds = [speeds[i] for i in config.rng(3, subject.index, j).permutation(len(speeds))]
         found = recording_chain(config, subject, j, speeds, library, cache, solvers, report, events)
@@ -201,7 +201,7 @@ def generate_dataset(
     try:
         # the nominal-body templates first (shared by all subjects and workers)
         on_progress("template gaits", 0.0)
-        template_library(sorted({v for p in config.programs for v in p}), config.stride, cache)
+        template_library(config.all_speeds(), config.stride, cache)
         if config.workers == 1:
             solvers = StrideSolverCache(config.stride)
             outputs = [generate_subject(config, subject, cache, solvers, on_progress) for subject in subjects]

@@ -162,7 +162,7 @@ def cached_recording(
                 # the text of the recordings already cached (CODE_VERSION 3); the chain is now
                 # predictive.synth.chain with the stride NLP of predictive.ocp.stride_nlp
                 "method": "chain of single-stride backward-Euler OCPs at h = 0.01 s (predictive.stride_chain)",
-                "program": {"name": config.program_names[j], "speeds_mps": speeds},
+                "program": {"name": config.program_names[j], "speeds_mps": speeds, "pace": config.pace(subject.index)},
                 "plan_attempt": attempt,
                 "strides": {
                     "speed_mps": [r.speed for r in chain.strides],

@@ -54,15 +54,17 @@ class VirtualSubject:
 def sample_subjects(config: SynthConfig) -> list[VirtualSubject]:
     """The virtual subjects of ``config`` with their splits (deterministic by seed).
 
-    The splits are stratified by each subject's first program (subject i starts with program
-    i mod P): the subjects of each program are shuffled and interleaved (programs in a random
-    order), and the test, val and train splits take their shares from that sequence in turn, so
-    every split of two or more subjects holds every program when it can.
+    The splits are stratified by each subject's first program and pace (subject i starts with
+    program i mod P at pace (i // P) mod K, :meth:`~predictive.synth.config.SynthConfig.pace`, so
+    its cell is i mod P·K): the subjects of each cell are shuffled and interleaved (cells in a
+    random order), and the test, val and train splits take their shares from that sequence in
+    turn, so every split of P·K or more subjects holds every program at every pace when it can.
+    With one pace (K = 1) the cells are the programs.
     """
     d = config.subjects
     rng = config.rng(0)
-    n_prog = len(config.programs)
-    groups = [list(rng.permutation(np.arange(p, config.n_subjects, n_prog))) for p in rng.permutation(n_prog)]
+    n_cells = len(config.programs) * len(config.paces)
+    groups = [list(rng.permutation(np.arange(c, config.n_subjects, n_cells))) for c in rng.permutation(n_cells)]
     order = [int(g[k]) for k in range(max(len(g) for g in groups)) for g in groups if k < len(g)]
     split_of: dict[int, str] = {}
     start = 0
