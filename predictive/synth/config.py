@@ -182,19 +182,23 @@ class SynthConfig:
     def speeds(self, subject: int, program: int) -> list[float]:
         """The target speeds (m/s) of program ``program`` for subject index ``subject``: the
         program's speeds × the subject's pace, rounded to 0.01 m/s, in the program's order."""
-        pace = self.pace(subject)
-        return [float(round(v * pace, 2)) for v in self.programs[program]]
+        return _paced(self.programs[program], self.pace(subject))
 
     def all_speeds(self) -> list[float]:
         """Every target speed of the dataset (all programs at all paces), sorted, m/s."""
-        return sorted({v for i in range(len(self.programs) * len(self.paces)) for j in range(len(self.programs))
-                       for v in self.speeds(i, j)})
+        return sorted({v for program in self.programs for pace in self.paces for v in _paced(program, pace)})
 
     def rng(self, *stream: int) -> np.random.Generator:
         """An independent generator for a named stream of :attr:`seed` (streams: 0 splits,
         (1, subject) body, (2, subject, program, attempt) stride plan, (3, subject, program)
         speed order)."""
         return np.random.default_rng([self.seed, *stream])
+
+
+def _paced(speeds: tuple[float, ...], pace: float) -> list[float]:
+    """``speeds`` (m/s) × ``pace``, rounded to 0.01 m/s (the cache keys of the periodic gaits
+    hold the speed, so equal speeds must be equal floats)."""
+    return [float(round(v * pace, 2)) for v in speeds]
 
 
 def imu_model(config: SynthConfig) -> IMUErrorModel:
