@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 .PHONY: demo demo-smoke showcase test generate bench lint clean robustness
 
 # The main job on the embedded default: generate (or reuse) the synthetic dataset, train the
-# CPU-sized SSPINNpose configuration (five 500-step starts, then the chosen one to 6,000 steps;
+# CPU-sized SSPINNpose configuration (five 500-step starts, then the chosen one to 12,000 steps;
 # rerunning continues an unfinished run), evaluate it on the six held-out test subjects (walking
 # and running; test/), then adapt it, self-supervised, to their unlabeled IMU recordings (1,000
 # steps; labels never read) and evaluate again (test_adapted/). The variables let CI run the
