@@ -275,33 +275,43 @@ def prepare(
 ) -> list[PreparedRecording]:
     """Select the IMUs, compute body parameters (Winter scaling), ZUPT foot speeds and the
     output scaling of a ``grf`` network (:attr:`~sspinn.network.NetworkConfig.grf`)."""
-    out = []
+    out, restless = [], []
     for rec in recordings:
         sel = rec.select_imus(segments)
-        speed = foot_zupt_speeds(sel) if zupt else None
+        speed, feet = foot_zupt_speeds(sel) if zupt else (None, [])
+        restless += [f"{rec.name} ({foot})" for foot in feet]
         body = BodyParameters.from_anthropometry(rec.height, rec.mass)
         scale, offset = output_affine(rec.height, rec.mass, body.standing_hip_height, body.gravity, grf)
         out.append(PreparedRecording(sel, body.vector(), rec.placement.vector(), speed, scale, offset))
+    if restless:  # one warning for the whole data set, not one per foot (running recordings have many)
+        warnings.warn(
+            f"the foot-speed loss L_FS is off for {len(restless)} foot IMU(s) in which the ZUPT detector found no "
+            "stance (zero-velocity) phase — expected when running (the foot rolls), else check the units (rad/s, "
+            f"m/s²) or the detector's thresholds: {', '.join(restless)}",
+            stacklevel=2,
+        )
     return out
 
 
-def foot_zupt_speeds(rec: Recording) -> np.ndarray | None:
+def foot_zupt_speeds(rec: Recording) -> tuple[np.ndarray | None, list[str]]:
     """(T, 2) horizontal foot speeds from a ZUPT Kalman filter on the foot IMUs (NaN for a
-    missing foot), or None when no foot IMU is present."""
+    missing foot, and for a foot without a detected stance phase), or None when no foot IMU is
+    present; and the feet (``foot_r``, ``foot_l``) without a detected stance phase."""
     from sspinn.zupt import NoStanceError, foot_speed
 
     feet = [s for s in ("foot_r", "foot_l") if s in rec.segments]
     if not feet:
-        return None
+        return None, []
     speeds = np.full((rec.n_samples, 2), np.nan)
+    restless = []
     for k, s in enumerate(("foot_r", "foot_l")):
         if s in rec.segments:
             sig = rec.imu[:, rec.segments.index(s)]
             try:
                 speeds[:, k] = foot_speed(sig[:, :2], sig[:, 2], SAMPLE_RATE_HZ)
-            except NoStanceError as exc:  # e.g. running: the foot never rests long enough
-                warnings.warn(f"{rec.name}, {s}: {exc}; the foot-speed loss L_FS is off for this foot", stacklevel=2)
-    return speeds
+            except NoStanceError:  # e.g. running: the foot never rests long enough
+                restless.append(s)
+    return speeds, restless
 
 
 class WindowSampler:

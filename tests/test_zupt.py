@@ -335,3 +335,30 @@ def test_foot_speed_masks_samples_without_nearby_stances() -> None:
     loose = foot_speed(walk["acc"], walk["gyr"], FS, estimator=est)
     first, last = est.zupt_phases_[0, 0], est.zupt_phases_[-1, 1]
     assert np.isfinite(loose[first:last]).all() and np.isnan(loose[:first]).all() and np.isnan(loose[last:]).all()
+
+
+def test_training_data_warns_once_naming_every_foot_without_a_stance() -> None:
+    """Running recordings often have no ZUPT stance: one warning for the data set names every
+    such foot (not one per foot, which buried `make demo`'s output), and their speeds are NaN."""
+    import warnings
+
+    from sspinn.conventions import SEGMENTS
+    from sspinn.testing import make_recording
+    from sspinn.training import prepare
+
+    runs = [make_recording(f"run{k}", rng=np.random.default_rng(k)) for k in range(2)]
+    for rec in runs:
+        for foot in ("foot_r", "foot_l"):
+            rec.imu[:, rec.segments.index(foot), 2] += 3.0  # the gyro never quiet: no stance
+    quiet = make_recording("quiet")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        prepared = prepare([*runs, quiet], SEGMENTS)
+    messages = [str(w.message) for w in caught if "L_FS" in str(w.message)]
+    assert len(messages) == 1, messages
+    assert "4 foot IMU(s)" in messages[0]
+    for name in ("run0 (foot_r)", "run0 (foot_l)", "run1 (foot_r)", "run1 (foot_l)"):
+        assert name in messages[0]
+    assert "quiet" not in messages[0]
+    assert np.isnan(prepared[0].zupt_speed).all() and np.isnan(prepared[1].zupt_speed).all()
+    assert not np.isnan(prepared[2].zupt_speed).all()
