@@ -287,7 +287,8 @@ def prepare(
         warnings.warn(
             f"the foot-speed loss L_FS is off for {len(restless)} foot IMU(s) in which the ZUPT detector found no "
             "stance (zero-velocity) phase — expected when running (the foot rolls), else check the units (rad/s, "
-            f"m/s²) or the detector's thresholds: {', '.join(restless)}",
+            "m/s²) or the thresholds zupt_gyro_threshold / zupt_acc_threshold of sspinn.zupt.SagittalZuptKalman: "
+            f"{', '.join(restless)}",
             stacklevel=2,
         )
     return out
