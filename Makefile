@@ -48,7 +48,7 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
 generate: $(STAMP)
-	$(BIN)/python -m sspinn.codegen
+	$(BIN)/python -m sspinn.model.codegen
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_dynamics.py

@@ -23,7 +23,7 @@ import numpy as np
 
 from agents.checkpoints import load_agent
 from agents.rollout import EpisodeResult, run_episode, summarize
-from sspinn.plotting import save_figure
+from sspinn.model.drawing import save_figure
 
 #: Control rate of the environment, Hz (frames are subsampled to the animation's fps).
 ENV_RATE_HZ = 100
@@ -147,7 +147,7 @@ def plot_traces(result: EpisodeResult, path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from sspinn.conventions import SIDES
+    from sspinn.model.conventions import SIDES
 
     if not result.traces:
         raise ValueError("the episode was run without record_traces=True")

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sspinn.plotting import save_figure
+from sspinn.model.drawing import save_figure
 
 
 def read_monitor(run_dir: str | Path) -> dict[str, np.ndarray]:

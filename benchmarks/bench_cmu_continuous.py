@@ -4,7 +4,7 @@ Six adults walked ~60 s on an instrumented treadmill at 0.72–0.78 m/s, normall
 and with a mock stiff knee (``CSStiffKnee``), with 8 Xsens IMUs in unknown mountings
 (``../shared/data/cmu_treadmill_imu_grf``). Top to bottom:
 
-1. **Import** every trial with :func:`sspinn.imu_import.import_imu` (calibration onto the sagittal
+1. **Import** every trial with :func:`sspinn.imu.pipeline.import_imu` (calibration onto the sagittal
    plane from the data, GRF aligned by cross-correlation, belt speed as the speed label):
    Sub01–Sub04 into the train split, Sub05–Sub06 into the test split. Cached: a trial already
    imported by this importer version is reused.
@@ -14,16 +14,16 @@ and with a mock stiff knee (``CSStiffKnee``), with 8 Xsens IMUs in unknown mount
    ``finetune`` (that model, fine-tuned self-supervised on the real training trials; the CLI's
    ``sspinn finetune``) — none of these three saw the test subjects — and ``adapted`` (that
    model adapted to the test subjects' own unlabeled IMU recordings, ``sspinn adapt``'s
-   :func:`~sspinn.training.adaptation_config`: it saw their IMU signals, never their labels).
+   :func:`~sspinn.estimator.training.adaptation_config`: it saw their IMU signals, never their labels).
    The two trainings use the demo configuration with ``--steps`` steps; every arm stops on its
    step count, continues from its checkpoint when rerun, and arms can run as processes side by
    side (``--arms scratch`` and ``--arms finetune``, one thread each).
 3. **Metrics** over each aligned test trial after a 1 s warm-up: vertical and horizontal GRF RMSE
-   (%BW, both feet), heel-strike and toe-off timing error (ms; :mod:`sspinn.gait_events`, 5 %BW
+   (%BW, both feet), heel-strike and toe-off timing error (ms; :mod:`sspinn.data.gait_events`, 5 %BW
    threshold on estimated and measured force alike), and the speed error against the belt speed.
    Beside them the baselines, on the same samples: the training subjects' constant mean GRF and
-   mean speed (:class:`sspinn.baselines.TrivialPredictor`), and their mean GRF profile placed at
-   the test trial's measured heel strikes (:class:`sspinn.baselines.GRFProfilePredictor`, oracle
+   mean speed (:class:`sspinn.estimator.trivial_predictors.TrivialPredictor`), and their mean GRF profile placed at
+   the test trial's measured heel strikes (:class:`sspinn.estimator.trivial_predictors.GRFProfilePredictor`, oracle
    timing, per condition). Targets (issue #13): GRF RMSE ≤ 15 %BW, heel-strike timing ≤ 30 ms,
    speed error ≤ 0.10 m/s.
 4. **Report**: ``<out>/report.md`` (tables per trial and per condition, verdicts), ``metrics.json``,
@@ -45,15 +45,15 @@ from pathlib import Path
 
 import numpy as np
 
-from sspinn.baselines import GRFProfilePredictor, TrivialPredictor
-from sspinn.conventions import GRAVITY
-from sspinn.dataset import SAMPLE_RATE_HZ, Dataset, Recording
-from sspinn.evaluation import finite_or_null
-from sspinn.gait_events import grf_event_timing
-from sspinn.imu_import import IMPORTER_VERSION, import_imu
-from sspinn.inference import GaitEstimate, estimate_recording
-from sspinn.model_io import load_model
-from sspinn.training import TrainConfig, Trainer, adaptation_config
+from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset, Recording
+from sspinn.data.gait_events import grf_event_timing
+from sspinn.estimator.evaluation import finite_or_null
+from sspinn.estimator.inference import GaitEstimate, estimate_recording
+from sspinn.estimator.model_store import load_model
+from sspinn.estimator.training import TrainConfig, Trainer, adaptation_config
+from sspinn.estimator.trivial_predictors import GRFProfilePredictor, TrivialPredictor
+from sspinn.imu.pipeline import IMPORTER_VERSION, import_imu
+from sspinn.model.conventions import GRAVITY
 
 REPO = Path(__file__).resolve().parents[1]
 TRAIN_SUBJECTS = ("Sub01", "Sub02", "Sub03", "Sub04")
@@ -95,11 +95,11 @@ def import_trials(source: Path, data: Path, train_subjects: tuple[str, ...], tes
 # ------------------------------------------------------------------------------------- 2. train
 def train_arm(arm: str, train: list[Recording], out: Path, config_path: Path, steps: int, threads: int, pretrained: Path) -> Path:
     """Train one arm (``scratch`` or ``finetune`` to ``steps`` steps on ``train``, ``adapted``
-    to :data:`~sspinn.training.ADAPT_STEPS` on the test recordings passed as ``train``); returns
+    to :data:`~sspinn.estimator.training.ADAPT_STEPS` on the test recordings passed as ``train``); returns
     its model file."""
     run = out / arm
     if arm == "adapted":
-        config = adaptation_config(load_model(pretrained)[2], str(pretrained), threads=threads, time_limit_s=4 * 3600.0)
+        config = adaptation_config(load_model(pretrained).config, str(pretrained), threads=threads, time_limit_s=4 * 3600.0)
         if steps < config.steps:  # the smoke run
             config = dataclasses.replace(config, steps=steps)
     else:
@@ -162,8 +162,8 @@ def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recordi
                "constant mean GRF / mean speed": trial_metrics(base.grf, float(np.mean(base.u[:, 0])), rec),
                "mean GRF profile (measured timing)": trial_metrics(profile_grf[rec.name], None, rec)}
         estimates[rec.name] = {}
-        for arm, (model, segments, _) in loaded.items():
-            est = estimate_recording(model, rec, segments)
+        for arm, stored in loaded.items():
+            est = estimate_recording(stored.network, rec, stored.segments)
             estimates[rec.name][arm] = est
             row[arm] = trial_metrics(est.grf, float(np.mean(est.u[WARMUP:, 0])), rec)
         results[rec.name] = row
@@ -178,7 +178,7 @@ def plot_trial(path: Path, rec: Recording, estimates: dict[str, GaitEstimate], p
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from sspinn.plotting import save_figure
+    from sspinn.model.drawing import save_figure
 
     assert rec.labels is not None and rec.labels.grf is not None
     start = min(2000, rec.n_samples // 3)

@@ -11,8 +11,8 @@ What is measured:
    ``loss.backward()`` with ``requires_grad`` on q, u, qdd, tau and grf (w and the body parameters p are
    constant inputs).
 
-   * ours: :func:`sspinn.dynamics.kane_residual` (generated array code with common-subexpression
-     elimination, ``sspinn/_generated/model_expr.py``);
+   * ours: :func:`sspinn.model.dynamics.kane_residual` (generated array code with common-subexpression
+     elimination, ``sspinn/model/_generated/model_expr.py``);
    * baseline ("naive"): ``sympy.lambdify(..., "torch")`` of each entry of the unsimplified residual
      ``derive().outputs["kane_residual"]`` (no CSE), results joined with ``torch.stack``; inputs are
      passed as the columns of the same tensors (parameters as 0-d tensors), so autograd and batching
@@ -24,10 +24,10 @@ What is measured:
 
    * baseline ("naive"): ``sympy.lambdify(..., "numpy")`` of the unsimplified M (9×9) and f (9),
      evaluated on one state, then ``np.linalg.solve``;
-   * :func:`sspinn.dynamics.forward_dynamics` on one state (the generated array code on NumPy);
-   * :func:`sspinn.simulation.accel` (numba scalar kernels) called from Python, without and with the
+   * :func:`sspinn.model.dynamics.forward_dynamics` on one state (the generated array code on NumPy);
+   * :func:`sspinn.model.simulation.accel` (numba scalar kernels) called from Python, without and with the
      contact model (with contact it also evaluates the ground reaction forces);
-   * :func:`sspinn.simulation.simulate` with RK4 (a compiled loop): evaluations/s counts the
+   * :func:`sspinn.model.simulation.simulate` with RK4 (a compiled loop): evaluations/s counts the
      4 · steps accel calls of the rollout (the extra contact evaluation per output sample is not
      counted, so this slightly understates the rate).
 
@@ -59,11 +59,11 @@ import numpy as np
 import sympy as sp
 import torch
 
-from sspinn import dynamics, simulation
-from sspinn.body import BodyParameters
-from sspinn.contact import ContactParameters
-from sspinn.derivation import SymbolicModel, derive
-from sspinn.kinematics import point_index, point_kinematics
+from sspinn.model import dynamics, simulation
+from sspinn.model.body import BodyParameters
+from sspinn.model.contact import ContactParameters
+from sspinn.model.derivation import SymbolicModel, derive
+from sspinn.model.kinematics import point_index, point_kinematics
 from sspinn.testing import random_inputs
 
 TORCH_THREADS = 2
@@ -282,10 +282,10 @@ def bench_single_state_numpy(model: SymbolicModel, settings: Settings) -> list[R
 # ------------------------------------------------------------------------------------------------ report
 LABELS = {
     "naive": "naive lambdify M, f + np.linalg.solve (baseline)",
-    "forward_dynamics": "sspinn.dynamics.forward_dynamics (generated, numpy)",
-    "accel_python_loop_no_contact": "sspinn.simulation.accel, numba, Python loop, no contact",
-    "accel_python_loop_contact": "sspinn.simulation.accel, numba, Python loop, with contact",
-    "simulate_rk4_compiled_loop_contact": "sspinn.simulation.simulate rk4 (compiled loop, contact)",
+    "forward_dynamics": "sspinn.model.dynamics.forward_dynamics (generated, numpy)",
+    "accel_python_loop_no_contact": "sspinn.model.simulation.accel, numba, Python loop, no contact",
+    "accel_python_loop_contact": "sspinn.model.simulation.accel, numba, Python loop, with contact",
+    "simulate_rk4_compiled_loop_contact": "sspinn.model.simulation.simulate rk4 (compiled loop, contact)",
 }
 
 

@@ -13,8 +13,8 @@ What is measured:
    needs ``pip install "gymnasium[mujoco]"`` (the ``bench`` extra); without it the script says so and
    reports no ratio. Target: ours ≥ Walker2d-v5.
 2. **Physics only**, one control interval (50 substeps) from a standing state: the allocation-free
-   in-place stepper :func:`sspinn.simulation.advance` (the environment's call) and
-   :func:`sspinn.simulation.step` (the same stepper on copies of the state; the difference is the
+   in-place stepper :func:`sspinn.model.simulation.advance` (the environment's call) and
+   :func:`sspinn.model.simulation.step` (the same stepper on copies of the state; the difference is the
    wrapper's overhead).
 3. **Batched torch environment** (:class:`envs.batched.BatchedSagittalWalker`) at batch 4,096,
    float32, random actions, CPU (CUDA too when available): environment steps/s = batch × steps / time,
@@ -47,10 +47,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from envs.batched import BatchedSagittalWalker  # noqa: E402
 from envs.sagittal_walker import SagittalWalkerEnv  # noqa: E402
-from sspinn import kinematics, simulation  # noqa: E402
-from sspinn.body import BodyParameters  # noqa: E402
-from sspinn.contact import ContactParameters  # noqa: E402
-from sspinn.simulation import METHODS, advance  # noqa: E402
+from sspinn.model import kinematics, simulation  # noqa: E402
+from sspinn.model.body import BodyParameters  # noqa: E402
+from sspinn.model.contact import ContactParameters  # noqa: E402
+from sspinn.model.simulation import METHODS, advance  # noqa: E402
 
 TARGET_SINGLE_RATIO = 1.0
 TARGET_BATCH_RATIO = 100.0
@@ -123,9 +123,9 @@ def bench_physics(repeats: int) -> dict[str, float]:
 
     in_place()
     on_copies()
-    samples: dict[str, list[float]] = {"sspinn.simulation.advance": [], "sspinn.simulation.step": []}
+    samples: dict[str, list[float]] = {"sspinn.model.simulation.advance": [], "sspinn.model.simulation.step": []}
     for _ in range(9):  # alternating rounds; the minimum is the least load-disturbed estimate
-        for name, fn in (("sspinn.simulation.advance", in_place), ("sspinn.simulation.step", on_copies)):
+        for name, fn in (("sspinn.model.simulation.advance", in_place), ("sspinn.model.simulation.step", on_copies)):
             t0 = time.perf_counter()
             for _ in range(repeats):
                 fn()

@@ -1,7 +1,7 @@
 """SSPINNpose speed: streaming latency and training throughput, each against a named baseline.
 
 1. **Streaming latency** of the paper-size model (LSTM 2×512, dense 128, 7 IMUs) on one CPU
-   thread: per-sample wall time of :class:`sspinn.inference.StreamingEstimator.step` (its
+   thread: per-sample wall time of :class:`sspinn.estimator.inference.StreamingEstimator.step` (its
    numba single-step LSTM cell + decoding + contact model), p50/p99 over many samples, next to
    the baseline "the same ``nn.LSTM`` stepped one sample at a time with PyTorch's default
    (oneDNN) path and the physics evaluated with the generated torch code", measured in the
@@ -14,7 +14,7 @@
 3. **Where a training step's time goes**: data preparation, network forward, physics losses,
    backward, optimizer (:func:`profile_step`), for the demo and the paper configuration —
    before (eager physics, the default) and after ``compile: true`` (decoding + losses compiled
-   with ``torch.compile``, :class:`sspinn.training.PhysicsTerms`), measured in the same run, with
+   with ``torch.compile``, :class:`sspinn.estimator.training.PhysicsTerms`), measured in the same run, with
    the one-off compile time (the first step) beside the throughput.
 
 Usage: ``python benchmarks/bench_sspinn.py [--quick] [--json PATH]``.
@@ -34,15 +34,15 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from sspinn import dynamics
-from sspinn.body import BodyParameters, IMUPlacement
-from sspinn.contact import ContactParameters
-from sspinn.conventions import GRAVITY, SEGMENTS
-from sspinn.dataset import Recording
-from sspinn.inference import StreamingEstimator
-from sspinn.losses import PhysicsLosses
-from sspinn.network import NetworkConfig, SSPINNposeNet, decode, input_features, output_affine
-from sspinn.training import PhysicsTerms, TrainConfig, WindowSampler, make_batch, prepare
+from sspinn.data.dataset import Recording
+from sspinn.estimator.inference import StreamingEstimator
+from sspinn.estimator.losses import PhysicsLosses
+from sspinn.estimator.network import NetworkConfig, SSPINNposeNet, decode, input_features, output_affine
+from sspinn.estimator.training import PhysicsTerms, TrainConfig, WindowSampler, make_batch, prepare
+from sspinn.model import dynamics
+from sspinn.model.body import BodyParameters, IMUPlacement
+from sspinn.model.contact import ContactParameters
+from sspinn.model.conventions import GRAVITY, SEGMENTS
 
 
 def fake_recording(n: int, rng: np.random.Generator) -> Recording:
@@ -141,13 +141,13 @@ PHASES = ("data", "forward", "physics", "backward", "optimizer")
 
 def profile_step(config: NetworkConfig, batch: int, window: int, repeats: int, threads: int, rng: np.random.Generator,
                  compiled: bool = False) -> dict:
-    """Wall time of each phase of one :class:`sspinn.training.Trainer` step (median over
+    """Wall time of each phase of one :class:`sspinn.estimator.training.Trainer` step (median over
     ``repeats`` steps after one warm-up; CPU, so every phase has finished when the clock is
     read): window draw + :func:`make_batch` + input noise (data), the LSTM and head (forward),
     decoding + every physics loss (physics), ``loss.backward()`` (backward), gradient clipping +
     Adam (optimizer). Synthetic recordings without ZUPT speeds (L_FS off), as in
     :func:`bench_training`; the losses of the network's ground contact (``config.grf``). ``compiled``: the physics through ``torch.compile``
-    (:class:`~sspinn.training.PhysicsTerms`); the warm-up step's wall time, which includes the
+    (:class:`~sspinn.estimator.training.PhysicsTerms`); the warm-up step's wall time, which includes the
     compilation, is reported as ``first_step_s``."""
     torch.set_num_threads(threads)
     data = prepare([fake_recording(window * 8, rng) for _ in range(4)], SEGMENTS, zupt=False, grf=config.grf)

@@ -13,8 +13,8 @@ from gymnasium.vector.utils import batch_space
 
 from envs import task
 from envs.config import CONTROL_DT, WalkerConfig, WalkerParameters
-from sspinn.conventions import N_Q, N_TAU
-from sspinn.simulation import step_torch
+from sspinn.model.conventions import N_Q, N_TAU
+from sspinn.model.simulation import step_torch
 
 
 class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
@@ -25,7 +25,7 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
     :data:`envs.task.OBSERVATION_NAMES`), reward, termination, truncation, strength, passive joint
     moments, initial-state distribution and physics step (``substeps`` × semi-implicit Euler at
     ``0.01 s / substeps`` with the forward-simulation contact) — computed by the *same* functions of
-    :mod:`envs.task`; the physics is :func:`sspinn.simulation.step_torch` (generated array code),
+    :mod:`envs.task`; the physics is :func:`sspinn.model.simulation.step_torch` (generated array code),
     called once per substep because the passive joint moments are re-evaluated at the start of every
     substep, exactly as the single environment's compiled stepper does. From the same state and
     action both environments agree to round-off in float64 (``tests/test_env.py``).
@@ -149,7 +149,7 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         return q, u, speeds
 
     def _contact(self, q: torch.Tensor, u: torch.Tensor) -> torch.Tensor:
-        from sspinn import dynamics
+        from sspinn.model import dynamics
 
         return dynamics.contact_forces(q, u, self._p, self._c)[0]
 

@@ -23,10 +23,10 @@ from typing import Any, Final
 import numpy as np
 
 from envs import task
-from sspinn.body import BodyParameters
-from sspinn.contact import ContactParameters
-from sspinn.passive import is_real
-from sspinn.simulation import METHODS
+from sspinn.model.body import BodyParameters
+from sspinn.model.contact import ContactParameters
+from sspinn.model.passive import is_real
+from sspinn.model.simulation import METHODS
 from sspinn.yaml_config import config_from_mapping
 
 #: Control interval, s (fixed: 100 Hz). The physics defaults below are justified in the docstring
@@ -34,7 +34,7 @@ from sspinn.yaml_config import config_from_mapping
 CONTROL_DT: Final[float] = 0.01
 #: Default physics substeps per control interval.
 SUBSTEPS: Final[int] = 50
-#: Default integrator (one of :data:`sspinn.simulation.METHODS`).
+#: Default integrator (one of :data:`sspinn.model.simulation.METHODS`).
 METHOD: Final[str] = "semi_implicit_euler"
 #: Default slip velocity of the forward-simulation friction law, m/s.
 SLIP_VELOCITY: Final[float] = 0.2
@@ -55,7 +55,7 @@ class WalkerConfig:
     """Task and physics arguments of the sagittal walker environments (single and batched).
 
     Validated in ``__post_init__``: an invalid value raises ``ValueError``
-    (``sspinn.body.ParameterError`` is a subclass) naming the field and its units. Mappings and
+    (``sspinn.model.body.ParameterError`` is a subclass) naming the field and its units. Mappings and
     lists given as field values are copied (a dict stays a dict, a list becomes a tuple); treat them
     as read-only. Change a configuration with :func:`dataclasses.replace` (validated again).
 
@@ -71,7 +71,7 @@ class WalkerConfig:
     Attributes:
         height: body height, m (Winter scaling; 0.5–2.5). Default 1.75.
         mass: body mass, kg (10–300). Default 70.
-        body: a :class:`~sspinn.body.BodyParameters`, or a mapping for
+        body: a :class:`~sspinn.model.body.BodyParameters`, or a mapping for
             ``BodyParameters.from_dict`` (height, mass, optional segment overrides); then
             ``height`` and ``mass`` must keep their defaults. None: scaled from height and mass.
         target_speed: m/s, fixed, or a (low, high) range sampled uniformly per episode. Default 1.25.
@@ -85,7 +85,7 @@ class WalkerConfig:
             this fraction of the standing hip height (m). In (0, 1); default 0.6.
         max_tilt: |pelvis_tilt| limit, rad (trunk lean); beyond it the episode terminates. Default 1.
         joint_range: soft-limit ranges of the passive joint moments, rad, {"hip": (lo, hi), ...};
-            missing types (and None) take :data:`sspinn.passive.DEFAULT_JOINT_RANGE`.
+            missing types (and None) take :data:`sspinn.model.passive.DEFAULT_JOINT_RANGE`.
         joint_limit_stiffness: soft-limit stiffness, N·m/rad² (≥ 0). Default 10⁴.
         joint_damping: viscous joint damping, N·m·s/rad (≥ 0). Default 1.
         reset_noise_scale: half-width of the uniform initial-state noise, m, rad, m/s or rad/s
@@ -95,7 +95,7 @@ class WalkerConfig:
         method: integrator, "semi_implicit_euler" (default) or "rk4".
         slip_velocity: friction regularisation v_s of the forward-simulation contact, m/s (> 0).
             Default 0.2.
-        contact: :class:`~sspinn.contact.ContactParameters` (stiffness, damping, μ, ...; its slip
+        contact: :class:`~sspinn.model.contact.ContactParameters` (stiffness, damping, μ, ...; its slip
             velocity is replaced by ``slip_velocity``); None → defaults.
     """
 
@@ -202,7 +202,7 @@ class WalkerConfig:
     tau_max = _read_only("_tau_max", "Maximal actuator torque per joint, N·m, (6,) in joint order (read-only array).")
     passive_parameters = _read_only(
         "_passive",
-        "Packed passive-moment parameters (14,) of :func:`sspinn.passive.passive_parameters`: [lower (6, rad), "
+        "Packed passive-moment parameters (14,) of :func:`sspinn.model.passive.passive_parameters`: [lower (6, rad), "
         "upper (6, rad), stiffness (N·m/rad²), damping (N·m·s/rad)] (read-only array).",
     )
     target_range = _read_only("_target_range", "(low, high) target speed, m/s (low == high for a fixed speed).")
@@ -223,13 +223,13 @@ class WalkerParameters:
     _config: WalkerConfig
 
     config = _read_only("_config", "The validated task and physics configuration (a frozen :class:`WalkerConfig`).")
-    body = _read_only("_config.body_parameters", "Body (segment) parameters, :class:`sspinn.body.BodyParameters`.")
+    body = _read_only("_config.body_parameters", "Body (segment) parameters, :class:`sspinn.model.body.BodyParameters`.")
     contact = _read_only(
-        "_config.contact_parameters", "Forward-simulation contact parameters, :class:`sspinn.contact.ContactParameters`."
+        "_config.contact_parameters", "Forward-simulation contact parameters, :class:`sspinn.model.contact.ContactParameters`."
     )
     substeps = _read_only("_config.substeps", "Physics substeps per control interval.")
     physics_dt = _read_only("_config.physics_dt", "Physics substep, s (= ``dt / substeps``).")
-    method = _read_only("_config.method", "Integrator name, one of :data:`sspinn.simulation.METHODS`.")
+    method = _read_only("_config.method", "Integrator name, one of :data:`sspinn.model.simulation.METHODS`.")
     standing_height = _read_only(
         "_config.standing_height", "Hip height of the upright starting pose, m (falls are measured against it)."
     )
@@ -241,12 +241,12 @@ class WalkerParameters:
 
     @property
     def body_vector(self) -> np.ndarray:
-        """Packed body parameters (41,), the ``p`` of :mod:`sspinn.simulation` and :mod:`sspinn.dynamics`."""
+        """Packed body parameters (41,), the ``p`` of :mod:`sspinn.model.simulation` and :mod:`sspinn.model.dynamics`."""
         return self.body.vector()
 
     @property
     def contact_vector(self) -> np.ndarray:
-        """Packed contact parameters (7,), the ``c`` of :mod:`sspinn.simulation` and :mod:`sspinn.dynamics`."""
+        """Packed contact parameters (7,), the ``c`` of :mod:`sspinn.model.simulation` and :mod:`sspinn.model.dynamics`."""
         return self.contact.vector()
 
     @property
@@ -257,12 +257,12 @@ class WalkerParameters:
     @property
     def passive_parameters(self) -> np.ndarray:
         """Packed passive joint-moment parameters (14,): [lower (6, rad), upper (6, rad), stiffness
-        (N·m/rad²), damping (N·m·s/rad)], the ``passive`` of :func:`sspinn.simulation.advance`."""
+        (N·m/rad²), damping (N·m·s/rad)], the ``passive`` of :func:`sspinn.model.simulation.advance`."""
         return self._config.passive_parameters.copy()
 
     def passive_torque(self, angles: np.ndarray, rates: np.ndarray) -> np.ndarray:
         """Passive joint moments (..., 6) in N·m at joint angles (..., 6, rad) and rates (..., 6,
-        rad/s), as the environment adds them to the actuator torques (:func:`sspinn.passive.passive_torque`)."""
+        rad/s), as the environment adds them to the actuator torques (:func:`sspinn.model.passive.passive_torque`)."""
         p = self._config.passive_parameters
         return task.passive_torque(np.asarray(angles), np.asarray(rates), p[:6], p[6:12], p[12], p[13])
 

@@ -3,14 +3,14 @@
 pymunk is used **only for drawing**: every segment is a kinematic ``pymunk.Body`` carrying
 ``pymunk.Segment`` (and, for the head, ``pymunk.Circle``) shapes in the segment frame; before each
 frame the bodies are placed at the segment origins and global angles computed from the state with the
-generated kinematics (:func:`sspinn.kinematics.point_kinematics`), and ``Space.debug_draw`` paints
+generated kinematics (:func:`sspinn.model.kinematics.point_kinematics`), and ``Space.debug_draw`` paints
 them through ``pymunk.pygame_util.DrawOptions`` on an off-screen ``pygame.Surface``. The space is never
 stepped; the physics is sspinn's.
 
 World → screen: x forward, y up, ``pixels_per_metre`` pixels per metre; the camera follows the hip
 horizontally and keeps the ground near the bottom edge (a ``pymunk.Transform`` with a y flip, so no
 global ``positive_y_is_up`` switch is touched). Right leg red, left leg blue (as
-:mod:`sspinn.plotting`), ground reaction forces as arrows at the contact points (right orange, left
+:mod:`sspinn.model.drawing`), ground reaction forces as arrows at the contact points (right orange, left
 green; ``grf_metres_per_bw`` metres per body weight), ground ticks every 0.5 m so forward motion is visible.
 
 ``human`` mode shows the frame in a pygame window; without ``DISPLAY``/``WAYLAND_DISPLAY`` the SDL
@@ -27,10 +27,10 @@ from typing import Any
 
 import numpy as np
 
-from sspinn import dynamics, kinematics
-from sspinn.body import BodyParameters
-from sspinn.contact import ContactParameters
-from sspinn.conventions import SIDES
+from sspinn.model import dynamics, kinematics
+from sspinn.model.body import BodyParameters
+from sspinn.model.contact import ContactParameters
+from sspinn.model.conventions import SIDES
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")  # before the first pygame import
 

@@ -10,8 +10,8 @@ from gymnasium import spaces
 
 from envs import task
 from envs.config import CONTROL_DT, WalkerConfig, WalkerParameters
-from sspinn.conventions import N_Q, N_TAU
-from sspinn.simulation import METHODS, advance, contact_into
+from sspinn.model.conventions import N_Q, N_TAU
+from sspinn.model.simulation import METHODS, advance, contact_into
 
 
 class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
@@ -22,9 +22,9 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     each leg) must walk or run forward at a target speed. The equations of motion were derived once
     with SymPy (Kane's method) and are evaluated by generated numba code; the feet touch the ground
     through the smooth spring–damper and regularised-Coulomb friction model of
-    :mod:`sspinn.contact` (one contact point per foot that rolls from heel to toe with the foot
+    :mod:`sspinn.model.contact` (one contact point per foot that rolls from heel to toe with the foot
     angle). The layout follows Gymnasium's MuJoCo ``Walker2d-v5``, with SI units throughout
-    (conventions of :mod:`sspinn.conventions`: x forward, y up, angles counter-clockwise seen from
+    (conventions of :mod:`sspinn.model.conventions`: x forward, y up, angles counter-clockwise seen from
     the subject's right; hip flexion +, **knee flexion −**, ankle dorsiflexion +).
 
     Register name ``"sspinn/SagittalWalker-v0"`` (``import envs`` registers it; see
@@ -108,7 +108,7 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
 
     The sspinn model has no joint limits, and 3 N·m/kg applied to a 1 kg foot spins it at hundreds
     of rad/s within a few steps. The environment therefore adds a passive moment to every joint
-    (:func:`sspinn.passive.passive_torque`, as in the gait2d model family): quadratic soft limits
+    (:func:`sspinn.model.passive.passive_torque`, as in the gait2d model family): quadratic soft limits
     ``k·(max(lower − θ, 0)² − max(θ − upper, 0)²)`` with k = ``joint_limit_stiffness`` (10⁴ N·m/rad²;
     the full 210 N·m of a 70 kg body is balanced 0.145 rad beyond a limit) outside the ranges
     (rad) hip [−0.6, 2.0], knee [−2.4, 0.05], ankle [−0.9, 0.6] (``joint_range``), plus viscous
@@ -157,7 +157,7 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
       percentile 13.5 BW); beyond ≈6 BW the friction force chatters between substeps (bounded, no
       blow-up) until the impact is over.
     * Cost: ≈1.1–1.6 µs per model evaluation on the 2-core development machine (load-dependent),
-      i.e. 55–80 µs of physics per control step (:func:`sspinn.simulation.advance`); a whole ``step``
+      i.e. 55–80 µs of physics per control step (:func:`sspinn.model.simulation.advance`); a whole ``step``
       took ≈175 µs (5.7 k steps/s against 2.5 k for Walker2d-v5 in the same run, ``benchmarks/bench_env.py``).
 
     ``substeps``, ``method`` ("semi_implicit_euler" or "rk4") and ``slip_velocity`` can be changed;
@@ -215,7 +215,7 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     width, height_px       600, 400                     rendered image size, px
     ====================== ============================ ===============================================
 
-    Invalid arguments raise ``ValueError`` (``sspinn.body.ParameterError`` is a subclass) naming the
+    Invalid arguments raise ``ValueError`` (``sspinn.model.body.ParameterError`` is a subclass) naming the
     argument and the expected units; an unknown keyword is a ``TypeError`` listing the fields.
 
     ## Public model (for controllers)
@@ -224,10 +224,10 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     model-based controller the environment's exact step without reading private state:
 
     * ``config``: the :class:`~envs.config.WalkerConfig`.
-    * ``body`` (:class:`sspinn.body.BodyParameters`), ``contact``
-      (:class:`sspinn.contact.ContactParameters`, forward-simulation friction) and their packed
+    * ``body`` (:class:`sspinn.model.body.BodyParameters`), ``contact``
+      (:class:`sspinn.model.contact.ContactParameters`, forward-simulation friction) and their packed
       vectors ``body_vector`` (41,) and ``contact_vector`` (7,), the ``p`` and ``c`` arguments of
-      :mod:`sspinn.simulation` and :mod:`sspinn.dynamics`.
+      :mod:`sspinn.model.simulation` and :mod:`sspinn.model.dynamics`.
     * ``tau_max``: (6,) maximal actuator torque per joint, N·m (torque = clipped action × tau_max).
     * ``passive_parameters``: (14,) packed passive-moment parameters [lower (6, rad), upper (6, rad),
       stiffness (N·m/rad²), damping (N·m·s/rad)]; ``passive_torque(angles, rates)``: those moments
@@ -289,7 +289,7 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     # ------------------------------------------------------------------------------------------
     @property
     def state(self) -> tuple[np.ndarray, np.ndarray]:
-        """Copies of the coordinates q (9,) and speeds u (9,) (SI, :mod:`sspinn.conventions`)."""
+        """Copies of the coordinates q (9,) and speeds u (9,) (SI, :mod:`sspinn.model.conventions`)."""
         return self._q.copy(), self._u.copy()
 
     def set_state(self, q: np.ndarray, u: np.ndarray) -> None:
@@ -310,7 +310,7 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
         substeps), without touching the environment's own state, episode or random generator.
 
         Args:
-            q, u: coordinates (9,) and speeds (9,), SI units (:mod:`sspinn.conventions`), finite.
+            q, u: coordinates (9,) and speeds (9,), SI units (:mod:`sspinn.model.conventions`), finite.
             action: (6,) normalised torques; clipped to [−1, 1], non-finite values are a ``ValueError``.
 
         Returns:

@@ -12,7 +12,7 @@ arguments with the checking functions below.
 
 The passive joint moments (soft joint limits and damping, :func:`passive_torque`,
 :func:`passive_parameters` and their defaults) are physiology of the body model: they live in
-:mod:`sspinn.passive` and are re-exported here.
+:mod:`sspinn.model.passive` and are re-exported here.
 
 Units are SI (m, s, rad, N, N·m) except where stated: contact forces in the observation are in
 body weights (BW = m·g) and the actuator strength is in N·m per kg of body mass.
@@ -29,12 +29,12 @@ from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 
-from sspinn.body import BodyParameters, ParameterError
-from sspinn.contact import ContactParameters
-from sspinn.conventions import COORDINATES, GRF, JOINTS, N_GRF, N_Q, N_TAU
+from sspinn.model.body import BodyParameters, ParameterError
+from sspinn.model.contact import ContactParameters
+from sspinn.model.conventions import COORDINATES, GRF, JOINTS, N_GRF, N_Q, N_TAU
 
 # re-exported (see the module docstring); is_real is the shared real-number check
-from sspinn.passive import (
+from sspinn.model.passive import (
     DEFAULT_JOINT_DAMPING,
     DEFAULT_JOINT_RANGE,
     DEFAULT_LIMIT_STIFFNESS,

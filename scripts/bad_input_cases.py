@@ -40,8 +40,8 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from sspinn.conventions import SEGMENTS  # noqa: E402
-from sspinn.dataset import Dataset, Recording  # noqa: E402
+from sspinn.data.dataset import Dataset, Recording  # noqa: E402
+from sspinn.model.conventions import SEGMENTS  # noqa: E402
 from sspinn.testing import (  # noqa: E402
     OpenSenseEdit,
     axis_constant,
@@ -163,7 +163,7 @@ def main() -> None:
         return recording(edit_meta=edit)
 
     def nan_network(command: str, column: int = 5, value: float = float("nan")) -> Outcome:
-        from sspinn.network import SSPINNposeNet
+        from sspinn.estimator.network import SSPINNposeNet
 
         real = SSPINNposeNet.forward
 

@@ -23,8 +23,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from sspinn.dataset import Dataset  # noqa: E402
-from sspinn.imu_errors import IMUErrorModel  # noqa: E402
+from sspinn.data.dataset import Dataset  # noqa: E402
+from sspinn.data.sensor_noise import IMUErrorModel  # noqa: E402
 from sspinn.validation.semi_real_running import (  # noqa: E402
     DEFAULT_RUN_CUTOFF_HZ,
     default_hamner_dir,

@@ -16,7 +16,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from sspinn.plotting import save_figure
+from sspinn.model.drawing import save_figure
 from sspinn.validation.inverse_dynamics import (
     CONTACT_THRESHOLD_N,
     DEFAULT_CUTOFF_HZ,

@@ -1,4 +1,4 @@
-"""Validate the sagittal sensor calibration (:mod:`sspinn.sensor_calibration`) on synthetic 3D
+"""Validate the sagittal sensor calibration (:mod:`sspinn.imu.calibration`) on synthetic 3D
 sensors with random mountings (:mod:`sspinn.validation.sensor_mounting`).
 
 The gait is one predicted stride at 1.3 m/s (``tests/fixtures/predicted_walk_1.3.csv``); ``--solve``
@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sspinn.plotting import save_figure
+from sspinn.model.drawing import save_figure
 from sspinn.validation.sensor_mounting import Gait, OutOfPlane, mounting_trials, read_gait_csv, summary, write_gait_csv
 
 GAIT = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "predicted_walk_1.3.csv"

@@ -1,4 +1,4 @@
-"""Validate the 2D ZUPT Kalman filter (:mod:`sspinn.zupt`) against motion capture on real data
+"""Validate the 2D ZUPT Kalman filter (:mod:`sspinn.estimator.zupt`) against motion capture on real data
 (with :mod:`sspinn.validation.zupt_gaitmap`).
 
 Data: gaitmap's example recording (``../shared/data/gaitmap_foot_imu``): two foot IMUs (204.8 Hz,
@@ -25,7 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sspinn.plotting import save_figure
+from sspinn.estimator.zupt import SagittalZuptKalman
+from sspinn.model.drawing import save_figure
 from sspinn.validation.zupt_gaitmap import (
     FEET,
     GaitmapExample,
@@ -35,7 +36,6 @@ from sspinn.validation.zupt_gaitmap import (
     load_gaitmap_example,
     sagittal_from_gaitmap_frame,
 )
-from sspinn.zupt import SagittalZuptKalman
 
 MAX_TURN_DEG = 20.0
 DEFAULT_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "gaitmap_foot_imu"

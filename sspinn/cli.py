@@ -15,31 +15,20 @@ import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
 
-from sspinn.dataset import DataFormatError, Dataset, Recording
-from sspinn.errors import ArgumentParser, run_cli
+from sspinn.data.dataset import Dataset
+from sspinn.data.loading import open_recordings
+from sspinn.errors import ArgumentParser, UserError, run_cli
+from sspinn.estimator.inference import ImplausibleEstimateError, NonFiniteEstimateError
 from sspinn.yaml_config import add_config_flags, flag_overrides
 
-#: Fields of :class:`~sspinn.training.TrainConfig` that ``train`` and ``finetune`` take as flags.
+#: Fields of :class:`~sspinn.estimator.training.TrainConfig` that ``train`` and ``finetune`` take as flags.
 TRAIN_FLAGS = ("steps", "seed", "device", "time_limit_s")
 
-if TYPE_CHECKING:
-    from sspinn.inference import GaitEstimate
 
 
-def load_recordings(data: Path, split: str = "train", periods: int = 10, height: float = 1.75, mass: float = 70.0) -> list[Recording]:
-    """Recordings from a dataset folder (one split), an averaged-stride folder (repeated
-    ``periods`` times, the paper's circular padding) or a single recording CSV."""
-    if (data / "dataset.json").exists():
-        return Dataset.open(data).load(split)
-    if (data / "signals.csv").exists() and (data / "meta.json").exists():
-        from sspinn.readers import read_averaged_stride
-
-        return [read_averaged_stride(data, height=height, mass=mass, periods=periods)]
-    if data.suffix == ".csv":
-        return [Recording.load(data)]
-    raise DataFormatError(f"{data}: not a dataset folder (dataset.json), an averaged-stride folder (signals.csv + meta.json) or a recording .csv")
+class RunFolderError(UserError):
+    """The output folder holds a finished run, or is the source model's own folder."""
 
 
 def _bounded(kind: type, low: float, high: float, unit: str = "") -> Callable[[str], float]:
@@ -65,63 +54,64 @@ def _data_args(p: argparse.ArgumentParser) -> None:
 
 
 def _train(args: argparse.Namespace, command: str) -> int:
-    from sspinn.model_io import load_model
-    from sspinn.training import TrainConfig, Trainer, adaptation_config
+    from sspinn.estimator.sspinnpose import SSPINNpose, resolve_train_config
 
-    if command == "adapt":
-        trained = load_model(args.model)[2]
-        config = adaptation_config(trained, str(args.model), args.set, **flag_overrides(args))
-    else:
-        config = TrainConfig.from_yaml(args.config, settings=args.set, **flag_overrides(args))
-    if command == "finetune":
-        config.finetune = True
-    train = load_recordings(args.data, getattr(args, "split", "train"), args.periods, args.height, args.mass)
-    trainer = Trainer(config, args.out)
+    _check_run_folder(args, command)
+    recordings = open_recordings(args.data, getattr(args, "split", "train"), args.periods, args.height, args.mass)
     resume = args.resume or (args.auto_resume and (args.out / "checkpoint.pt").exists())
-    trainer.fit(train, resume=resume, init_from=None if resume else getattr(args, "model", None))
-    print(f"{'adapted' if command == 'adapt' else 'trained'} {trainer.step} steps → {args.out / 'model.pt'}")
-    if trainer.stopped_by == "time_limit":
+    if command == "train":
+        est = SSPINNpose(resolve_train_config(args.config, args.set, **flag_overrides(args))).fit(recordings, args.out, resume=resume)
+    elif command == "adapt":
+        est = SSPINNpose.load(args.model).adapt(recordings, args.out, resume=resume, settings=args.set, **flag_overrides(args))
+    else:
+        est = SSPINNpose.load(args.model)
+        est.config = resolve_train_config(args.config, args.set, **flag_overrides(args))
+        est.finetune(recordings, args.out, resume=resume)
+    print(f"{'adapted' if command == 'adapt' else 'trained'} {est.steps_} steps → {args.out / 'model.pt'}")
+    if est.stopped_by_ == "time_limit":
         print(
-            f"WARNING: stopped by the safety time limit ({config.time_limit_s:.0f} s) at step {trainer.step} of "
-            f"{config.steps}, not by the step count: the result depends on this machine's speed and load",
+            f"WARNING: stopped by the safety time limit ({est.config_.time_limit_s:.0f} s) at step {est.steps_} of "
+            f"{est.config_.steps}, not by the step count: the result depends on this machine's speed and load",
             file=sys.stderr,
         )
     return 0
 
 
-def _estimates(args: argparse.Namespace, recs: list[Recording]) -> list[GaitEstimate]:
-    """Estimates of every recording (all checked finite before anything is written); errors
-    name the model and the data."""
-    from sspinn.inference import ImplausibleEstimateError, NonFiniteEstimateError, estimate_recording
-    from sspinn.model_io import load_model
-
-    model, segments, _ = load_model(args.model)
-    try:
-        return [estimate_recording(model, r, segments) for r in recs]
-    except (NonFiniteEstimateError, ImplausibleEstimateError) as exc:
-        raise type(exc)(f"{args.model} on {args.data}, recording {exc}") from None
+def _check_run_folder(args: argparse.Namespace, command: str) -> None:
+    """A finished run is never replaced without ``--overwrite``; adapt and finetune never write
+    into the folder of the model they start from."""
+    out = args.out
+    model = getattr(args, "model", None)
+    if model is not None and out.resolve() == Path(model).resolve().parent:
+        raise RunFolderError(f"{out}: is the folder of the model {model} that {command} starts from; choose another --out")
+    if args.resume or args.auto_resume or getattr(args, "overwrite", False):
+        return
+    finished = [name for name in ("model.pt", "checkpoint.pt") if (out / name).exists()]
+    if finished:
+        raise RunFolderError(
+            f"{out}: holds a run ({', '.join(finished)}); continue it with --resume, replace it with --overwrite, "
+            "or choose another --out"
+        )
 
 
 def _evaluate(args: argparse.Namespace) -> int:
-    from sspinn.evaluation import EvaluationError, check_evaluable, write_report
-    from sspinn.model_io import trained_on
+    from sspinn.estimator.evaluation import EvaluationError, evaluate
+    from sspinn.estimator.sspinnpose import SSPINNpose
 
-    recs = load_recordings(args.data, args.split, args.periods, args.height, args.mass)
-    ests = _estimates(args, recs)
-    seen = [r.name for r in recs if r.name in (trained_on(args.model) or ())]
-    title = f"{args.model} on {args.data} ({args.split})"
-    if seen:  # transductive: say so wherever the figures go
-        title += (f" — the model's self-supervised training saw the IMU signals (never the labels) of {len(seen)} of "
-                  f"these {len(recs)} recordings: {', '.join(seen)}")
-        print(f"NOTE: {title.split(' — ', 1)[1]}")
+    recs = open_recordings(args.data, args.split, args.periods, args.height, args.mass)
+    reference = None
+    if args.split != "train" and (args.data / "dataset.json").exists():
+        dataset = Dataset.open(args.data)
+        if "train" in dataset.splits:
+            reference = dataset.load("train")
+    est = SSPINNpose.load(args.model)
     try:
-        check_evaluable(ests, recs, args.skip)
-        baseline = _trivial_predictor(args.data, args.split, recs)
-        result = write_report(ests, recs, args.out, title=title, skip=args.skip, baseline=baseline)
-    except EvaluationError as exc:
-        raise EvaluationError(f"{args.data} ({args.split} split), recording {exc}") from None
+        result = evaluate(est, recs, args.out, reference=reference, reference_name=f"the training split of {args.data}",
+                          title=f"{args.model} on {args.data} ({args.split})", skip=args.skip)
+    except (EvaluationError, NonFiniteEstimateError, ImplausibleEstimateError) as exc:
+        raise type(exc)(f"{args.model} on {args.data} ({args.split} split), recording {exc}") from None
     print(json.dumps(result["mean"], indent=2))
-    print(f"against the trivial predictors ({baseline.source}):")
+    print(f"against the trivial predictors ({result['baseline_source']}):")
     for program, c in result["by_program"].items():
         cells = [
             f"{key} {c['model'][key]:.3g} vs {c['baseline'][key]:.3g}"
@@ -136,33 +126,27 @@ def _evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _trivial_predictor(data: Path, split: str, evaluated: list[Recording]):
-    """The trivial predictor of the report: fitted on the dataset's labelled training split when
-    there is one (and it is not the evaluated split), else on the evaluated recordings (oracle)."""
-    from sspinn.baselines import TrivialPredictor
-
-    if split != "train" and (data / "dataset.json").exists() and "train" in Dataset.open(data).splits:
-        try:
-            return TrivialPredictor.fit(Dataset.open(data).load("train"), f"means of the training split of {data}")
-        except ValueError:
-            pass
-    return TrivialPredictor.fit(evaluated, "oracle: means of the evaluated recordings themselves")
-
-
 def _infer(args: argparse.Namespace) -> int:
-    recs = load_recordings(args.data, args.split, args.periods, args.height, args.mass)
-    estimates = _estimates(args, recs)
-    for est in estimates:
-        path = est.to_csv(args.out / f"{est.name}_estimate.csv")
-        print(f"{est.name}: {len(est.time)} samples → {path}")
+    from sspinn.estimator.sspinnpose import SSPINNpose
+
+    recs = open_recordings(args.data, args.split, args.periods, args.height, args.mass)
+    est = SSPINNpose.load(args.model)
+    try:
+        estimates = [est.predict(r) for r in recs]  # all checked before anything is written
+    except (NonFiniteEstimateError, ImplausibleEstimateError) as exc:
+        raise type(exc)(f"{args.model} on {args.data}, recording {exc}") from None
+    for estimate in estimates:
+        path = estimate.to_csv(args.out / f"{estimate.name}_estimate.csv")
+        print(f"{estimate.name}: {len(estimate.time)} samples → {path}")
     return 0
 
 
 def _export(args: argparse.Namespace) -> int:
-    from sspinn.model_io import export_streaming, load_model
+    from sspinn.estimator.sspinnpose import SSPINNpose
 
-    model, segments, _ = load_model(args.model)
-    path = export_streaming(model, args.out)
+    est = SSPINNpose.load(args.model)
+    path = est.export(args.out)
+    model, segments = est.network_, est.segments_
     cfg = model.config
     print(
         f"torch.export program of one streaming step (x ({model.n_inputs},) per sample, LSTM state "
@@ -178,7 +162,11 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _main(argv: list[str]) -> int:
-    from sspinn.training import ADAPT_LR, ADAPT_STEPS, TrainConfig  # its fields define the train/finetune/adapt flags
+    from sspinn.estimator.training import (  # its fields define the train/finetune/adapt flags
+        ADAPT_LR,
+        ADAPT_STEPS,
+        TrainConfig,
+    )
 
     parser = ArgumentParser(prog="sspinn", description="Sagittal gait dynamics from IMUs, self-supervised.",
                                      epilog="--debug anywhere shows the traceback of an error")
@@ -204,6 +192,7 @@ def _main(argv: list[str]) -> int:
         p.add_argument("--out", type=Path, required=True, help="run folder (checkpoints, TensorBoard, model.pt)")
         p.add_argument("--resume", action="store_true", help="continue from <out>/checkpoint.pt")
         p.add_argument("--auto-resume", action="store_true", help="continue from <out>/checkpoint.pt if it exists, else start")
+        p.add_argument("--overwrite", action="store_true", help="replace a run already in --out (its model and checkpoint)")
         # flags that override config fields: typed, checked and documented by TrainConfig itself
         add_config_flags(
             p, TrainConfig, TRAIN_FLAGS + (("lr",) if name == "adapt" else ()), flags={"time_limit_s": "--time-limit"},
@@ -235,14 +224,14 @@ def _main(argv: list[str]) -> int:
     ex.add_argument("--model", type=Path, required=True)
     ex.add_argument("--out", type=Path, required=True)
 
-    from sspinn import imu_import  # sspinn import: vendor IMU files + sensor map → calibrated recording
+    from sspinn.imu import pipeline as imu_import  # sspinn import: vendor IMU files + sensor map → calibrated recording
 
     imu_import.add_parser(sub, _bounded)
 
     args = parser.parse_args(argv)
     if args.command == "showcase":
-        from sspinn import showcase as demo_mod
-        from sspinn.body import BodyParameters
+        from sspinn.model import showcase as demo_mod
+        from sspinn.model.body import BodyParameters
 
         body = BodyParameters.from_yaml(args.body) if args.body else None
         demo_mod.main(args.out, body)

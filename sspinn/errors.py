@@ -3,7 +3,7 @@
 
 * :class:`UserError` — bad input the user can fix (a file, a field, a value). Its message is one
   line: what was given, where, what is wrong and what to do. Library code raises it (or a
-  subclass such as :class:`sspinn.dataset.DataFormatError`); it is a :class:`ValueError`, so
+  subclass such as :class:`sspinn.data.dataset.DataFormatError`); it is a :class:`ValueError`, so
   callers that catch ``ValueError`` keep working.
 * :func:`run_cli` — runs a ``main(argv) -> int`` so that a user error prints one line on stderr
   and exits with status 2, Ctrl-C exits with 130, and anything else (a bug) prints one line with
@@ -36,7 +36,7 @@ class UserError(ValueError):
 
 class DataFormatError(UserError):
     """A recording or dataset file is malformed; the message names the file and what is wrong
-    (re-exported by :mod:`sspinn.dataset`, where the format is defined)."""
+    (re-exported by :mod:`sspinn.data.dataset`, where the format is defined)."""
 
 
 #: Exceptions from the operating system that are about the user's paths, not bugs.

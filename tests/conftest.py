@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sspinn.body import BodyParameters, IMUPlacement
-from sspinn.contact import ContactParameters
+from sspinn.model.body import BodyParameters, IMUPlacement
+from sspinn.model.contact import ContactParameters
 
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
@@ -45,7 +45,7 @@ def shared_data(name: str) -> Path:
 def tiny_run(tmp_path_factory):
     """A tiny dataset, a tiny training config and a finished 4-step run: (root, data folder,
     config path, training recordings, run folder); see :func:`sspinn.testing.tiny_run`."""
-    from sspinn.dataset import Dataset
+    from sspinn.data.dataset import Dataset
     from sspinn.testing import tiny_run
 
     root = tmp_path_factory.mktemp("tiny_run")

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import torch
 
-from sspinn import dynamics, kinematics, simulation
-from sspinn._generated import model_numba
+from sspinn.model import dynamics, kinematics, simulation
+from sspinn.model._generated import model_numba
 from sspinn.testing import random_inputs
 
 

@@ -1,4 +1,4 @@
-"""Trivial predictors (sspinn/baselines.py) and the report's comparison with them."""
+"""Trivial predictors (sspinn/estimator/trivial_predictors.py) and the report's comparison with them."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sspinn.baselines import ALL, TrivialPredictor, program_of
-from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS, SEGMENTS
-from sspinn.dataset import Labels, Recording
-from sspinn.evaluation import compare_with_baseline, compute_metrics, speed_tracking_error, write_report
+from sspinn.data.dataset import Labels, Recording
+from sspinn.estimator.evaluation import compare_with_baseline, compute_metrics, speed_tracking_error, write_report
+from sspinn.estimator.trivial_predictors import ALL, TrivialPredictor, program_of
+from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, JOINTS, SEGMENTS
 
 T = 300
 

@@ -45,7 +45,7 @@ def test_bench_env(tmp_path: Path, capsys: pytest.CaptureFixture[str], torch_thr
     _, results = run_quick("bench_env", tmp_path / "bench.json")
     out = capsys.readouterr().out
     for text in ("Single environment", "SagittalWalker-v0 (gymnasium.make)", "Walker2d-v5", "Batched torch environment",
-                 "≥ 100×", "sspinn.simulation.advance"):
+                 "≥ 100×", "sspinn.model.simulation.advance"):
         assert text in out
     assert results["single"]["rates"]["SagittalWalker-v0 (gymnasium.make)"] > 0
     assert all(r["env_steps_per_s"] > 0 for r in results["batched"].values())

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from sspinn.body import PARAMETERS, BodyParameters, IMUPlacement, JointLimits, ParameterError, Segment
-from sspinn.contact import ContactParameters
+from sspinn.model.body import PARAMETERS, BodyParameters, IMUPlacement, JointLimits, ParameterError, Segment
+from sspinn.model.contact import ContactParameters
 
 
 def test_reference_gait2d_parameterisation():

@@ -12,11 +12,11 @@ import torch
 import yaml
 
 from sspinn.cli import main
-from sspinn.dataset import Dataset
-from sspinn.inference import StreamingEstimator, estimate_recording
-from sspinn.model_io import load_model, run_exported, trained_on
+from sspinn.data.dataset import Dataset
+from sspinn.estimator.inference import StreamingEstimator, estimate_recording
+from sspinn.estimator.model_store import load_model, run_exported, trained_on
+from sspinn.estimator.training import ADAPT_LR, NonFiniteLossError, TrainConfig, Trainer, adaptation_config
 from sspinn.testing import make_recording
-from sspinn.training import ADAPT_LR, NonFiniteLossError, TrainConfig, Trainer, adaptation_config
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +56,7 @@ def test_train_resume_evaluate_infer_export(tiny):
     assert header[:3] == ["time", "pelvis_tx", "pelvis_ty"] and "grf_y_l" in header and "tau_ankle_l" in header
     assert main(["export", "--model", str(run / "model.pt"), "--out", str(root / "model.pt2")]) == 0
     exported = torch.export.load(str(root / "model.pt2")).module()
-    model, segments, _ = load_model(run / "model.pt")
+    model = load_model(run / "model.pt").network
     x = torch.randn(3, 20, model.n_inputs)  # another batch size than the export's example
     torch.testing.assert_close(run_exported(exported, x, model.config.layers, model.config.hidden), model(x)[0])
     assert main(["finetune", "--config", str(cfg), "--model", str(run / "model.pt"), "--data", str(data), "--out", str(root / "ft")]) == 0
@@ -71,21 +71,21 @@ def test_adapt_continues_a_model_on_the_unlabeled_test_split(tiny, capsys):
     trained = root / "adapt_base"
     assert main(["train", "--config", str(cfg), "--data", str(data), "--out", str(trained),
                  "--set", "weights_after_starts={foot_speed: 0}"]) == 0
-    config = adaptation_config(load_model(trained / "model.pt")[2], "m", steps=3)
+    config = adaptation_config(load_model(trained / "model.pt").config, "m", steps=3)
     assert (config.steps, config.lr, config.lr_schedule, config.starts) == (3, ADAPT_LR, "constant", 1)
     assert config.weights.foot_speed == 0 and config.weights_after_starts == {} and config.window == 32
-    assert config.input_noise == 0 and load_model(trained / "model.pt")[2]["input_noise"] > 0
+    assert config.input_noise == 0 and load_model(trained / "model.pt").config["input_noise"] > 0
     out = root / "adapted"
     assert main(["adapt", "--model", str(trained / "model.pt"), "--data", str(data), "--out", str(out), "--steps", "3"]) == 0
     state = torch.load(out / "checkpoint.pt", weights_only=False)
     assert state["step"] == 3 and state["recordings"] == ["c"]
-    base = load_model(trained / "model.pt")[0].state_dict()
-    assert any(not torch.equal(a, b) for a, b in zip(base.values(), load_model(out / "model.pt")[0].state_dict().values()))
+    base = load_model(trained / "model.pt").network.state_dict()
+    assert any(not torch.equal(a, b) for a, b in zip(base.values(), load_model(out / "model.pt").network.state_dict().values()))
     test = Dataset.open(data).load("test")
     unlabeled = root / "unlabeled"
     Dataset.write(unlabeled, {"test": [dataclasses.replace(r, labels=None) for r in test]})
     assert main(["adapt", "--model", str(trained / "model.pt"), "--data", str(unlabeled), "--out", str(root / "adapted2"), "--steps", "3"]) == 0
-    for a, b in zip(load_model(out / "model.pt")[0].state_dict().values(), load_model(root / "adapted2" / "model.pt")[0].state_dict().values()):
+    for a, b in zip(load_model(out / "model.pt").network.state_dict().values(), load_model(root / "adapted2" / "model.pt").network.state_dict().values()):
         torch.testing.assert_close(a, b)
     assert trained_on(trained / "model.pt") == ("a", "b") and trained_on(out / "model.pt") == ("a", "b", "c")
     capsys.readouterr()
@@ -134,7 +134,7 @@ def test_nan_guard_names_the_windows(tiny, monkeypatch):
     root, data, cfg = tiny
     train = Dataset.open(data).load("train")
     trainer = Trainer(TrainConfig.from_yaml(cfg), root / "nan")
-    import sspinn.training as tr
+    import sspinn.estimator.training as tr
 
     real = tr.decode
 
@@ -160,7 +160,8 @@ def test_bad_config_and_data_errors(tiny, tmp_path, capsys):
 
 def test_streaming_matches_whole_sequence(tiny):
     root, data, cfg = tiny
-    model, segments, _ = load_model(root / "run" / "model.pt")
+    stored = load_model(root / "run" / "model.pt")
+    model, segments = stored.network, stored.segments
     rec = Dataset.open(data).load("test")[0]
     whole = estimate_recording(model, rec, segments)
     stream = StreamingEstimator(model, segments, rec.height, rec.mass, rec.placement.vector())
@@ -184,7 +185,8 @@ def test_a_direct_grf_network_with_imu_noise_trains_infers_streams_and_exports(t
     direct_cfg.write_text(yaml.safe_dump(config))
     run = root / "direct"
     assert main(["train", "--config", str(direct_cfg), "--data", str(data), "--out", str(run)]) == 0
-    model, segments, saved = load_model(run / "model.pt")
+    stored = load_model(run / "model.pt")
+    model, segments, saved = stored.network, stored.segments, stored.config
     assert model.config.grf == "direct" and model.head[-1].out_features == 36
     assert saved["imu_noise"] == config["train"]["imu_noise"]
     state = torch.load(run / "model.pt", weights_only=False)
@@ -206,15 +208,15 @@ def test_a_direct_grf_network_with_imu_noise_trains_infers_streams_and_exports(t
 
 
 def test_a_bidirectional_network_is_not_exported_as_a_streaming_step() -> None:
-    from sspinn.model_io import StreamingStep
-    from sspinn.network import NetworkConfig, SSPINNposeNet
+    from sspinn.estimator.model_store import StreamingStep
+    from sspinn.estimator.network import NetworkConfig, SSPINNposeNet
 
     with pytest.raises(ValueError, match="only unidirectional ones stream"):
         StreamingStep(SSPINNposeNet(10, NetworkConfig(hidden=8, layers=1, dense=8, bidirectional=True)))
 
 
 def test_cosine_learning_rate_schedule() -> None:
-    from sspinn.training import TrainConfig
+    from sspinn.estimator.training import TrainConfig
 
     cfg = TrainConfig(steps=100, lr=1e-3, lr_schedule="cosine", lr_final=0.1)
     assert cfg.lr_at(0) == pytest.approx(1e-3) and cfg.lr_at(100) == pytest.approx(1e-4)
@@ -327,7 +329,7 @@ def test_compiled_physics_trains_like_the_eager_physics(tiny):
     import torch._dynamo
     from torch._dynamo.utils import counters
 
-    from sspinn.training import CompileWarning
+    from sspinn.estimator.training import CompileWarning
 
     root, data, cfg = tiny
     train = Dataset.open(data).load("train")
@@ -352,8 +354,8 @@ def test_compiled_physics_trains_like_the_eager_physics(tiny):
 
 
 def test_a_failed_compile_falls_back_to_the_eager_physics(tiny, monkeypatch):
-    from sspinn import training
-    from sspinn.training import CompileWarning
+    from sspinn.estimator import training
+    from sspinn.estimator.training import CompileWarning
 
     def broken(fn, **kwargs):
         def call(*args):

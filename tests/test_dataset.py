@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from sspinn.conventions import GRAVITY, SEGMENTS
-from sspinn.dataset import DataFormatError, Dataset, Recording
-from sspinn.readers import read_averaged_stride, read_csv_recording
+from sspinn.data.csv_readers import read_averaged_stride, read_csv_recording
+from sspinn.data.dataset import DataFormatError, Dataset, Recording
+from sspinn.model.conventions import GRAVITY, SEGMENTS
 from sspinn.testing import make_recording
 from tests.conftest import shared_data
 
@@ -109,7 +109,7 @@ def test_csv_reader_converts_units_and_resamples(tmp_path):
     fs = 200.0
     t = np.arange(400) / fs
     path = tmp_path / "raw.csv"
-    # accelerations that vary a little (a constant channel is a dead sensor, see sspinn.plausibility)
+    # accelerations that vary a little (a constant channel is a dead sensor, see sspinn.data.plausibility)
     cols = {"ax": 0.1 + 0.01 * np.sin(3 * t), "ay": 1.0 + 0.01 * np.cos(t), "gz": 57.29577951308232 * np.sin(t)}
     np.savetxt(path, np.column_stack(list(cols.values())), delimiter=",", header="ax,ay,gz", comments="")
     rec = read_csv_recording(path, {"foot_r_acc_x": "ax", "foot_r_acc_y": "ay", "foot_r_gyr_z": "gz"}, fs, 1.75, 70, gyro_unit="deg/s", acc_unit="g")

@@ -10,7 +10,7 @@ import numpy as np
 import torch
 import yaml
 
-from sspinn.dataset import Dataset
+from sspinn.data.dataset import Dataset
 from sspinn.testing import make_recording
 
 

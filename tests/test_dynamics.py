@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 import torch
 
-from sspinn import dynamics, kinematics, passive, simulation
-from sspinn.contact import ContactParameters
-from sspinn.conventions import GRAVITY, index
-from sspinn.dynamics import StateError
+from sspinn.model import dynamics, kinematics, passive, simulation
+from sspinn.model.contact import ContactParameters
+from sspinn.model.conventions import GRAVITY, index
+from sspinn.model.dynamics import StateError
 from sspinn.testing import on_ground, random_inputs
 
 
@@ -100,7 +100,7 @@ def test_integrators_converge_at_their_order(body, method, order):
 @pytest.mark.parametrize("method", simulation.METHODS)
 def test_numba_stepper_matches_the_generic_integrators(body, method):
     """The in-place numba stepper (simulate → advance) against the generic integrator definitions of
-    sspinn.integrators (through step_torch, float64): 0.1 s with contact (≈1 BW peak), random torques,
+    sspinn.model.integrators (through step_torch, float64): 0.1 s with contact (≈1 BW peak), random torques,
     and with passive joint moments (evaluated at the start of every substep on both sides)."""
     contact = ContactParameters(slip_velocity=0.2)
     q0 = on_ground(np.array([0, 0, 0.05, 0.2, -0.3, 0.1, -0.1, -0.2, 0.05]), body, clearance=0.002)

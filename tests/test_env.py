@@ -14,8 +14,8 @@ import envs
 from envs import task
 from envs.batched import BatchedSagittalWalker
 from envs.sagittal_walker import SagittalWalkerEnv
-from sspinn import dynamics, simulation
-from sspinn.conventions import COORDINATES, GRF, JOINTS
+from sspinn.model import dynamics, simulation
+from sspinn.model.conventions import COORDINATES, GRF, JOINTS
 
 #: Gymnasium warns about unbounded Box spaces (as for its own MuJoCo environments); nothing else
 #: may be reported.
@@ -163,7 +163,7 @@ def test_fall_terminates_and_alive_bonus_stops(env: SagittalWalkerEnv) -> None:
 
 
 def test_env_step_is_sspinn_step_with_the_passive_moments() -> None:
-    """One env step = sspinn.simulation.step over the control interval with the env's torques and
+    """One env step = sspinn.model.simulation.step over the control interval with the env's torques and
     passive parameters (the stepper itself is checked against the torch integrators in test_dynamics)."""
     e = SagittalWalkerEnv()
     e.reset(seed=4)

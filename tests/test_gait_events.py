@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sspinn.baselines import GRFProfilePredictor, TrivialPredictor
-from sspinn.conventions import GRAVITY, SEGMENTS
-from sspinn.dataset import Labels, Recording
-from sspinn.gait_events import contact_mask, detect_events, event_timing
+from sspinn.data.dataset import Labels, Recording
+from sspinn.data.gait_events import contact_mask, detect_events, event_timing
+from sspinn.estimator.trivial_predictors import GRFProfilePredictor, TrivialPredictor
+from sspinn.model.conventions import GRAVITY, SEGMENTS
 
 RATE = 100.0
 
@@ -76,7 +76,7 @@ def test_grf_profile_follows_the_measured_strides() -> None:
 
 
 def test_heel_strike_timing_of_an_estimate() -> None:
-    from sspinn.evaluation import heel_strike_timing
+    from sspinn.estimator.evaluation import heel_strike_timing
 
     rec = grf_recording("a", 100, 70.0, n=1000)
     late = np.roll(rec.labels.grf, 4, axis=0)  # every event 40 ms late

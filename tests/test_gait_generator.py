@@ -18,8 +18,8 @@ from predictive.generator.gait_generator import (
     generate,
     load_generator,
 )
-from sspinn import dynamics
-from sspinn.body import BodyParameters
+from sspinn.model import dynamics
+from sspinn.model.body import BodyParameters
 
 
 def test_fourier_basis_derivatives_match_finite_differences() -> None:

@@ -1,4 +1,4 @@
-"""Tests of the IMU error model (sspinn.imu_errors): exactness when off, each term alone with its
+"""Tests of the IMU error model (sspinn.data.sensor_noise): exactness when off, each term alone with its
 expected effect and statistics, the soft-tissue physics against finite differences, determinism
 and parameter validation."""
 
@@ -10,9 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
-from sspinn.body import BodyParameters, IMUPlacement, ParameterError
-from sspinn.conventions import N_SEGMENTS, SEGMENTS
-from sspinn.imu_errors import (
+from sspinn.data.sensor_noise import (
     IMUErrorModel,
     band_limited_process,
     bias_drift,
@@ -20,7 +18,9 @@ from sspinn.imu_errors import (
     measure_imu,
     sample_true_placement,
 )
-from sspinn.kinematics import imu_kinematics, segment_kinematics, virtual_imu
+from sspinn.model.body import BodyParameters, IMUPlacement, ParameterError
+from sspinn.model.conventions import N_SEGMENTS, SEGMENTS
+from sspinn.model.kinematics import imu_kinematics, segment_kinematics, virtual_imu
 
 NONE = IMUErrorModel.none()
 

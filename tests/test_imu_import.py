@@ -1,5 +1,5 @@
 """``sspinn import``: synthetic Xsens files with random mountings end to end, one-line errors, and
-a 10 s excerpt of a real CMU trial (with GRF) that ``Dataset``, ``load_recordings`` and
+a 10 s excerpt of a real CMU trial (with GRF) that ``Dataset``, ``open_recordings`` and
 ``sspinn infer`` read unchanged; bad files (issue #13: a wrong sensor map, a missing sensor, a
 gap, a sensor mounted upside down, a constant axis), synthetic and edited copies of the real CMU
 OpenSense files, give one-line errors or warnings naming file and sensor."""
@@ -16,10 +16,11 @@ import numpy as np
 import pytest
 import yaml
 
-from sspinn import imu_import
-from sspinn.cli import load_recordings, main
-from sspinn.conventions import SEGMENTS
-from sspinn.dataset import Dataset, Recording
+from sspinn.cli import main
+from sspinn.data.dataset import Dataset, Recording
+from sspinn.data.loading import open_recordings
+from sspinn.imu import pipeline as imu_import
+from sspinn.model.conventions import SEGMENTS
 from sspinn.testing import (
     OpenSenseEdit,
     OpenSenseSensors,
@@ -134,7 +135,7 @@ def test_xsens_import_recovers_the_sagittal_signals(xsens_trial, tmp_path, capsy
     index = json.loads((out / "dataset.json").read_text())
     assert index["splits"] == {"train": ["walk"], "val": ["walk"], "test": ["walk"]}
     for split in ("train", "test"):
-        (again,) = load_recordings(out, split)
+        (again,) = open_recordings(out, split)
         np.testing.assert_allclose(again.imu, rec.imu)
     report = (out / "walk_calibration.md").read_text()
     assert "| 00B40003 | foot_r |" in report and (out / "walk_calibration.png").stat().st_size > 10_000
@@ -190,7 +191,7 @@ def test_cmu_excerpt_imports_and_is_read_unchanged(tmp_path, tiny_run, capsys) -
     lag = rec.provenance["grf_alignment"]["lag_s"]
     assert abs(lag) < 0.15 and rec.provenance["grf_alignment"]["convention"] == "t_reference = t_imu + lag_s"
     assert (out / "OpenSim_Sub01_CSBaseline_calibration.md").exists()
-    (again,) = load_recordings(out, "test")
+    (again,) = open_recordings(out, "test")
     np.testing.assert_allclose(again.imu, rec.imu)
     _, _, _, _, run = tiny_run
     assert main(["infer", "--model", str(run / "model.pt"), "--data", str(out), "--out", str(tmp_path / "inf")]) == 0

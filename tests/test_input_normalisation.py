@@ -9,13 +9,13 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from sspinn.body import IMUPlacement
-from sspinn.conventions import SEGMENTS
-from sspinn.inference import estimate_recording
-from sspinn.model_file import MODEL, load_torch_file
-from sspinn.model_io import MODEL_ENTRIES, load_model, load_weights, save_model
-from sspinn.network import UNSEEN_STD, NetworkConfig, SSPINNposeNet, feature_std_floor, input_features
+from sspinn.estimator.inference import estimate_recording
+from sspinn.estimator.model_store import MODEL_ENTRIES, load_model, load_weights, save_model
+from sspinn.estimator.network import UNSEEN_STD, NetworkConfig, SSPINNposeNet, feature_std_floor, input_features
+from sspinn.model.body import IMUPlacement
+from sspinn.model.conventions import SEGMENTS
 from sspinn.testing import walking_recording
+from sspinn.torch_files import MODEL, load_torch_file
 
 
 def test_constant_features_are_masked_and_small_stds_floored() -> None:
@@ -38,7 +38,8 @@ def test_old_model_files_get_the_mask_on_load(tmp_path) -> None:
     net.input_mean.copy_(torch.as_tensor(x.mean(0), dtype=torch.float32))
     net.input_std.copy_(std.clamp_min(1e-6))  # what files written before the mask hold
     path = save_model(net, tmp_path / "model.pt", SEGMENTS, {}, torch.ones(len(SEGMENTS), 3))
-    model, segments, _ = load_model(path)
+    stored = load_model(path)
+    model, segments = stored.network, stored.segments
     assert (model.input_std[3 * len(SEGMENTS):] >= 0.05).all()
     # fine-tuning reads the weights through load_weights: the same floor and mask
     fresh = SSPINNposeNet(x.shape[1], NetworkConfig(hidden=16, layers=1, dense=16))
@@ -73,5 +74,5 @@ def test_a_network_without_body_inputs_ignores_height_mass_and_placement(tmp_pat
         b, _ = net(torch.as_tensor(tall, dtype=torch.float32)[None])
     torch.testing.assert_close(a, b, atol=1e-6, rtol=0)
     path = save_model(net, tmp_path / "model.pt", SEGMENTS, {}, torch.ones(len(SEGMENTS), 3))
-    loaded, _, _ = load_model(path)
+    loaded = load_model(path).network
     assert not loaded.config.body_inputs and (loaded.input_std[-n_const:] == UNSEEN_STD).all()

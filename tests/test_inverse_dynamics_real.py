@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sspinn.data.opensim_files import OpenSimFormatError, read_opensim_header, read_opensim_table
 from sspinn.validation.inverse_dynamics import (
     Comparison,
     contact_fraction_for_load,
@@ -19,7 +20,6 @@ from sspinn.validation.inverse_dynamics import (
     csu_reference_replica,
     opensim_inverse_dynamics,
 )
-from sspinn.validation.opensim_files import OpenSimFormatError, read_opensim_header, read_opensim_table
 from tests.conftest import shared_data
 
 

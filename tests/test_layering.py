@@ -57,6 +57,109 @@ def test_package_imports_only_what_its_layer_allows(package: str) -> None:
     assert not violations, "layering broken:\n" + "\n".join(violations)
 
 
+#: the rooms of ``sspinn`` → the rooms each may import. Plumbing (the top-level modules other than
+#: ``cli``) imports only plumbing; the body model builds on plumbing; recordings on the model; real
+#: IMU import and the estimator on recordings, never on each other; ``validation`` and ``testing``
+#: on all of them; ``cli`` (and ``__init__``/``__main__``) on everything.
+PLUMBING = "plumbing"
+ROOM_ALLOWED: dict[str, set[str]] = {
+    PLUMBING: {PLUMBING},
+    "model": {PLUMBING, "model"},
+    "data": {PLUMBING, "model", "data"},
+    "imu": {PLUMBING, "model", "data", "imu"},
+    "estimator": {PLUMBING, "model", "data", "estimator"},
+    "validation": {PLUMBING, "model", "data", "imu", "estimator", "validation"},
+    "testing": {PLUMBING, "model", "data", "imu", "estimator", "testing"},
+    "top": {PLUMBING, "model", "data", "imu", "estimator", "testing", "validation", "top"},
+}
+TOP = {"__init__", "__main__", "cli"}
+
+
+def room_of_module(dotted: str) -> str | None:
+    """The room of an ``sspinn`` module (``sspinn.model.body`` → ``model``); ``None`` for the
+    package itself (``from sspinn import x`` is resolved per name by the caller)."""
+    parts = dotted.split(".")
+    if parts[0] != "sspinn" or len(parts) == 1:
+        return None
+    if parts[1] in ROOM_ALLOWED and parts[1] != PLUMBING:
+        return parts[1]
+    return "top" if parts[1] in TOP else PLUMBING
+
+
+def room_of_file(path: Path) -> str:
+    rel = path.relative_to(ROOT / "sspinn")
+    if len(rel.parts) > 1:
+        return rel.parts[0]
+    return "top" if rel.stem in TOP else PLUMBING
+
+
+def imported_sspinn_modules(path: Path) -> list[tuple[str, int]]:
+    """Every ``sspinn`` module imported in ``path`` (``from sspinn import a`` counts as ``sspinn.a``)."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            found += [(alias.name, node.lineno) for alias in node.names if alias.name.startswith("sspinn.")]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            if node.module == "sspinn":
+                found += [(f"sspinn.{alias.name}", node.lineno) for alias in node.names]
+            elif node.module.startswith("sspinn."):
+                found.append((node.module, node.lineno))
+    return found
+
+
+def test_sspinn_rooms_import_only_what_their_layer_allows() -> None:
+    violations = []
+    for path in _files("sspinn"):
+        room = room_of_file(path)
+        for module, line in imported_sspinn_modules(path):
+            target = room_of_module(module)
+            if target is not None and target not in ROOM_ALLOWED[room]:
+                violations.append(f"{path.relative_to(ROOT)}:{line} ({room}) imports {module} ({target})")
+    assert not violations, "room layering broken:\n" + "\n".join(violations)
+
+
+def test_sspinn_has_no_loose_modules() -> None:
+    """Every module of ``sspinn`` lives in a room, except the entry points and the plumbing."""
+    plumbing = {"errors", "yaml_config", "run_folder", "interrupt", "torch_files"}
+    loose = sorted(p.stem for p in (ROOT / "sspinn").glob("*.py") if p.stem not in TOP | plumbing)
+    assert not loose, f"modules outside a room: {loose}"
+
+
+def _import_graph(packages: tuple[str, ...]) -> dict[str, set[str]]:
+    """module → the project modules it imports at module level (function-level imports cannot loop
+    at import time and are how a loop is legitimately broken)."""
+    graph: dict[str, set[str]] = {}
+    for package in packages:
+        for path in _files(package):
+            rel = path.relative_to(ROOT).with_suffix("")
+            name = ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
+            deps = graph.setdefault(name, set())
+            for node in ast.parse(path.read_text(), filename=str(path)).body:
+                if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                    if node.module.split(".")[0] in PACKAGES:
+                        deps.add(node.module)
+                        deps.update(f"{node.module}.{a.name}" for a in node.names)
+                elif isinstance(node, ast.Import):
+                    deps.update(a.name for a in node.names if a.name.split(".")[0] in PACKAGES)
+    return {k: {d for d in v if d in graph and d != k} for k, v in graph.items()}
+
+
+def test_no_import_loops() -> None:
+    graph = _import_graph(PACKAGES)
+    loops = []
+    for start in graph:
+        stack, seen = [(start, [start])], set()
+        while stack:
+            node, path = stack.pop()
+            for dep in graph[node]:
+                if dep == start:
+                    loops.append(" → ".join(path + [start]))
+                elif dep not in seen:
+                    seen.add(dep)
+                    stack.append((dep, path + [dep]))
+    assert not loops, "import loops:\n" + "\n".join(sorted(set(loops))[:20])
+
+
 def test_the_checker_sees_imports_inside_functions(tmp_path: Path) -> None:
     source = tmp_path / "module.py"
     source.write_text("import numpy\n\ndef f():\n    from agents.train import train\n    import envs.task\n")

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 import torch
 
-from sspinn import dynamics, kinematics
-from sspinn.body import BodyParameters, IMUPlacement
-from sspinn.contact import ContactParameters
-from sspinn.conventions import GRAVITY, SEGMENTS
-from sspinn.losses import Batch, LossWeights, PhysicsLosses
-from sspinn.network import Estimate
+from sspinn.estimator.losses import Batch, LossWeights, PhysicsLosses
+from sspinn.estimator.network import Estimate
+from sspinn.model import dynamics, kinematics
+from sspinn.model.body import BodyParameters, IMUPlacement
+from sspinn.model.contact import ContactParameters
+from sspinn.model.conventions import GRAVITY, SEGMENTS
 
 UNIT = LossWeights.unit()
 DT = 0.01
@@ -245,7 +245,7 @@ def test_direct_grf_stance_band():
 
 
 def test_direct_grf_decoding_keeps_vertical_forces_positive():
-    from sspinn.network import NetworkConfig, decode, output_affine
+    from sspinn.estimator.network import NetworkConfig, decode, output_affine
 
     config = NetworkConfig(grf="direct")
     assert config.n_outputs == 36 and NetworkConfig().n_outputs == 46
@@ -265,7 +265,7 @@ def test_imu_noise_scales_weigh_small_signals_less():
     """σ = √(σ_abs² + (κ·std)²): a limb gyroscope (std 2.5 rad/s) keeps about its weight relative
     to its accelerometer's, the pelvis (std 0.45 rad/s, 3 m/s²) is no longer weighted as if its
     small signals were precise; bad settings are refused."""
-    from sspinn.losses import IMUNoise
+    from sspinn.estimator.losses import IMUNoise
 
     std = torch.tensor([[3.0, 10.0, 0.45], [12.0, 11.0, 2.5]], dtype=torch.float64)
     sigma = IMUNoise().scales(std)

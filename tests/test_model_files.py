@@ -13,10 +13,10 @@ import pytest
 import torch
 
 from sspinn.cli import main
-from sspinn.model_file import FORMAT_VERSION, ModelFileError, load_torch_file, save_torch_file
-from sspinn.model_io import load_model
+from sspinn.estimator.model_store import load_model
+from sspinn.estimator.training import TrainConfig, Trainer
 from sspinn.run_folder import RunFolderBusyError, RunLock, atomic_path
-from sspinn.training import TrainConfig, Trainer
+from sspinn.torch_files import FORMAT_VERSION, ModelFileError, load_torch_file, save_torch_file
 
 
 class _RunsCode:
@@ -87,7 +87,7 @@ def test_files_without_a_format_entry_still_load(tiny_run, tmp_path):
     assert state["format"] == "sspinn-model" and state["version"] == FORMAT_VERSION
     del state["format"], state["version"]
     torch.save(state, tmp_path / "old.pt")
-    model, segments, _ = load_model(tmp_path / "old.pt")
+    segments = load_model(tmp_path / "old.pt").segments
     assert segments == tuple(state["segments"])
 
 
@@ -183,7 +183,7 @@ def test_ctrl_c_then_resume_is_bit_identical_to_an_uninterrupted_run(tiny_run, t
     full = Trainer(config, tmp_path / "full")
     full.fit(train)
 
-    import sspinn.training as tr
+    import sspinn.estimator.training as tr
 
     real_batch, real_step = tr.make_batch, torch.optim.Adam.step
     calls = {"batch": 0, "step": 0}

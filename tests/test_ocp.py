@@ -196,7 +196,7 @@ def test_solution_on_a_sampling_grid_satisfies_the_dynamics_at_every_sample() ->
     at every sample with the solution's own accelerations (no resampling needed)."""
     import torch
 
-    from sspinn import dynamics
+    from sspinn.model import dynamics
 
     sol = solve_predictive(1.2, rate_hz=25.0)
     assert np.allclose(np.diff(sol.time), 1 / 25.0) and sol.duration == pytest.approx(len(sol.time) / 25.0)

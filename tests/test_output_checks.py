@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from sspinn.cli import main
-from sspinn.dataset import Dataset
-from sspinn.inference import ImplausibleEstimateError, NonFiniteEstimateError, estimate_recording
-from sspinn.model_io import load_model
-from sspinn.network import SSPINNposeNet
+from sspinn.data.dataset import Dataset
+from sspinn.estimator.inference import ImplausibleEstimateError, NonFiniteEstimateError, estimate_recording
+from sspinn.estimator.model_store import load_model
+from sspinn.estimator.network import SSPINNposeNet
 
 
 @pytest.fixture()
@@ -30,7 +30,8 @@ def nan_network(monkeypatch):
 
 def test_a_nan_estimate_is_an_error_naming_the_quantity_and_sample(tiny_run, nan_network):
     _, data, _, _, run = tiny_run
-    model, segments, _ = load_model(run / "model.pt")
+    stored = load_model(run / "model.pt")
+    model, segments = stored.network, stored.segments
     rec = Dataset.open(data).load("test")[0]
     with pytest.raises(NonFiniteEstimateError, match=r"c: the estimate's q is not finite from sample 30 on"):
         estimate_recording(model, rec, segments)
@@ -72,7 +73,8 @@ def test_metrics_without_a_label_group_are_null_not_nan(tiny_run, tmp_path):
 
 def test_a_saved_estimate_is_finite(tiny_run, tmp_path):
     _, data, _, _, run = tiny_run
-    model, segments, _ = load_model(run / "model.pt")
+    stored = load_model(run / "model.pt")
+    model, segments = stored.network, stored.segments
     est = estimate_recording(model, Dataset.open(data).load("test")[0], segments)
     est.grf[3, 1] = np.inf
     with pytest.raises(NonFiniteEstimateError, match="grf is not finite from sample 3"):
@@ -95,7 +97,8 @@ def test_a_physically_impossible_estimate_is_an_error(tiny_run, monkeypatch, tmp
         return raw, state
 
     monkeypatch.setattr(SSPINNposeNet, "forward", forward)
-    model, segments, _ = load_model(run / "model.pt")
+    stored = load_model(run / "model.pt")
+    model, segments = stored.network, stored.segments
     with pytest.raises(ImplausibleEstimateError, match=message):
         estimate_recording(model, Dataset.open(data).load("test")[0], segments)
     assert main(["infer", "--model", str(run / "model.pt"), "--data", str(data), "--out", str(tmp_path / "o")]) == 2

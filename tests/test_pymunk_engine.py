@@ -27,10 +27,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sspinn.body import BodyParameters
-from sspinn.conventions import SEGMENTS
-from sspinn.kinematics import point_index, point_kinematics, segment_kinematics
-from sspinn.simulation import simulate
+from sspinn.model.body import BodyParameters
+from sspinn.model.conventions import SEGMENTS
+from sspinn.model.kinematics import point_index, point_kinematics, segment_kinematics
+from sspinn.model.simulation import simulate
 from sspinn.validation.pymunk_engine import segment_states, simulate_pymunk
 
 DURATION = 1.0  # s

@@ -16,9 +16,9 @@ pytest.importorskip("hypothesis")  # in the dev extra
 from hypothesis import HealthCheck, example, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from sspinn.conventions import SEGMENTS  # noqa: E402
-from sspinn.dataset import DataFormatError, Recording  # noqa: E402
-from sspinn.readers import read_averaged_stride, read_csv_recording  # noqa: E402
+from sspinn.data.csv_readers import read_averaged_stride, read_csv_recording  # noqa: E402
+from sspinn.data.dataset import DataFormatError, Recording  # noqa: E402
+from sspinn.model.conventions import SEGMENTS  # noqa: E402
 from sspinn.testing import walking_recording  # noqa: E402
 
 #: 60 fixed examples per reader in the suite; SSPINN_FUZZ_EXAMPLES=5000 runs a longer random campaign.

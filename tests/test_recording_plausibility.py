@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sspinn.body import IMUPlacement
-from sspinn.conventions import SEGMENTS
-from sspinn.dataset import DataFormatError, Recording
+from sspinn.data.dataset import DataFormatError, Recording
+from sspinn.model.body import IMUPlacement
+from sspinn.model.conventions import SEGMENTS
 from sspinn.testing import edit_column, walking_recording
 
 

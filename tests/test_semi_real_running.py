@@ -11,12 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sspinn.baselines import program_of
 from sspinn.cli import main as sspinn_main
-from sspinn.conventions import COORDINATES, SEGMENTS, SIDES, index
-from sspinn.dataset import LABEL_COLUMNS, Dataset
-from sspinn.imu_errors import IMUErrorModel
-from sspinn.kinematics import point_index, point_kinematics
+from sspinn.data.dataset import LABEL_COLUMNS, Dataset
+from sspinn.data.sensor_noise import IMUErrorModel
+from sspinn.estimator.trivial_predictors import program_of
+from sspinn.model.conventions import COORDINATES, SEGMENTS, SIDES, index
+from sspinn.model.kinematics import point_index, point_kinematics
 from sspinn.validation.semi_real_running import (
     DATA_FOLDER,
     SemiRealRunning,

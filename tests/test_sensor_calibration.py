@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sspinn.conventions import SEGMENTS
-from sspinn.sensor_calibration import SensorCalibrationError, calibrate
-from sspinn.sensor_map import SensorAssignment, SensorMap, SensorMapError
+from sspinn.imu.calibration import SensorCalibrationError, calibrate
+from sspinn.imu.sensor_map import SensorAssignment, SensorMap, SensorMapError
+from sspinn.model.conventions import SEGMENTS
 from sspinn.validation.sensor_mounting import (
     OutOfPlane,
     calibration_errors,

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 import torch
 
-from sspinn.body import BodyParameters, IMUPlacement
-from sspinn.conventions import GRAVITY, SEGMENTS
-from sspinn.dataset import Recording
-from sspinn.inference import StreamingEstimator, estimate_recording
-from sspinn.network import NetworkConfig, SSPINNposeNet, decode, input_features, output_affine
-from sspinn.training import IMU_CONFIGURATIONS
+from sspinn.data.dataset import Recording
+from sspinn.estimator.inference import StreamingEstimator, estimate_recording
+from sspinn.estimator.network import NetworkConfig, SSPINNposeNet, decode, input_features, output_affine
+from sspinn.estimator.training import IMU_CONFIGURATIONS
+from sspinn.model.body import BodyParameters, IMUPlacement
+from sspinn.model.conventions import GRAVITY, SEGMENTS
 
 T = 240
 # SI units; q/u/tau as the brief asks (≤ 1e-4), qdd (scaled by 50 rad/s²) and GRF (N) looser.

@@ -19,9 +19,9 @@ from predictive.synth.pipeline import generate_dataset
 from predictive.synth.planning import plan_strides
 from predictive.synth.recording import residual_stats
 from predictive.synth.subjects import body_deviation, perturb_body, sample_subjects
-from sspinn.body import BodyParameters
-from sspinn.conventions import N_Q, SEGMENTS
-from sspinn.dataset import Dataset, Recording
+from sspinn.data.dataset import Dataset, Recording
+from sspinn.model.body import BodyParameters
+from sspinn.model.conventions import N_Q, SEGMENTS
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs" / "synth"
 
@@ -76,7 +76,7 @@ def test_labels_satisfy_the_equations_of_motion_after_a_round_trip(generated) ->
 
 def _sliding_power(rec: Recording) -> float:
     """Mean power of the labels' friction forces on their sliding contact points, BW·m/s."""
-    from sspinn import dynamics, kinematics
+    from sspinn.model import dynamics, kinematics
 
     lab, body = rec.labels, _true_body(rec)
     points = kinematics.point_kinematics(lab.q, lab.u, lab.qdd, dynamics.contact_fraction(lab.q), body.vector())

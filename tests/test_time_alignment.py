@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sspinn.body import BodyParameters, IMUPlacement
-from sspinn.conventions import SEGMENTS
-from sspinn.kinematics import virtual_imu
-from sspinn.time_alignment import AlignmentError, align_to_grf, normalized_xcorr, walking_direction_sign
+from sspinn.imu.time_alignment import AlignmentError, align_to_grf, normalized_xcorr, walking_direction_sign
+from sspinn.model.body import BodyParameters, IMUPlacement
+from sspinn.model.conventions import SEGMENTS
+from sspinn.model.kinematics import virtual_imu
 from sspinn.validation.sensor_mounting import read_gait_csv
 from tests.conftest import shared_data
 
@@ -81,10 +81,10 @@ def test_walking_direction_of_the_force_axis(rng) -> None:
 
 
 def test_real_cmu_trial_alignment() -> None:
-    from sspinn.imu_stream import resample
-    from sspinn.sensor_calibration import calibrate
-    from sspinn.sensor_map import SensorMap
-    from sspinn.vendor_formats import read_imu_files, read_treadmill_grf
+    from sspinn.imu.calibration import calibrate
+    from sspinn.imu.sensor_map import SensorMap
+    from sspinn.imu.stream import resample
+    from sspinn.imu.vendor_readers import read_imu_files, read_treadmill_grf
 
     folder = shared_data("cmu_treadmill_imu_grf") / "Sub01" / "CSBaseline"
     repo = Path(__file__).resolve().parents[1]

@@ -16,9 +16,9 @@ from predictive.experiments.solution_vs_labels import compare_with_labels, solut
 from predictive.ocp.imu_tracking import IMU_SIGNALS, roll_cycle, solve_imu_tracking
 from predictive.ocp.tracking import TrackedSignal, TrackingGaitProblem, TrackingSettings, solve_tracking
 from predictive.ocp.tracking_data import signals_from_solution
-from sspinn.body import IMUPlacement
-from sspinn.conventions import COORDINATES, GRF, JOINTS, SEGMENTS
-from sspinn.dataset import SAMPLE_RATE_HZ, Labels, Recording
+from sspinn.data.dataset import SAMPLE_RATE_HZ, Labels, Recording
+from sspinn.model.body import IMUPlacement
+from sspinn.model.conventions import COORDINATES, GRF, JOINTS, SEGMENTS
 
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 DORSCHKY = SHARED_DATA / "dorschky_P03_walking"

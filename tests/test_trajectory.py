@@ -1,4 +1,4 @@
-"""The trajectory type (sspinn.trajectory): validation, slicing, resampling, files and the one
+"""The trajectory type (sspinn.model.trajectory): validation, slicing, resampling, files and the one
 Kane residual, and the classes built on it."""
 
 from __future__ import annotations
@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sspinn import dynamics, simulation
-from sspinn.conventions import COORDINATES
-from sspinn.dataset import DataFormatError, Labels
+from sspinn.data.dataset import DataFormatError, Labels
+from sspinn.model import dynamics, simulation
+from sspinn.model.conventions import COORDINATES
+from sspinn.model.trajectory import COLUMNS, FIELDS, Trajectory, TrajectoryError, residual_scale
 from sspinn.testing import on_ground, random_inputs
-from sspinn.trajectory import COLUMNS, FIELDS, Trajectory, TrajectoryError, residual_scale
 
 
 def random_trajectory(n: int = 12, seed: int = 0, dt: float = 0.01) -> Trajectory:
@@ -171,7 +171,7 @@ def test_unreadable_trajectory_files_are_named(tmp_path: Path) -> None:
 
 # ---------------------------------------------------------------------------------- Kane residual
 def test_residual_of_a_simulated_trajectory(landing, body, contact) -> None:
-    """The one residual is sspinn.dynamics.kane_residual scaled by BW and BW·H, with the stored
+    """The one residual is sspinn.model.dynamics.kane_residual scaled by BW and BW·H, with the stored
     GRF or the contact model's; with the model's own accelerations it vanishes."""
     sim, h = landing
     q, u, tau = sim.q[1:-1], sim.u[1:-1], sim.tau[1:-1]
@@ -234,7 +234,7 @@ def test_labels_give_a_trajectory_when_complete() -> None:
 
 def test_the_subclasses_check_their_own_per_sample_fields() -> None:
     from predictive.synth.chain import ChainResult
-    from sspinn.inference import GaitEstimate, NonFiniteEstimateError
+    from sspinn.estimator.inference import GaitEstimate, NonFiniteEstimateError
 
     arrays = random_trajectory().arrays()
     n = len(arrays["time"])

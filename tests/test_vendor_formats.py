@@ -6,15 +6,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sspinn.imu_stream import IMUImportError, IMUStream, SensorSignals, check_sensor, find_gaps, resample
-from sspinn.testing import walking_like_3d, write_opensense, write_xsens_txt
-from sspinn.vendor_formats import (
+from sspinn.imu.stream import IMUImportError, IMUStream, SensorSignals, check_sensor, find_gaps, resample
+from sspinn.imu.vendor_readers import (
     read_imu_files,
     read_opensense,
     read_treadmill_grf,
     read_xsens_txt,
     xsens_sensor_name,
 )
+from sspinn.testing import walking_like_3d, write_opensense, write_xsens_txt
 from tests.conftest import shared_data
 
 

@@ -1,4 +1,4 @@
-"""The 2D ZUPT Kalman filter (:mod:`sspinn.zupt`): synthetic cases and real foot IMUs vs motion capture
+"""The 2D ZUPT Kalman filter (:mod:`sspinn.estimator.zupt`): synthetic cases and real foot IMUs vs motion capture
 (:mod:`sspinn.validation.zupt_gaitmap`).
 
 Synthetic walking: a rigid foot sensor whose position and angle follow smooth closed-form stride
@@ -14,7 +14,8 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from sspinn.conventions import GRAVITY
+from sspinn.estimator.zupt import SagittalZuptKalman, detect_stance, foot_speed, stance_phases
+from sspinn.model.conventions import GRAVITY
 from sspinn.validation.zupt_gaitmap import (
     FEET,
     GaitmapExample,
@@ -23,7 +24,6 @@ from sspinn.validation.zupt_gaitmap import (
     load_gaitmap_example,
     sagittal_from_gaitmap_frame,
 )
-from sspinn.zupt import SagittalZuptKalman, detect_stance, foot_speed, stance_phases
 from tests.conftest import shared_data
 
 FS = 200.0
@@ -342,9 +342,9 @@ def test_training_data_warns_once_naming_every_foot_without_a_stance() -> None:
     such foot (not one per foot, which buried `make demo`'s output), and their speeds are NaN."""
     import warnings
 
-    from sspinn.conventions import SEGMENTS
+    from sspinn.estimator.training import prepare
+    from sspinn.model.conventions import SEGMENTS
     from sspinn.testing import make_recording
-    from sspinn.training import prepare
 
     runs = [make_recording(f"run{k}", rng=np.random.default_rng(k)) for k in range(2)]
     for rec in runs:

@@ -2,7 +2,7 @@
 
 ``python -m predictive track-imu --data ../shared/data/dorschky_P03_walking --out results/ocp/imu_tracking``:
 IMU tracking of an averaged stride, compared with its labels. Reads the averaged stride
-(:func:`sspinn.readers.read_averaged_stride`; body height and mass are not recorded there, so
+(:func:`sspinn.data.csv_readers.read_averaged_stride`; body height and mass are not recorded there, so
 1.75 m / 70 kg are assumed unless given), solves
 :func:`predictive.ocp.imu_tracking.solve_imu_tracking` (labels unused), compares the estimate with
 the labels (:func:`predictive.experiments.solution_vs_labels.compare_with_labels`) and prints the
@@ -94,8 +94,8 @@ def run_track_imu(args: argparse.Namespace) -> int:
     from predictive.experiments.solution_vs_labels import compare_with_labels, plot_against_labels, write_comparison
     from predictive.ocp.imu_tracking import solve_imu_tracking
     from predictive.ocp.limits import check_body
-    from sspinn.body import BodyParameters
-    from sspinn.readers import read_averaged_stride
+    from sspinn.data.csv_readers import read_averaged_stride
+    from sspinn.model.body import BodyParameters
 
     check_body(args.height, args.mass)
     t0 = time.perf_counter()

@@ -47,10 +47,10 @@ from predictive.generator.closed_loop import GaitTracker, LQRWeights, resample_c
 from predictive.generator.gait_generator import generate, load_generator
 from predictive.ocp.collocation import OCPError, solve_predictive
 from predictive.ocp.gait_analysis import load_winter
-from sspinn.body import BodyParameters
-from sspinn.evaluation import angle_jitter
-from sspinn.plotting import draw_stick_figure, save_figure
-from sspinn.trajectory import Trajectory
+from sspinn.estimator.evaluation import angle_jitter
+from sspinn.model.body import BodyParameters
+from sspinn.model.drawing import draw_stick_figure, save_figure
+from sspinn.model.trajectory import Trajectory
 from sspinn.yaml_config import load_config
 
 #: Vertical force (BW) above which a foot counts as loaded (heel strike detection).
@@ -208,7 +208,7 @@ BUILDERS = {"generator": generator_controller, "ocp": ocp_controller, "sb3": sb3
 # ------------------------------------------------------------------------------------------ metrics
 def executed_trajectory(traces: dict[str, np.ndarray], env: Any) -> Trajectory | None:
     """The executed motion of an episode's ``traces`` (q, u, actuator torques after each step) as
-    a :class:`~sspinn.trajectory.Trajectory` at its interior samples 1 … n−2: q̈ by central
+    a :class:`~sspinn.model.trajectory.Trajectory` at its interior samples 1 … n−2: q̈ by central
     differences of u, τ the actuator torque averaged over the two intervals around the sample
     plus the passive joint moments, GRF and w of the environment's contact model. None with
     fewer than three samples."""
@@ -226,7 +226,7 @@ def executed_trajectory(traces: dict[str, np.ndarray], env: Any) -> Trajectory |
 
 def executed_kane_residual(traces: dict[str, np.ndarray], env: Any) -> float:
     """Mean |Kane residual| (BW) of the pelvis translation rows over the episode (module
-    docstring): :meth:`~sspinn.trajectory.Trajectory.kane_residual` of :func:`executed_trajectory`."""
+    docstring): :meth:`~sspinn.model.trajectory.Trajectory.kane_residual` of :func:`executed_trajectory`."""
     executed = executed_trajectory(traces, env)
     if executed is None:
         return float("nan")

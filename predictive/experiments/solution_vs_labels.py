@@ -1,6 +1,6 @@
 """Comparison of a gait solution (e.g. IMU tracking) with the labels of an averaged stride.
 
-The metrics are SSPINNpose's (:func:`sspinn.evaluation.compute_metrics`, pooled over the
+The metrics are SSPINNpose's (:func:`sspinn.estimator.evaluation.compute_metrics`, pooled over the
 available label columns and samples): joint-angle RMSD (deg), joint-moment RMSD (%BW·BH),
 GRF RMSE (%BW, horizontal and vertical pooled) and speed error (m/s); added here are the
 per-joint values and the Pearson correlation of the joint moments. They are reported next to
@@ -27,11 +27,11 @@ import numpy as np
 from predictive.ocp.solution import CONTACT_THRESHOLD_BW, GaitSolution
 from predictive.ocp.tracking import TrackingResult
 from predictive.ocp.tracking_data import stride_duration
-from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS
-from sspinn.dataset import Recording
-from sspinn.evaluation import compute_metrics
-from sspinn.inference import GaitEstimate
-from sspinn.plotting import save_figure
+from sspinn.data.dataset import Recording
+from sspinn.estimator.evaluation import compute_metrics
+from sspinn.estimator.inference import GaitEstimate
+from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, JOINTS
+from sspinn.model.drawing import save_figure
 
 #: Optimal-control baseline (IMU tracking, Dorschky et al. 2019, J Biomech 95:109278) as quoted in
 #: the SSPINNpose paper for the averaged strides: joint angles RMSD (deg), joint moments RMSD
@@ -114,7 +114,7 @@ def _per_joint(values: dict[str, float], fmt: str) -> str:
 
 
 def solution_at_times(sol: GaitSolution, times: np.ndarray, shift: float = 0.0, name: str = "ocp") -> GaitEstimate:
-    """The solution as a :class:`~sspinn.inference.GaitEstimate` at ``times`` (s), by periodic
+    """The solution as a :class:`~sspinn.estimator.inference.GaitEstimate` at ``times`` (s), by periodic
     linear interpolation of the node values; the sample at time t is the solution at t + shift
     (s). pelvis_tx continues by v·t."""
     times = np.asarray(times, dtype=float)

@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
             return 0
         from predictive.ocp.gait_analysis import compare_with_reference, load_winter, plot_gait
         from predictive.ocp.limits import check_body, check_speed
-        from sspinn.body import BodyParameters
+        from sspinn.model.body import BodyParameters
 
         check_speed(args.speed, "--speed")
         check_body(args.height, args.mass)

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from sspinn.conventions import N_Q, N_TAU
+from sspinn.model.conventions import N_Q, N_TAU
 
 #: Size of the controlled state z (observation entries 0–16).
 N_Z = 2 * N_Q - 1

@@ -16,8 +16,8 @@ Representation (chosen so that the constraints the OCP imposes hold by construct
 * q̇ and q̈ are the analytic time derivatives, so the temporal-consistency loss of SSPINNpose
   (dq/dt = q̇, dq̇/dt = q̈) holds exactly and periodicity is built in.
 * Ground reaction forces come from the environment's forward-simulation contact model
-  (:func:`sspinn.dynamics.contact_forces`, slip velocity of the Gymnasium environment); the joint
-  torques from inverse dynamics (:func:`sspinn.dynamics.inverse_dynamics`); what inverse
+  (:func:`sspinn.model.dynamics.contact_forces`, slip velocity of the Gymnasium environment); the joint
+  torques from inverse dynamics (:func:`sspinn.model.dynamics.inverse_dynamics`); what inverse
   dynamics cannot explain is the residual force on the unactuated pelvis — the Kane residual.
 
 Loss per batch of (speed, body) at random phases of the half cycle (the other half is mirrored):
@@ -53,16 +53,16 @@ import yaml
 from predictive.ocp.generic_gait import generic_gait, typical_stride_duration
 from predictive.ocp.settings import ankle_strength, default_joint_limits
 from predictive.ocp.solution import GaitSolution
-from sspinn import dynamics, kinematics
-from sspinn.body import BodyParameters
-from sspinn.contact import ContactParameters
-from sspinn.conventions import GRAVITY, N_TAU
-from sspinn.model_file import load_torch_file, save_torch_file
-from sspinn.passive import passive_parameters, passive_torque
+from sspinn.model import dynamics, kinematics
+from sspinn.model.body import BodyParameters
+from sspinn.model.contact import ContactParameters
+from sspinn.model.conventions import GRAVITY, N_TAU
+from sspinn.model.passive import passive_parameters, passive_torque
 from sspinn.run_folder import RunLock, atomic_write_text
+from sspinn.torch_files import load_torch_file, save_torch_file
 from sspinn.yaml_config import config_from_mapping, load_config
 
-#: Kinds of file (see :mod:`sspinn.model_file`): a trained generator and a training checkpoint.
+#: Kinds of file (see :mod:`sspinn.torch_files`): a trained generator and a training checkpoint.
 GENERATOR = "gait-generator"
 GENERATOR_CHECKPOINT = "gait-generator-checkpoint"
 

@@ -69,7 +69,7 @@ def _check_solve_args(args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command; returns the exit code (1 if IPOPT failed or the solution is not acceptable)."""
-    from sspinn.body import BodyParameters
+    from sspinn.model.body import BodyParameters
 
     _check_solve_args(args)
     body = BodyParameters.from_anthropometry(args.height, args.mass)

@@ -1,6 +1,6 @@
 """Predictive gait simulation by direct collocation (CasADi + IPOPT) on the sspinn 9-DOF model.
 
-Formulation (all units SI; signs of :mod:`sspinn.conventions`: hip flexion +, knee flexion −,
+Formulation (all units SI; signs of :mod:`sspinn.model.conventions`: hip flexion +, knee flexion −,
 ankle dorsiflexion +, a positive pelvis_tilt leans the trunk back):
 
 * **Grid.** ``N`` nodes ``t_k = k·h`` (``k = 0 … N−1``) spanning one gait cycle of duration ``T``
@@ -25,8 +25,8 @@ ankle dorsiflexion +, a positive pelvis_tilt leans the trunk back):
   early versions of the objective. ``gait_cycle="full"`` assumes no symmetry (with the default
   settings it reproduced the half-cycle solutions at 1.3 and 3.5 m/s).
 * **Dynamics.** Implicit, as equality constraints at every node:
-  ``M(q)·q̈ − f(q, u, τ, F(q, u), w(q)) = 0`` with :func:`sspinn.dynamics.kane_residual` and the
-  ground reaction forces ``F`` of the smooth contact model (:func:`sspinn.dynamics.contact_forces`)
+  ``M(q)·q̈ − f(q, u, τ, F(q, u), w(q)) = 0`` with :func:`sspinn.model.dynamics.kane_residual` and the
+  ground reaction forces ``F`` of the smooth contact model (:func:`sspinn.model.dynamics.contact_forces`)
   with the **forward-simulation friction law** ``F_x = −μ·tanh(ẋ/v_s)·F_y``: it needs no extra
   (learned) input, opposes sliding of the contact point so the stance foot cannot skate, is
   smooth (C∞), and is the law the forward simulator uses, so solutions can be replayed there.
@@ -57,7 +57,7 @@ ankle dorsiflexion +, a positive pelvis_tilt leans the trunk back):
   motion (fewer impact spikes, no chattering): q̈·T²/(4π²) is the acceleration on the
   normalised cycle (for q = A·sin(2πt/T) its amplitude is A, in rad or m), so the term does
   not favour slow or fast strides when the duration is free.
-* **Bounds.** Joint ranges from :class:`sspinn.body.JointLimits` (default:
+* **Bounds.** Joint ranges from :class:`sspinn.model.body.JointLimits` (default:
   :func:`~predictive.ocp.settings.default_joint_limits`, knee ≤ 0), pelvis height and trunk tilt
   ranges, |τ| ≤ 3·τmax, duration bounds.
 * **Initial guess and multi-start.** Data-free (:meth:`PredictiveGaitProblem.generic_guess`):
@@ -110,10 +110,10 @@ from predictive.ocp.settings import (
     strength_scaled,
 )
 from predictive.ocp.solution import GaitSolution, mirror_states
-from sspinn import dynamics as dyn
-from sspinn.body import BodyParameters, JointLimits
-from sspinn.contact import ContactParameters
-from sspinn.conventions import N_Q, N_TAU
+from sspinn.model import dynamics as dyn
+from sspinn.model.body import BodyParameters, JointLimits
+from sspinn.model.contact import ContactParameters
+from sspinn.model.conventions import N_Q, N_TAU
 
 Effort = Literal["squared", "cubed"]
 GaitCycle = Literal["full", "half"]

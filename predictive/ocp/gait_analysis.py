@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from predictive.ocp.solution import CONTACT_THRESHOLD_BW, GaitSolution
-from sspinn.plotting import save_figure
+from sspinn.model.drawing import save_figure
 
 #: Default location of the shared real data, relative to the repository root.
 DEFAULT_DATA_DIR = Path(__file__).resolve().parents[2].parent / "shared" / "data"

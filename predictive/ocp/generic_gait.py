@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from sspinn.body import BodyParameters
-from sspinn.conventions import N_Q
+from sspinn.model.body import BodyParameters
+from sspinn.model.conventions import N_Q
 
 
 def typical_stride_duration(speed: float) -> float:

@@ -34,9 +34,9 @@ from predictive.ocp.collocation import solve_predictive
 from predictive.ocp.solution import GaitSolution
 from predictive.ocp.tracking import TrackingResult, solve_tracking
 from predictive.ocp.tracking_data import averaged_stride_scales, signals_from_recording, stride_duration
-from sspinn.body import BodyParameters, IMUPlacement
-from sspinn.conventions import IMU_CHANNELS, imu_columns
-from sspinn.dataset import Recording
+from sspinn.data.dataset import Recording
+from sspinn.model.body import BodyParameters, IMUPlacement
+from sspinn.model.conventions import IMU_CHANNELS, imu_columns
 
 
 def speed_from_stride_duration(duration: float) -> float:
@@ -127,7 +127,7 @@ def solve_imu_tracking(
 
     Args:
         recording: one averaged stride starting at right heel strike
-            (:func:`sspinn.readers.read_averaged_stride` with ``periods=1``).
+            (:func:`sspinn.data.csv_readers.read_averaged_stride` with ``periods=1``).
         body: body parameters (default: Winter scaling from the recording's height and mass).
         n_nodes: collocation nodes per stride.
         imu_weight: weight of every IMU channel.

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Final
 import numpy as np
 
 from sspinn.errors import UserError
-from sspinn.trajectory import first_non_finite
+from sspinn.model.trajectory import first_non_finite
 
 if TYPE_CHECKING:
     from predictive.ocp.solution import GaitSolution

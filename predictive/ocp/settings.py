@@ -21,9 +21,9 @@ import casadi as ca
 import numpy as np
 
 from predictive.ocp import perturbation
-from sspinn.body import BodyParameters, JointLimits
-from sspinn.conventions import JOINTS, N_Q, N_TAU
-from sspinn.trajectory import residual_scale
+from sspinn.model.body import BodyParameters, JointLimits
+from sspinn.model.conventions import JOINTS, N_Q, N_TAU
+from sspinn.model.trajectory import residual_scale
 
 #: Scale of the accelerations q̈ in the NLPs' decision variables (physical = scale · scaled).
 ACC_SCALE = 10.0

@@ -1,7 +1,7 @@
 """The result of a predictive gait simulation, its persistence and its physical checks.
 
-A :class:`GaitSolution` is a :class:`sspinn.trajectory.Trajectory` (time, q, u, q̈, τ, GRF, w;
-units and signs of :mod:`sspinn.conventions`) sampled at the collocation nodes of one whole gait
+A :class:`GaitSolution` is a :class:`sspinn.model.trajectory.Trajectory` (time, q, u, q̈, τ, GRF, w;
+units and signs of :mod:`sspinn.model.conventions`) sampled at the collocation nodes of one whole gait
 cycle, ``time[k] = k·T/n`` (``k = 0 … n−1``; node ``n`` would be node 0 of the next cycle), with
 the problem's speed, duration, body and solver statistics.
 """
@@ -15,12 +15,12 @@ from typing import Any
 
 import numpy as np
 
-from sspinn.body import BodyParameters
-from sspinn.contact import ContactParameters
-from sspinn.conventions import COORDINATES, GRAVITY, GRF, JOINTS, N_Q
 from sspinn.errors import UserError
+from sspinn.model.body import BodyParameters
+from sspinn.model.contact import ContactParameters
+from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, JOINTS, N_Q
+from sspinn.model.trajectory import FIELDS, Trajectory, TrajectoryError, save_npz
 from sspinn.run_folder import atomic_write_text
-from sspinn.trajectory import FIELDS, Trajectory, TrajectoryError, save_npz
 
 #: Permutation that swaps the right and left leg in q (and u, q̈).
 MIRROR_Q = np.array([0, 1, 2, 6, 7, 8, 3, 4, 5])
@@ -52,7 +52,7 @@ def mirror_states(x: Any) -> Any:
 @dataclass(kw_only=True)
 class GaitSolution(Trajectory):
     """One periodic gait cycle predicted by :func:`predictive.solve_predictive`: a
-    :class:`~sspinn.trajectory.Trajectory` at the nodes (time from 0, q, u, q̈, τ, GRF, w; built
+    :class:`~sspinn.model.trajectory.Trajectory` at the nodes (time from 0, q, u, q̈, τ, GRF, w; built
     with keywords) and
 
     Attributes:
@@ -141,7 +141,7 @@ class GaitSolution(Trajectory):
 
     # ------------------------------------------------------------------ residual checks
     def node_residual(self) -> np.ndarray:
-        """(n, 9) Kane residual at the nodes (:meth:`~sspinn.trajectory.Trajectory.kane_residual`:
+        """(n, 9) Kane residual at the nodes (:meth:`~sspinn.model.trajectory.Trajectory.kane_residual`:
         NumPy backend, BW for the two translational rows and BW·H for the rotational rows) with
         q̈ recomputed from the stored speeds as the backward difference (u_k − u_{k−1})/h that the
         collocation uses, and GRF recomputed from the contact model."""
@@ -152,7 +152,7 @@ class GaitSolution(Trajectory):
     def resampled_residual(self, rate_hz: float = 100.0) -> tuple[np.ndarray, np.ndarray]:
         """Kane residual (scaled as in :meth:`node_residual`, GRF from the contact model) of the
         motion resampled at ``rate_hz``: q by a periodic cubic spline through the nodes, u and q̈
-        its derivatives, τ linearly interpolated (:meth:`~sspinn.trajectory.Trajectory.resample`
+        its derivatives, τ linearly interpolated (:meth:`~sspinn.model.trajectory.Trajectory.resample`
         with ``method="spline"``). Returns (times in s, residual (m, 9)). This measures how well a
         smooth curve through the nodes obeys the dynamics between the nodes (discretisation
         error of the first-order collocation), not the constraint satisfaction."""

@@ -67,12 +67,12 @@ import numpy as np
 from predictive.ocp import perturbation
 from predictive.ocp import settings as ocp
 from predictive.ocp.collocation import OCPSettings
-from sspinn import dynamics as dyn
-from sspinn import kinematics
-from sspinn.body import N_PARAMETERS, BodyParameters, JointLimits
-from sspinn.contact import ContactParameters
-from sspinn.conventions import N_Q, N_TAU
-from sspinn.trajectory import Trajectory
+from sspinn.model import dynamics as dyn
+from sspinn.model import kinematics
+from sspinn.model.body import N_PARAMETERS, BodyParameters, JointLimits
+from sspinn.model.contact import ContactParameters
+from sspinn.model.conventions import N_Q, N_TAU
+from sspinn.model.trajectory import Trajectory
 
 #: Maximal nodes per stride of the compiled NLPs (h = 0.01 s: 0.24 … 1.6 s strides).
 DEFAULT_BUCKETS: Final[tuple[int, ...]] = (24, 28, 32, 37, 43, 50, 58, 67, 78, 90, 104, 120, 139, 160)
@@ -475,7 +475,7 @@ def stride_trajectory(
     contact: ContactParameters | None = None,
 ) -> Trajectory:
     """Samples of the backward-Euler grid (a stride, a horizon or a whole chain) as a
-    :class:`~sspinn.trajectory.Trajectory` at times k·h (s), with the contact model's GRF and w
+    :class:`~sspinn.model.trajectory.Trajectory` at times k·h (s), with the contact model's GRF and w
     (default contact parameters if None); its Kane residual is what the NLP constrains."""
     return Trajectory.from_contact_model(np.arange(len(q)) * h, q, u, qdd, tau, body, contact)
 

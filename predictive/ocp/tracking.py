@@ -9,7 +9,7 @@ docstring) by overriding its objective:
 * :func:`~predictive.ocp.imu_tracking.solve_imu_tracking` — the label-free optimal-control
   baseline of SSPINNpose (Dorschky et al. 2019, J Biomech 95:109278): track the sagittal signals
   (acc_x, acc_y, gyr_z) of the IMUs of an averaged stride with virtual IMUs
-  (:func:`sspinn.kinematics.virtual_imu`), speed free; outputs angles, torques, GRFs and speed.
+  (:func:`sspinn.model.kinematics.virtual_imu`), speed free; outputs angles, torques, GRFs and speed.
 
 Tracked signals come from recordings or solutions via :mod:`predictive.ocp.tracking_data`.
 
@@ -37,11 +37,11 @@ Formulation (in addition to :mod:`predictive.ocp.collocation`):
   simulated accelerometer lags the node time by ≈ h (one node interval) and the gyroscope by
   ≈ h/2; with 100 nodes per stride this is ≈ 1 % of the cycle and is not corrected.
 
-Signal names (units SI; signs of :mod:`sspinn.conventions`): the coordinates except pelvis_tx
+Signal names (units SI; signs of :mod:`sspinn.model.conventions`): the coordinates except pelvis_tx
 (``hip_r`` …, rad; ``pelvis_ty``, m), speeds ``d_<coordinate>`` (``d_pelvis_tx`` is the forward
 velocity), accelerations ``dd_<coordinate>``, torques ``tau_<joint>`` (N·m), GRFs ``grf_x_r`` …
 (N) and IMU channels ``<segment>_acc_x|acc_y|gyr_z`` (m/s², rad/s) — the column names of
-:class:`sspinn.dataset.Recording` labels and IMU data.
+:class:`sspinn.data.dataset.Recording` labels and IMU data.
 """
 
 from __future__ import annotations
@@ -65,11 +65,11 @@ from predictive.ocp.collocation import (
     PredictiveGaitProblem,
 )
 from predictive.ocp.solution import GaitSolution
-from sspinn import dynamics as dyn
-from sspinn import kinematics
-from sspinn.body import BodyParameters, IMUPlacement, JointLimits
-from sspinn.contact import ContactParameters
-from sspinn.conventions import COORDINATES, GRF, IMU_CHANNELS, JOINTS, N_GRF, N_Q, N_TAU, SEGMENTS, imu_columns
+from sspinn.model import dynamics as dyn
+from sspinn.model import kinematics
+from sspinn.model.body import BodyParameters, IMUPlacement, JointLimits
+from sspinn.model.contact import ContactParameters
+from sspinn.model.conventions import COORDINATES, GRF, IMU_CHANNELS, JOINTS, N_GRF, N_Q, N_TAU, SEGMENTS, imu_columns
 
 #: Lower bounds of the default normalising scales (the data's standard deviation over the cycle),
 #: per signal kind, SI units: a nearly constant signal is not weighted without limit.

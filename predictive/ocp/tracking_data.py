@@ -17,9 +17,9 @@ import numpy as np
 
 from predictive.ocp.solution import GaitSolution
 from predictive.ocp.tracking import MIN_SCALES, SIGNAL_KINDS, TrackedSignal, default_scale, signal_function
-from sspinn.body import IMUPlacement
-from sspinn.conventions import GRAVITY, GRF, IMU_CHANNELS
-from sspinn.dataset import Recording
+from sspinn.data.dataset import Recording
+from sspinn.model.body import IMUPlacement
+from sspinn.model.conventions import GRAVITY, GRF, IMU_CHANNELS
 
 
 def stride_duration(recording: Recording) -> float:
@@ -59,7 +59,7 @@ def signals_from_recording(
     """Tracked signals from the first stride of a recording (starting at t = 0).
 
     Args:
-        recording: e.g. :func:`sspinn.readers.read_averaged_stride`.
+        recording: e.g. :func:`sspinn.data.csv_readers.read_averaged_stride`.
         names: signal names (:data:`SIGNAL_KINDS`; IMU channels or label columns).
         n_nodes: collocation nodes per cycle.
         duration: stride duration, s (default :func:`stride_duration`).

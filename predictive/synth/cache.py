@@ -23,7 +23,7 @@ import numpy as np
 
 from predictive.ocp.solution import GaitSolution
 from predictive.synth.chain import ChainResult
-from sspinn.dataset import Recording
+from sspinn.data.dataset import Recording
 
 T = TypeVar("T")
 

@@ -8,7 +8,7 @@ constraints, objective, buckets and IPOPT's warm start are described there):
 
 * **Chaining.** Each stride starts from the *fixed* last sample of the previous one, so the
   recording is one backward-Euler trajectory whose Kane residual is zero to IPOPT's constraint
-  tolerance at every sample (:class:`ChainResult`, a :class:`~sspinn.trajectory.Trajectory`).
+  tolerance at every sample (:class:`ChainResult`, a :class:`~sspinn.model.trajectory.Trajectory`).
 * **Horizon.** ``1 + lookahead`` strides; only the first is kept, the next horizon starts from
   its last node, and a solved lookahead stride is the next horizon's initial guess.
 * **Guesses and targets.** Otherwise the initial guess is the periodic reference
@@ -32,8 +32,8 @@ import numpy as np
 
 from predictive.ocp.stride_nlp import StridePlan, StrideResult, StrideSolverCache, stride_trajectory
 from predictive.synth.periodic_reference import PeriodicReference, ReferenceStride, blend_into
-from sspinn.body import BodyParameters
-from sspinn.trajectory import Trajectory, save_npz
+from sspinn.model.body import BodyParameters
+from sspinn.model.trajectory import Trajectory, save_npz
 
 #: IPOPT statuses accepted for a stride (the node residual is checked separately).
 ACCEPTED_STATUSES: Final = ("Solve_Succeeded",)
@@ -65,8 +65,8 @@ class StrideRecord:
 
 @dataclass(kw_only=True)
 class ChainResult(Trajectory):
-    """A solved chain: the ground truth at every sample, a :class:`~sspinn.trajectory.Trajectory`
-    (units of :mod:`sspinn.conventions`; built with keywords) with its chain's statistics.
+    """A solved chain: the ground truth at every sample, a :class:`~sspinn.model.trajectory.Trajectory`
+    (units of :mod:`sspinn.model.conventions`; built with keywords) with its chain's statistics.
 
     Attributes:
         time: (T,) sample times k·h, s (the state before the first sample is at −h).
@@ -82,7 +82,7 @@ class ChainResult(Trajectory):
         ended_early: empty, or why the chain ended before its last planned stride (every rung of
             the fallback ladder failed; see :func:`simulate_chain`).
 
-    The Kane residual of the stored labels is :meth:`~sspinn.trajectory.Trajectory.kane_residual`.
+    The Kane residual of the stored labels is :meth:`~sspinn.model.trajectory.Trajectory.kane_residual`.
     """
 
     speed: np.ndarray

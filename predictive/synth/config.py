@@ -21,8 +21,8 @@ import numpy as np
 from predictive.ocp.stride_nlp import StrideSettings
 from predictive.synth.cache import CODE_VERSION, jsonable, stable_hash
 from predictive.synth.periodic_reference import DEFAULT_BOUNDARY
-from sspinn.dataset import SPLITS
-from sspinn.imu_errors import IMUErrorModel
+from sspinn.data.dataset import SPLITS
+from sspinn.data.sensor_noise import IMUErrorModel
 from sspinn.yaml_config import config_from_mapping, load_config
 
 
@@ -102,7 +102,7 @@ class SynthConfig:
         stride: settings of the stride OCPs.
         lookahead: strides solved beyond the kept one in each horizon.
         boundary: stride boundary relative to the right contact onset, fraction of the cycle.
-        imu_errors: "default" (:class:`~sspinn.imu_errors.IMUErrorModel` defaults), "none" or a
+        imu_errors: "default" (:class:`~sspinn.data.sensor_noise.IMUErrorModel` defaults), "none" or a
             mapping of IMUErrorModel fields.
         cache_dir: folder of the caches.
         workers: parallel processes (one subject each); 1: in this process.

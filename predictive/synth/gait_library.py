@@ -24,7 +24,7 @@ from predictive.ocp.generic_gait import typical_stride_duration
 from predictive.ocp.solution import GaitSolution
 from predictive.ocp.stride_nlp import WARM_START_IPOPT, StrideSettings
 from predictive.synth.cache import CODE_VERSION, SynthCache, stable_hash
-from sspinn.body import BodyParameters
+from sspinn.model.body import BodyParameters
 
 #: Speeds at or above this are solved as running (template continuation from 3.5 m/s), m/s.
 RUN_SPEED: Final = 2.0

@@ -41,7 +41,7 @@ Usage::
     from predictive.synth.config import SynthConfig
     from predictive.synth.pipeline import generate_dataset
     config = SynthConfig.from_yaml("configs/synth/default.yaml")
-    dataset = generate_dataset(config, "data/synth_default")   # sspinn.dataset.Dataset
+    dataset = generate_dataset(config, "data/synth_default")   # sspinn.data.dataset.Dataset
     print(dataset.info["kane_residual"])                        # BW and BW·H, max and RMS
 
 or ``python -m predictive synth --config configs/synth/default.yaml --out data/synth_default``.
@@ -70,7 +70,7 @@ from predictive.synth.config import SynthConfig, imu_model
 from predictive.synth.gait_library import periodic_library, template_library
 from predictive.synth.recording import cached_recording, fallback_counts, recording_chain, residual_stats
 from predictive.synth.subjects import VirtualSubject, body_deviation, sample_subjects
-from sspinn.dataset import SPLITS, Dataset, Recording
+from sspinn.data.dataset import SPLITS, Dataset, Recording
 
 
 class SynthWarning(UserWarning):

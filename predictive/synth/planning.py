@@ -19,7 +19,7 @@ import numpy as np
 from predictive.ocp.stride_nlp import StridePlan
 from predictive.synth.config import Variability
 from predictive.synth.periodic_reference import PeriodicReference
-from sspinn.conventions import N_TAU
+from sspinn.model.conventions import N_TAU
 
 
 def plan_strides(

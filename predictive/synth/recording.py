@@ -8,12 +8,12 @@ its last solved stride. **No recording is thrown away for one stride**: only a r
 it is dropped. Which rung solved each stride is in the recording's provenance
 (``strides.fallback``, ``fallbacks``, ``ended_early``).
 
-:func:`cached_recording` turns a chain into a :class:`~sspinn.dataset.Recording`:
+:func:`cached_recording` turns a chain into a :class:`~sspinn.data.dataset.Recording`:
 
-* **IMUs**: :func:`sspinn.imu_errors.measure_imu` on the ground truth with the true body (noise,
+* **IMUs**: :func:`sspinn.data.sensor_noise.measure_imu` on the ground truth with the true body (noise,
   biases, drift, misplacement, soft-tissue artefact; the nominal placement
   ``IMUPlacement.default(height)`` is what the recording tells the estimator).
-* **Labels** (:meth:`~sspinn.dataset.Labels.from_trajectory` of the chain): q, u (the
+* **Labels** (:meth:`~sspinn.data.dataset.Labels.from_trajectory` of the chain): q, u (the
   collocation u), q̈ (backward differences of u), τ, GRF and w (the contact model at the
   samples), speed (the stride's average pelvis speed, exact by construction).
   :func:`residual_stats` is the Kane residual of the labels as stored.
@@ -35,11 +35,11 @@ from predictive.synth.config import SynthConfig
 from predictive.synth.periodic_reference import PeriodicReference
 from predictive.synth.planning import plan_strides
 from predictive.synth.subjects import VirtualSubject
-from sspinn.body import BodyParameters, IMUPlacement
-from sspinn.conventions import SEGMENTS
-from sspinn.dataset import Labels, Recording
+from sspinn.data.dataset import Labels, Recording
+from sspinn.data.sensor_noise import IMUErrorModel, measure_imu
 from sspinn.errors import DataFormatError
-from sspinn.imu_errors import IMUErrorModel, measure_imu
+from sspinn.model.body import BodyParameters, IMUPlacement
+from sspinn.model.conventions import SEGMENTS
 
 #: Stride plans tried per recording before giving up.
 CHAIN_ATTEMPTS: Final = 3

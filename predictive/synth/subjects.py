@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 
 from predictive.synth.config import BodyVariation, SynthConfig
-from sspinn.body import BodyParameters, Foot, Segment
-from sspinn.conventions import SEGMENTS, SIDES
+from sspinn.model.body import BodyParameters, Foot, Segment
+from sspinn.model.conventions import SEGMENTS, SIDES
 
 
 @dataclass(frozen=True)
@@ -127,7 +127,7 @@ def perturb_body(height: float, mass: float, variation: BodyVariation, rng: np.r
 
 def body_deviation(true: BodyParameters, nominal: BodyParameters) -> dict[str, float]:
     """Relative deviation (true/nominal − 1) of each nonzero body parameter, for reports."""
-    from sspinn.body import PARAMETERS
+    from sspinn.model.body import PARAMETERS
 
     t, n = true.vector(), nominal.vector()
     return {name: float(a / b - 1) for name, a, b in zip(PARAMETERS, t, n) if abs(b) > 1e-12}

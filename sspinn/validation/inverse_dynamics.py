@@ -9,8 +9,8 @@ Two references (see ``../shared/data/README.md``):
 * **OpenSim subject01** (Gait10dof18musc): inverse kinematics, ground reaction forces and
   OpenSim's inverse-dynamics moments (N·m). See :func:`opensim_inverse_dynamics`.
 
-Both use :func:`sspinn.dynamics.inverse_dynamics`, whose joint torques are generalized forces of
-sspinn's angles (:mod:`sspinn.conventions`: CCW seen from the right, hip flexion +, knee
+Both use :func:`sspinn.model.dynamics.inverse_dynamics`, whose joint torques are generalized forces of
+sspinn's angles (:mod:`sspinn.model.conventions`: CCW seen from the right, hip flexion +, knee
 flexion −, ankle dorsiflexion +; a torque acts +τ on the distal and −τ on the proximal segment).
 The right-leg rows of the Kane residual involve only the pelvis coordinates (hip position and
 pelvis tilt, with their derivatives) and the right-leg segments, so right-leg moments need no
@@ -59,11 +59,7 @@ import numpy as np
 import scipy.io
 from scipy.signal import butter, filtfilt
 
-from sspinn.body import WINTER, BodyParameters, Foot, Segment
-from sspinn.conventions import N_Q, SIDES, index
-from sspinn.dynamics import inverse_dynamics
-from sspinn.kinematics import point_index, point_kinematics
-from sspinn.validation.opensim_files import (
+from sspinn.data.opensim_files import (
     SagittalLeg,
     read_external_loads,
     read_opensim_columns,
@@ -71,6 +67,10 @@ from sspinn.validation.opensim_files import (
     read_osim_model,
     sagittal_leg_from_osim,
 )
+from sspinn.model.body import WINTER, BodyParameters, Foot, Segment
+from sspinn.model.conventions import N_Q, SIDES, index
+from sspinn.model.dynamics import inverse_dynamics
+from sspinn.model.kinematics import point_index, point_kinematics
 
 #: Nominal low-pass cutoff for markers, coordinates and forces, Hz.
 DEFAULT_CUTOFF_HZ: Final[float] = 6.0
@@ -229,7 +229,7 @@ def grf_inputs(
     loads: dict[str, np.ndarray],
     threshold: float = CONTACT_THRESHOLD_N,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``grf`` (n, 4) and ``w`` (n, 2) for :func:`sspinn.dynamics.inverse_dynamics`.
+    """``grf`` (n, 4) and ``w`` (n, 2) for :func:`sspinn.model.dynamics.inverse_dynamics`.
 
     Args:
         q: (n, 9) generalized coordinates (only positions matter here).
@@ -338,7 +338,7 @@ def csu_body_parameters(markers: dict[str, np.ndarray], mass: float = CSU_BODY_M
     Lengths are time averages of the marker distances RGTRO–RLEK (thigh) and RLEK–RLM (shank).
     Mass = fraction·body mass; centre of mass at the CoM fraction of the length from the
     proximal joint on the segment axis; inertia = m·(radius-of-gyration fraction·length)²
-    (:data:`sspinn.body.WINTER`, the values ``leg2d.m`` uses). The foot frame (origin at RLM,
+    (:data:`sspinn.model.body.WINTER`, the values ``leg2d.m`` uses). The foot frame (origin at RLM,
     x from RHEE to RMT5) holds the heel and toe at the time-averaged RHEE and RMT5 positions; the
     foot's length for Winter's fractions is the heel–toe distance and its centre of mass lies
     half-way between heel and toe, as in ``leg2d.m``. HAT and left leg: Winter scaling from the
@@ -495,7 +495,7 @@ def opensim_inverse_dynamics(
 ) -> Comparison:
     """Leg joint moments of OpenSim's subject01 walk versus OpenSim's inverse dynamics.
 
-    Body: the segments of the scaled model (:func:`sspinn.validation.opensim_files.sagittal_leg_from_osim`:
+    Body: the segments of the scaled model (:func:`sspinn.data.opensim_files.sagittal_leg_from_osim`:
     femur, tibia, foot = talus + calcn + toes; the knee translation is frozen at knee angle 0),
     so that both computations use the same body; total mass (72.6 kg, for N·m/kg) and gravity
     from the model. The HAT is a Winter-scaled placeholder (height = femur length / 0.245).
@@ -504,7 +504,7 @@ def opensim_inverse_dynamics(
     filtered (:func:`lowpass`) and mapped to sspinn's q: pelvis_tilt unchanged; the hip joint
     centre (pelvis_tx/ty of sspinn) = pelvis origin + R(pelvis_tilt)·(hip location in the pelvis
     frame); joint angles shifted by the constant frame offsets of
-    :class:`~sspinn.validation.opensim_files.SagittalLeg` (< 1°, which change no generalized force). Each
+    :class:`~sspinn.data.opensim_files.SagittalLeg` (< 1°, which change no generalized force). Each
     side is computed with its own hip centre (the Kane rows of a leg need only that leg and the
     pelvis coordinates).
 

@@ -1,6 +1,6 @@
 """The seven-segment body rebuilt in pymunk (Chipmunk2D), an engine independent of our derivation.
 
-Each segment of :class:`~sspinn.body.BodyParameters` becomes a pymunk ``Body(mass, moment)``
+Each segment of :class:`~sspinn.model.body.BodyParameters` becomes a pymunk ``Body(mass, moment)``
 whose position is the segment's centre of mass (world frame, m) and whose angle is the segment's
 global angle (rad); pymunk bodies rotate about their position, so the moment is the segment's
 inertia about its centre of mass (kg·m²). ``PivotJoint``\\ s connect HAT–femur (hip, one per
@@ -8,7 +8,7 @@ side), femur–tibia (knee) and tibia–foot (ankle); the HAT segment floats fre
 (0, −g). There is no ground and there are no shapes, hence no collisions.
 
 The geometry is computed here from the segment parameters alone (origin at the proximal joint,
-y along the segment pointing proximally, see :mod:`sspinn.conventions`), not from the generated
+y along the segment pointing proximally, see :mod:`sspinn.model.conventions`), not from the generated
 kinematics, so that the comparison also checks those.
 
 Generalized coordinates are read back from the pymunk bodies: pelvis_tx/ty is the hip pivot on
@@ -23,8 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 import pymunk
 
-from sspinn.body import BodyParameters
-from sspinn.conventions import N_Q, SEGMENTS, SIDES, index
+from sspinn.model.body import BodyParameters
+from sspinn.model.conventions import N_Q, SEGMENTS, SIDES, index
 
 
 @dataclass(frozen=True)
@@ -122,7 +122,7 @@ def build_pymunk_body(
     error_bias: float = 1e-6,
     max_bias: float = float("inf"),
 ) -> tuple[pymunk.Space, dict[str, pymunk.Body], dict[str, pymunk.PivotJoint]]:
-    """A pymunk space holding the body in state (q0, u0) (conventions of :mod:`sspinn.conventions`).
+    """A pymunk space holding the body in state (q0, u0) (conventions of :mod:`sspinn.model.conventions`).
 
     Args:
         body: segment parameters (SI units).
@@ -134,7 +134,7 @@ def build_pymunk_body(
 
     Returns:
         ``(space, bodies, joints)``: the space with gravity (0, −g), the pymunk bodies keyed by
-        segment name (:data:`~sspinn.conventions.SEGMENTS`) and the pivot joints keyed by joint
+        segment name (:data:`~sspinn.model.conventions.SEGMENTS`) and the pivot joints keyed by joint
         name (hip_r, knee_r, ...).
     """
     space = pymunk.Space()
@@ -215,7 +215,7 @@ def simulate_pymunk(
     error_bias: float = 1e-6,
     max_bias: float = float("inf"),
 ) -> dict[str, np.ndarray]:
-    """Release the pymunk body from (q0, u0) without torques or ground, sampled like :func:`sspinn.simulation.simulate`.
+    """Release the pymunk body from (q0, u0) without torques or ground, sampled like :func:`sspinn.model.simulation.simulate`.
 
     Args:
         body, q0, u0, iterations, error_bias, max_bias: as in :func:`build_pymunk_body`.
@@ -225,7 +225,7 @@ def simulate_pymunk(
 
     Returns:
         ``{"t": (n,) s, "q": (n, 9), "u": (n, 9), "joint_gap": (n,) m}`` with n = duration /
-        sample_dt + 1 samples; q and u follow :data:`~sspinn.conventions.COORDINATES`.
+        sample_dt + 1 samples; q and u follow :data:`~sspinn.model.conventions.COORDINATES`.
     """
     if duration <= 0 or dt <= 0 or sample_dt <= 0:
         raise ValueError(f"need duration, dt, sample_dt > 0; got {duration}, {dt}, {sample_dt}")

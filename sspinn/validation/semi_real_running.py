@@ -4,7 +4,7 @@ The estimator is trained and tested on synthetic gait from sspinn's own optimal 
 This module gives it **human** running kinematics instead, with the same kind of IMU signals: the
 OpenSim inverse kinematics of treadmill running (Hamner et al. 2010, opensim-models, subject02,
 1.83 m, 65.9 kg, about 10 s at 60 Hz) with its measured ground reaction forces, turned into a
-sspinn :class:`~sspinn.dataset.Recording` whose IMU signals are the project's virtual IMUs plus
+sspinn :class:`~sspinn.data.dataset.Recording` whose IMU signals are the project's virtual IMUs plus
 its IMU error model. It is **semi-real**: the kinematics and forces are measured, the IMUs are not.
 
 Data: ``../shared/data/opensim_hamner_run`` (``subject02_running_ik.mot``,
@@ -13,14 +13,14 @@ Data: ``../shared/data/opensim_hamner_run`` (``subject02_running_ik.mot``,
 
 1. **Kinematics → sspinn coordinates.** The IK's sagittal coordinates (degrees → rad; OpenSim's
    signs are sspinn's: hip flexion +, knee flexion −, ankle dorsiflexion +, see
-   :mod:`sspinn.conventions`) are low-pass filtered at their 60 Hz
+   :mod:`sspinn.model.conventions`) are low-pass filtered at their 60 Hz
    (:func:`~sspinn.validation.inverse_dynamics.lowpass`, zero-lag Butterworth, cutoff ``cutoff``)
    and mapped as :func:`~sspinn.validation.inverse_dynamics.opensim_inverse_dynamics` maps the
    walking subject01: ``pelvis_tilt`` unchanged (sspinn's HAT segment carries the pelvis IMU;
    ``lumbar_extension`` and the arms are dropped, i.e. the trunk is rigid with the pelvis); the
    hip joint centre (sspinn's ``pelvis_tx/ty``) = pelvis origin + R(pelvis_tilt)·(the model's hip
    location in the pelvis frame, right side); hip, knee and ankle angles of both legs shifted by
-   the constant frame offsets of :func:`~sspinn.validation.opensim_files.sagittal_leg_from_osim`
+   the constant frame offsets of :func:`~sspinn.data.opensim_files.sagittal_leg_from_osim`
    (femur −0.65°, tibia 0°). The out-of-plane coordinates (pelvis list/rotation, hip
    adduction/rotation) are ignored: this is the sagittal projection of a 3-D motion.
 2. **Treadmill → overground** (Galilean invariance): the whole lab scene moves forward at the belt
@@ -37,7 +37,7 @@ Data: ``../shared/data/opensim_hamner_run`` (``subject02_running_ik.mot``,
    (:func:`~sspinn.validation.inverse_dynamics.differentiate`), then :data:`TRIM_S` at each end
    are cut off (the filters' and differences' edge effects).
 5. **Body and height of the ground**: the Winter-scaled sspinn body for 1.83 m and the model's
-   mass (:meth:`~sspinn.body.BodyParameters.from_anthropometry`) — the body the estimator assumes,
+   mass (:meth:`~sspinn.model.body.BodyParameters.from_anthropometry`) — the body the estimator assumes,
    so that body-model mismatch is not part of this check. Its legs are as long as the OpenSim
    model's (0.898 vs 0.896 m hip–ankle) but its feet differ (heel and toe 7.1 cm below the ankle;
    OpenSim's calcaneus origin is 4.7 cm below it), so the whole scene is shifted vertically
@@ -51,22 +51,22 @@ Data: ``../shared/data/opensim_hamner_run`` (``subject02_running_ik.mot``,
    contact point where the force's line of action crosses the model's heel–toe line
    (:func:`~sspinn.validation.inverse_dynamics.grf_inputs`).
 7. **Torque labels**: inverse dynamics with sspinn's Kane model
-   (:func:`sspinn.dynamics.inverse_dynamics`) of these q, q̇, q̈ and GRF with the Winter body. The
+   (:func:`sspinn.model.dynamics.inverse_dynamics`) of these q, q̇, q̈ and GRF with the Winter body. The
    three pelvis rows do not vanish (the measured forces move a 3-D body with arms and a moving
    trunk, the model is a rigid sagittal HAT); their size is reported (:attr:`SemiRealRunning.residual`),
    and it is the Kane residual of the labels: 0.53 BW RMS horizontally, 0.18 BW vertically,
    0.07 BW·H in rotation. Most of it is the HAT: the pelvis tilts ±6° at step frequency, and a
    rigid HAT with its centre of mass 0.32 m above the hip swings its 45 kg with it (the HAT
    alone needs 0.59 BW RMS horizontally), which the human's trunk and arms do not do.
-8. **IMUs**: :func:`sspinn.imu_errors.measure_imu` of the seven segments with the true (Winter)
+8. **IMUs**: :func:`sspinn.data.sensor_noise.measure_imu` of the seven segments with the true (Winter)
    body, the nominal placement ``IMUPlacement.default(1.83)`` (what the recording tells the
-   estimator) and the error model (default :class:`~sspinn.imu_errors.IMUErrorModel`, seeded).
+   estimator) and the error model (default :class:`~sspinn.data.sensor_noise.IMUErrorModel`, seeded).
 9. **Speed label**: the pelvis (hip centre) speed averaged over each right-foot stride
    (touchdown to touchdown), held over the stride; before the first and after the last complete
    stride, the nearest stride's value.
 
 The provenance says all this and carries ``{"program": {"name": "run"}}``, so
-:func:`sspinn.baselines.program_of` groups the recording with running.
+:func:`sspinn.estimator.trivial_predictors.program_of` groups the recording with running.
 """
 
 from __future__ import annotations
@@ -79,13 +79,22 @@ from typing import Any, Final
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from sspinn.body import BodyParameters, IMUPlacement
-from sspinn.conventions import SEGMENTS, SIDES, index
-from sspinn.dataset import SAMPLE_RATE_HZ, Labels, Recording
-from sspinn.dynamics import inverse_dynamics
-from sspinn.imu_errors import IMUErrorModel, measure_imu
-from sspinn.kinematics import point_index, point_kinematics
-from sspinn.trajectory import Trajectory
+from sspinn.data.dataset import SAMPLE_RATE_HZ, Labels, Recording
+from sspinn.data.opensim_files import (
+    OpenSimFormatError,
+    SagittalLeg,
+    read_external_loads,
+    read_opensim_columns,
+    read_opensim_header,
+    read_osim_model,
+    sagittal_leg_from_osim,
+)
+from sspinn.data.sensor_noise import IMUErrorModel, measure_imu
+from sspinn.model.body import BodyParameters, IMUPlacement
+from sspinn.model.conventions import SEGMENTS, SIDES, index
+from sspinn.model.dynamics import inverse_dynamics
+from sspinn.model.kinematics import point_index, point_kinematics
+from sspinn.model.trajectory import Trajectory
 from sspinn.validation.inverse_dynamics import (
     CONTACT_THRESHOLD_N,
     OPENSIM_JOINTS,
@@ -94,15 +103,6 @@ from sspinn.validation.inverse_dynamics import (
     grf_inputs,
     lowpass,
     sagittal_coordinates,
-)
-from sspinn.validation.opensim_files import (
-    OpenSimFormatError,
-    SagittalLeg,
-    read_external_loads,
-    read_opensim_columns,
-    read_opensim_header,
-    read_osim_model,
-    sagittal_leg_from_osim,
 )
 
 #: Folder of the recording under ``../shared/data``.
@@ -398,8 +398,8 @@ def hamner_running(
     Args:
         data_dir: the ``opensim_hamner_run`` folder (default: ``../shared/data/opensim_hamner_run``).
         seed: seed of the IMU error model's random draws (same seed → identical recording).
-        error_model: IMU error model (default :class:`~sspinn.imu_errors.IMUErrorModel`;
-            :meth:`~sspinn.imu_errors.IMUErrorModel.none` gives the ideal virtual IMUs).
+        error_model: IMU error model (default :class:`~sspinn.data.sensor_noise.IMUErrorModel`;
+            :meth:`~sspinn.data.sensor_noise.IMUErrorModel.none` gives the ideal virtual IMUs).
         cutoff: low-pass cutoff of kinematics and loads, Hz.
         trim_s: seconds cut from each end.
         name: recording name.
@@ -544,7 +544,7 @@ def hamner_running_recording(
     error_model: IMUErrorModel | None = None,
     cutoff: float = DEFAULT_RUN_CUTOFF_HZ,
 ) -> Recording:
-    """The :class:`~sspinn.dataset.Recording` of :func:`hamner_running`."""
+    """The :class:`~sspinn.data.dataset.Recording` of :func:`hamner_running`."""
     return hamner_running(data_dir, seed=seed, error_model=error_model, cutoff=cutoff).recording
 
 

@@ -1,4 +1,4 @@
-"""Validation of the sagittal sensor calibration (:mod:`sspinn.sensor_calibration`) on synthetic
+"""Validation of the sagittal sensor calibration (:mod:`sspinn.imu.calibration`) on synthetic
 3D sensors with known mountings.
 
 Recipe (:func:`mounting_trials`):
@@ -7,7 +7,7 @@ Recipe (:func:`mounting_trials`):
    (``tests/fixtures/predicted_walk_1.3.csv``, with its GRF: :func:`predictive.solve_predictive` at
    1.3 m/s for the 1.75 m, 70 kg Winter body, written by ``scripts/validate_sensor_calibration.py``) — repeated
    for ``strides`` strides, after ``standing_s`` of quiet standing in the zero pose (or none);
-   the 2D virtual IMUs (:func:`sspinn.kinematics.virtual_imu`, default placement, angle 0) give
+   the 2D virtual IMUs (:func:`sspinn.model.kinematics.virtual_imu`, default placement, angle 0) give
    each segment's ``acc_x, acc_y, gyr_z``.
 2. Each sensor gets a uniformly random 3D mounting ``M`` (sensor-from-segment rotation) and
    out-of-plane motion (:func:`embed_in_3d`): the segment rolls and twists by small band-limited
@@ -30,13 +30,13 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from sspinn.body import BodyParameters, IMUPlacement
-from sspinn.conventions import COORDINATES, GRF, SEGMENTS
-from sspinn.dataset import read_csv_table
-from sspinn.imu_errors import band_limited_process
-from sspinn.kinematics import virtual_imu
-from sspinn.sensor_calibration import Calibration, calibrate
-from sspinn.sensor_map import SensorAssignment
+from sspinn.data.dataset import read_csv_table
+from sspinn.data.sensor_noise import band_limited_process
+from sspinn.imu.calibration import Calibration, calibrate
+from sspinn.imu.sensor_map import SensorAssignment
+from sspinn.model.body import BodyParameters, IMUPlacement
+from sspinn.model.conventions import COORDINATES, GRF, SEGMENTS
+from sspinn.model.kinematics import virtual_imu
 
 RATE_HZ = 100.0
 GAIT_COLUMNS = ("time", *COORDINATES, *(f"d_{c}" for c in COORDINATES), *(f"dd_{c}" for c in COORDINATES), *GRF)
@@ -59,7 +59,7 @@ class OutOfPlane:
 
 
 class Gait(NamedTuple):
-    """One stride at 100 Hz: q, u, q̈ (n, 9) and the GRF (n, 4) N (:data:`sspinn.conventions.GRF` order)."""
+    """One stride at 100 Hz: q, u, q̈ (n, 9) and the GRF (n, 4) N (:data:`sspinn.model.conventions.GRF` order)."""
 
     q: np.ndarray
     u: np.ndarray

@@ -1,9 +1,9 @@
-"""The ZUPT filter (:mod:`sspinn.zupt`) on gaitmap's data: 3D foot IMUs → sagittal signals, and
+"""The ZUPT filter (:mod:`sspinn.estimator.zupt`) on gaitmap's data: 3D foot IMUs → sagittal signals, and
 the validation against motion capture on gaitmap's example recording.
 
 * :func:`sagittal_from_gaitmap_frame` projects a 3D foot IMU given in gaitmap's sensor frame onto
   the foot's sagittal plane in sspinn's conventions (gravity and heading alignment, as gaitmap's
-  preprocessing), ready for :class:`~sspinn.zupt.SagittalZuptKalman`.
+  preprocessing), ready for :class:`~sspinn.estimator.zupt.SagittalZuptKalman`.
 * :func:`load_gaitmap_example` reads gaitmap's example walking recording
   (``../shared/data/gaitmap_foot_imu``: two foot IMUs at 204.8 Hz, foot markers at 100 Hz,
   57 strides from mid-stance to mid-stance), and :func:`gaitmap_stride_speeds` compares the
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sspinn.zupt import SagittalZuptKalman, stance_phases
+from sspinn.estimator.zupt import SagittalZuptKalman, stance_phases
 
 
 # --------------------------------------------------------------------------------------------

@@ -1,0 +1,189 @@
+"""SSPINNpose as one estimator object: configure, ``fit`` or ``load``, ``adapt``, ``predict``.
+
+In the style of gaitmap and scikit-learn: the constructor only stores settings; the action
+methods (:meth:`SSPINNpose.fit`, :meth:`SSPINNpose.adapt`) return the estimator itself and leave
+their results in attributes with a trailing underscore (``network_``, ``segments_``,
+``config_``, ``trained_on_``, ``steps_``, ``stopped_by_``); :meth:`SSPINNpose.predict` returns a
+:class:`~sspinn.estimator.inference.GaitEstimate`.
+
+>>> import sspinn
+>>> est = sspinn.SSPINNpose.load("models/pretrained/model.pt")        # doctest: +SKIP
+>>> [rec] = sspinn.open_recordings("my_data/walk.csv")                # doctest: +SKIP
+>>> estimate = est.predict(rec)                                      # doctest: +SKIP
+>>> estimate.tau, estimate.grf, estimate.u[:, 0]   # torques N·m, GRFs N, speed m/s   # doctest: +SKIP
+
+Training writes its run folder (checkpoints, TensorBoard, ``model.pt``) through
+:class:`~sspinn.estimator.training.Trainer`; without ``out`` it trains in a temporary folder and
+keeps only the model in memory (save it with :meth:`SSPINNpose.save`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from sspinn.data.dataset import Recording
+from sspinn.errors import UserError
+from sspinn.estimator.inference import GaitEstimate, StreamingEstimator, estimate_recording
+from sspinn.estimator.model_store import StoredModel, export_streaming, load_model, save_model
+from sspinn.estimator.network import SSPINNposeNet
+from sspinn.estimator.training import TrainConfig, Trainer, adaptation_config
+
+#: The repository's named training configurations (``configs/sspinn/<name>.yaml``), found from
+#: the installed package rather than the working directory.
+CONFIG_DIR = Path(__file__).resolve().parents[2] / "configs" / "sspinn"
+
+
+class NotFittedError(UserError):
+    """The estimator has no trained network yet: ``fit`` it or ``load`` one."""
+
+
+def resolve_train_config(config: TrainConfig | str | Path | None, settings: Sequence[str] = (), **overrides: Any) -> TrainConfig:
+    """A :class:`TrainConfig` from a config object, a YAML path, or the name of one of the
+    repository's configurations (``"demo"``, ``"smoke"``, ``"paper"``); ``None`` is ``"demo"``.
+    A relative path that does not exist in the working directory is looked up in
+    :data:`CONFIG_DIR` by its file name, so the defaults work from any folder."""
+    if isinstance(config, TrainConfig):
+        return config
+    path = Path(config if config is not None else "demo")
+    if not path.suffix:
+        path = CONFIG_DIR / f"{path}.yaml"
+    elif not path.is_absolute() and not path.exists() and (CONFIG_DIR / path.name).exists() and path.parent.name == "sspinn":
+        path = CONFIG_DIR / path.name
+    return TrainConfig.from_yaml(path, settings=list(settings), **overrides)
+
+
+class SSPINNpose:
+    """Self-supervised physics-informed estimation of sagittal gait from IMUs.
+
+    Args:
+        config: training settings: a :class:`~sspinn.estimator.training.TrainConfig`, a YAML
+            path, or a configuration name (``"demo"``, the CPU-sized default; ``"paper"``;
+            ``"smoke"``).
+        device: ``"cpu"``, ``"cuda"``, ``"cuda:1"`` … for prediction and adaptation (training
+            uses the config's ``device``).
+
+    Attributes (set by ``fit``, ``adapt`` or ``load``):
+        network_: the trained :class:`~sspinn.estimator.network.SSPINNposeNet` (eval mode).
+        segments_: the IMU segments it reads, in input order.
+        config_: the :class:`TrainConfig` it was trained with.
+        imu_std_: (n_segments, 3) IMU standard deviations of its training data (m/s², rad/s).
+        trained_on_: names of the recordings whose IMU signals its training saw.
+        steps_: optimiser steps of the last ``fit``/``adapt`` (None after ``load``).
+        stopped_by_: ``"steps"`` or ``"time_limit"`` for the last ``fit``/``adapt``.
+        path_: the model file it was loaded from or last saved to.
+    """
+
+    def __init__(self, config: TrainConfig | str | Path | None = None, device: str = "cpu") -> None:
+        self.config = config
+        self.device = device
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def load(cls, path: str | Path, device: str = "cpu") -> SSPINNpose:
+        """An estimator from a model file (``model.pt`` of a run, or a shipped model)."""
+        est = cls(device=device)
+        est._set(load_model(path, device), steps=None, stopped_by=None)
+        return est
+
+    def _set(self, stored: StoredModel, steps: int | None, stopped_by: str | None) -> None:
+        self.network_: SSPINNposeNet = stored.network
+        self.segments_: tuple[str, ...] = stored.segments
+        self.config_: TrainConfig = resolve_train_config_from_dict(stored.config, str(stored.path))
+        self.imu_std_: torch.Tensor = stored.imu_std
+        self.trained_on_: tuple[str, ...] = stored.trained_on or ()
+        self.steps_ = steps
+        self.stopped_by_ = stopped_by
+        self.path_: Path = stored.path
+        self._stored = stored
+
+    @property
+    def stored_(self) -> StoredModel:
+        """The trained model as a :class:`StoredModel` (what a model file holds)."""
+        self._check_fitted()
+        return self._stored
+
+    def _check_fitted(self) -> None:
+        if not hasattr(self, "network_"):
+            raise NotFittedError("this SSPINNpose has no trained network: call fit(recordings) or SSPINNpose.load(path)")
+
+    # ------------------------------------------------------------------ actions
+    def fit(self, recordings: Sequence[Recording], out: str | Path | None = None, resume: bool = False) -> SSPINNpose:
+        """Train self-supervised on ``recordings`` (their labels are never read). ``out`` is the
+        run folder (checkpoints, TensorBoard, ``model.pt``; ``resume`` continues an interrupted
+        run there); without it the run uses a temporary folder and only the model is kept."""
+        config = resolve_train_config(self.config)
+        return self._train(config, recordings, out, resume=resume, init_from=None)
+
+    def adapt(
+        self, recordings: Sequence[Recording], out: str | Path | None = None, resume: bool = False,
+        settings: Sequence[str] = (), **overrides: Any,
+    ) -> SSPINNpose:
+        """Adapt the trained network to new, unlabeled recordings (a new subject's): its own
+        configuration, :data:`~sspinn.estimator.training.ADAPT_STEPS` steps at a low constant
+        rate, no input noise (:func:`~sspinn.estimator.training.adaptation_config`;
+        ``overrides`` such as ``steps=``, ``lr=``, ``threads=`` and ``settings`` change it)."""
+        self._check_fitted()
+        config = adaptation_config(self._stored.config, str(self.path_), list(settings), **overrides)
+        return self._train(config, recordings, out, resume=resume, init_from=None if resume else self._stored)
+
+    def finetune(self, recordings: Sequence[Recording], out: str | Path | None = None, resume: bool = False) -> SSPINNpose:
+        """Continue training the trained network with the fine-tuning weights (the paper's
+        L_K, L_T and contact terms × 10), with this estimator's ``config``."""
+        self._check_fitted()
+        config = resolve_train_config(self.config)
+        config.finetune = True
+        return self._train(config, recordings, out, resume=resume, init_from=None if resume else self._stored)
+
+    def _train(self, config: TrainConfig, recordings: Sequence[Recording], out: str | Path | None, resume: bool,
+               init_from: StoredModel | None) -> SSPINNpose:
+        with tempfile.TemporaryDirectory(prefix="sspinn-run-") if out is None else contextlib.nullcontext(out) as folder:
+            trainer = Trainer(config, folder)
+            trainer.fit(list(recordings), resume=resume, init_from=init_from)
+            stored = load_model(Path(folder) / "model.pt", self.device)
+            if out is None:  # the temporary folder goes: the model lives in memory only
+                stored = StoredModel(stored.network, stored.segments, stored.config, stored.imu_std, stored.trained_on, Path("<memory>"))
+        self._set(stored, steps=trainer.step, stopped_by=trainer.stopped_by)
+        return self
+
+    def predict(self, recording: Recording) -> GaitEstimate:
+        """Estimates of one recording: coordinates, rates, accelerations, joint torques, GRFs,
+        contact (:class:`~sspinn.estimator.inference.GaitEstimate`; the forward speed is
+        ``u[:, 0]``). Raises a one-line error for missing IMUs or non-finite/implausible output."""
+        self._check_fitted()
+        return estimate_recording(self.network_, recording, self.segments_)
+
+    def stream(self, height: float, mass: float) -> StreamingEstimator:
+        """A sample-by-sample estimator for one subject (height m, mass kg) with a carried LSTM
+        state (:class:`~sspinn.estimator.inference.StreamingEstimator`)."""
+        self._check_fitted()
+        return StreamingEstimator(self.network_, self.segments_, height, mass)
+
+    def save(self, path: str | Path) -> Path:
+        """Write the model file (atomically, safe format) and return its path."""
+        self._check_fitted()
+        path = save_model(self.network_, Path(path), self.segments_, self._stored.config, self.imu_std_, self.trained_on_)
+        self.path_ = path
+        return path
+
+    def export(self, path: str | Path) -> Path:
+        """A ``torch.export`` program of one streaming step (``.pt2``)."""
+        self._check_fitted()
+        return export_streaming(self.network_, path)
+
+    def __repr__(self) -> str:
+        state = f"trained on {len(self.trained_on_)} recording(s), IMUs {list(self.segments_)}" if hasattr(self, "network_") else "not fitted"
+        return f"SSPINNpose(config={self.config!r}, device={self.device!r}; {state})"
+
+
+def resolve_train_config_from_dict(data: dict[str, Any], source: str) -> TrainConfig:
+    """The :class:`TrainConfig` saved in a model file (a plain dict)."""
+    from sspinn.yaml_config import config_from_mapping
+
+    return config_from_mapping(TrainConfig, data, source, what="train option")
+

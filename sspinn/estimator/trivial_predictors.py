@@ -1,0 +1,182 @@
+"""Trivial predictors: what every accuracy figure must beat.
+
+An estimator's error means little without what a predictor that ignores the IMU data scores on
+the same recordings. :class:`TrivialPredictor` predicts, for every sample,
+
+* **zero torque** at every joint (JTE baseline),
+* the **mean posture** (the mean of each angle and pelvis tilt, rad; JAE baseline),
+* a **constant mean GRF** per GRF column, in body weights, times the recording's body weight
+  (GRFE baseline),
+* the **mean speed**, m/s (speed-error baseline),
+
+with the means taken over the labelled *reference* recordings — the training split's labels, the
+fair choice — per gait program (``walk``/``run``, from the recordings' provenance) when the
+reference has recordings of that program, else over all of them. When no labelled training data
+exist, :meth:`TrivialPredictor.fit` on the evaluated recordings themselves gives an *oracle*
+baseline (it knows the test means; harder to beat), and says so in ``source``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from sspinn.data.dataset import SAMPLE_RATE_HZ, Recording
+from sspinn.data.gait_events import detect_events, normalise_cycles, strides
+from sspinn.estimator.inference import GaitEstimate
+from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, N_Q, N_TAU
+
+#: Program name of recordings whose provenance names none.
+ALL: str = "all"
+
+
+def program_of(rec: Recording) -> str:
+    """The recording's gait program (``provenance['program']['name']``, e.g. "walk", "run"),
+    else :data:`ALL`."""
+    program = rec.provenance.get("program") if isinstance(rec.provenance, dict) else None
+    name = program.get("name") if isinstance(program, dict) else None
+    return str(name) if name else ALL
+
+
+@dataclass(frozen=True)
+class ProgramMeans:
+    """Means of one program's reference labels: ``q`` (9,) coordinate means (m, rad; only the
+    angles and pelvis tilt are used), ``grf_bw`` (4,) mean GRF in body weights, ``speed`` (m/s),
+    and the number of samples they come from."""
+
+    q: np.ndarray
+    grf_bw: np.ndarray
+    speed: float
+    n_samples: int
+
+
+@dataclass(frozen=True)
+class TrivialPredictor:
+    """Per-program label means (see the module docstring); ``source`` says where they come from."""
+
+    means: dict[str, ProgramMeans]
+    source: str
+
+    @classmethod
+    def fit(cls, recordings: Sequence[Recording], source: str) -> TrivialPredictor:
+        """Means of the labels of ``recordings`` per program (and over all, key :data:`ALL`).
+
+        A recording needs at least one of the labels q, GRF and speed (e.g. an imported real
+        recording with GRF and treadmill speed but no angles); a group no recording has gets a
+        zero mean, which no metric uses (a metric needs the label it compares with).
+
+        Raises:
+            ValueError: no recording has any of the labels q, GRF and speed.
+        """
+        groups: dict[str, list[Recording]] = {}
+        for rec in recordings:
+            lab = rec.labels
+            if lab is None or (lab.q is None and lab.grf is None and lab.speed is None):
+                continue
+            groups.setdefault(program_of(rec), []).append(rec)
+            if program_of(rec) != ALL:
+                groups.setdefault(ALL, []).append(rec)
+        if not groups:
+            raise ValueError(f"{source}: no recording with the labels q, grf or speed to fit a trivial predictor on")
+        means = {}
+        for program, recs in groups.items():
+            q = [r.labels.q for r in recs if r.labels.q is not None]
+            grf = [r.labels.grf / (r.mass * GRAVITY) for r in recs if r.labels.grf is not None]
+            speed = [r.labels.speed for r in recs if r.labels.speed is not None]
+            means[program] = ProgramMeans(
+                np.concatenate(q).mean(0) if q else np.zeros(N_Q),
+                np.concatenate(grf).mean(0) if grf else np.zeros(len(GRF)),
+                float(np.concatenate(speed).mean()) if speed else 0.0,
+                sum(r.n_samples for r in recs),
+            )
+        return cls(means, source)
+
+    def means_for(self, rec: Recording) -> ProgramMeans:
+        """The means used for ``rec``: its program's, else those over all reference recordings."""
+        return self.means.get(program_of(rec), self.means[ALL] if ALL in self.means else next(iter(self.means.values())))
+
+    def predict(self, rec: Recording) -> GaitEstimate:
+        """The trivial estimate of ``rec`` (same samples; constant in time)."""
+        m = self.means_for(rec)
+        T = rec.n_samples
+        q = np.tile(m.q, (T, 1))
+        q[:, COORDINATES.index("pelvis_tx")] = m.speed * np.arange(T) / SAMPLE_RATE_HZ
+        u = np.zeros((T, N_Q))
+        u[:, 0] = m.speed
+        grf = np.tile(m.grf_bw * rec.mass * GRAVITY, (T, 1))
+        assert grf.shape[1] == len(GRF)
+        return GaitEstimate(
+            name=f"{rec.name} (trivial)",
+            time=np.arange(T) / SAMPLE_RATE_HZ,
+            q=q,
+            u=u,
+            qdd=np.zeros((T, N_Q)),
+            tau=np.zeros((T, N_TAU)),
+            grf=grf,
+            w=np.zeros((T, 2)),
+        )
+
+
+@dataclass(frozen=True)
+class GRFProfilePredictor:
+    """The reference recordings' mean GRF **profile** over the gait cycle, placed at a recording's
+    *measured* heel strikes: a template predictor with oracle timing.
+
+    Per foot, every stride of the reference recordings (heel strike to heel strike of that foot,
+    :func:`sspinn.data.gait_events.detect_events` on the measured vertical GRF; strides of 0.3–3 s) is
+    time-normalised to 101 points and divided by body weight; ``profile`` (2 feet, 101, 2: x, y)
+    is their mean. :meth:`predict_grf` stretches it between the recording's own measured heel
+    strikes — it ignores the IMU data but is told when each stride starts and ends, so its error
+    is what the *shape* of an average stride leaves, a harder baseline than the constant mean GRF
+    (:class:`TrivialPredictor`). Samples outside a complete stride get the constant mean
+    (``mean_bw`` (4,), body weights). Fitted on labelled GRFs only.
+    """
+
+    profile: np.ndarray
+    mean_bw: np.ndarray
+    strides: int
+    source: str
+
+    @classmethod
+    def fit(cls, recordings: Sequence[Recording], source: str) -> GRFProfilePredictor:
+        """Mean stride profile of the recordings' GRF labels.
+
+        Raises:
+            ValueError: no recording has GRF labels with a complete stride on both feet.
+        """
+        cycles: list[list[np.ndarray]] = [[], []]
+        means = []
+        for rec in recordings:
+            if rec.labels is None or rec.labels.grf is None:
+                continue
+            grf_bw = rec.labels.grf / (rec.mass * GRAVITY)
+            means.append(grf_bw)
+            for foot, cuts in enumerate(_strides(rec)):
+                if cuts:
+                    cycles[foot].append(np.stack([normalise_cycles(grf_bw[:, 2 * foot + k], cuts) for k in range(2)], axis=-1))
+        if not cycles[0] or not cycles[1]:
+            raise ValueError(f"{source}: no complete stride on both feet in the GRF labels to fit a GRF profile on")
+        profile = np.stack([np.concatenate(c).mean(axis=0) for c in cycles])
+        return cls(profile, np.concatenate(means).mean(0), min(sum(len(x) for x in c) for c in cycles), source)
+
+    def predict_grf(self, rec: Recording) -> np.ndarray:
+        """(T, 4) GRF (N) of ``rec``: the profile between its measured heel strikes."""
+        if rec.labels is None or rec.labels.grf is None:
+            raise ValueError(f"{rec.name}: the GRF profile is placed at the measured heel strikes; the recording has no GRF labels")
+        bw = rec.mass * GRAVITY
+        out = np.tile(self.mean_bw, (rec.n_samples, 1))
+        for foot, cuts in enumerate(_strides(rec)):
+            for s, e in cuts:
+                grid = np.linspace(0, 1, e - s + 1)
+                out[s : e + 1, 2 * foot : 2 * foot + 2] = np.column_stack(
+                    [np.interp(grid, np.linspace(0, 1, 101), self.profile[foot, :, k]) for k in range(2)])
+        return out * bw
+
+
+def _strides(rec: Recording) -> list[list[tuple[int, int]]]:
+    """Per foot (right, left): (start, end) sample indices of the strides of the measured GRF."""
+    assert rec.labels is not None and rec.labels.grf is not None
+    return [strides(detect_events(rec.labels.grf[:, 2 * foot + 1], rec.mass * GRAVITY, SAMPLE_RATE_HZ).heel_strikes, SAMPLE_RATE_HZ)
+            for foot in range(2)]

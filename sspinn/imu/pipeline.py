@@ -1,0 +1,269 @@
+"""``sspinn import``: vendor IMU files + a sensor map + the subject → a calibrated
+:class:`sspinn.data.dataset.Recording` in a dataset folder that ``sspinn train/evaluate/infer`` read
+unchanged, plus a calibration report.
+
+Pipeline (:func:`import_imu`):
+
+1. read the files (:func:`sspinn.imu.vendor_readers.read_imu_files`: OpenSense ``_Accel/_Gyro.trc``
+   or Xsens MT Manager ``.txt``), check them against the sensor map
+   (:class:`sspinn.imu.sensor_map.SensorMap`), crop to ``start_s``/``end_s`` (seconds from the start
+   of the files), check units and gaps and resample to 100 Hz (:func:`sspinn.imu.stream.resample`);
+2. calibrate each sensor onto its segment's sagittal plane from the data
+   (:func:`sspinn.imu.calibration.calibrate`) and project: ``acc_x, acc_y, gyr_z`` in the
+   segment frame (placement angle 0; positions: the project's default, the map's forefoot or
+   explicit ones); check the sensors against each other (:func:`sspinn.imu.cross_sensor_checks.check_mounting`:
+   a sensor upside down compared with the others, legs mixed up in the map) — warnings, printed and
+   stored in the provenance and the report;
+3. optionally read the GRF (``.mot``; :func:`sspinn.imu.vendor_readers.read_treadmill_grf`; above
+   100 Hz low-pass filtered at 40 Hz first), align it
+   (:func:`sspinn.imu.time_alignment.align_to_grf`), orient its horizontal axis along the walking
+   direction (:func:`sspinn.imu.time_alignment.walking_direction_sign`), resample it onto the IMU
+   samples (linear) and store ``grf_x_r, grf_y_r, grf_x_l, grf_y_l`` (N) as labels — the
+   recording is cropped to the samples the GRF covers; the lag is in the provenance;
+4. optionally a constant ``speed`` label (m/s; the treadmill belt speed);
+5. write ``<out>/<name>.csv`` + ``.json`` (:meth:`Recording.save`), add the recording to
+   ``<out>/dataset.json`` and write ``<name>_calibration.md``, ``.png`` and ``.json``.
+
+``dataset.json`` splits: by default (``split="all"``) the recording is listed in train, val and
+test alike — self-supervised training needs no labels and estimating on the training data is
+how a self-supervised estimator is used; for a held-out evaluation import the test subjects
+with ``split="test"`` into the same folder.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Final
+
+import numpy as np
+from scipy.signal import butter, sosfiltfilt
+
+from sspinn.data.dataset import FORMAT, SPLITS, VERSION, DataFormatError, Labels, Recording
+from sspinn.imu.calibration import Calibration, calibrate
+from sspinn.imu.calibration_report import calibration_markdown, plot_calibration
+from sspinn.imu.cross_sensor_checks import check_mounting
+from sspinn.imu.sensor_map import SensorMap
+from sspinn.imu.stream import ANTI_ALIAS_HZ, DEFAULT_MAX_GAP_S, RATE_HZ, IMUImportError, resample
+from sspinn.imu.time_alignment import Alignment, align_to_grf, walking_direction_sign
+from sspinn.imu.vendor_readers import read_imu_files, read_treadmill_grf
+from sspinn.model.conventions import GRF
+
+#: Version of the import procedure, stored in the provenance.
+IMPORTER_VERSION: Final = 2
+
+
+@dataclass
+class ImportResult:
+    """What :func:`import_imu` made: the recording, its calibration and alignment, and the files."""
+
+    recording: Recording
+    calibration: Calibration
+    alignment: Alignment | None
+    csv: Path
+    report: Path
+    figure: Path
+
+
+def default_name(files: list[Path]) -> str:
+    """The recording name from the first file: OpenSense ``<stem>_Accel.trc[.gz]`` → ``<stem>``."""
+    name = files[0].name
+    for suffix in (".gz", ".trc", ".txt", ".csv", "_Accel", "_Gyro"):
+        name = name.removesuffix(suffix)
+    return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name) or "imported"
+
+
+def import_imu(
+    imu_files: list[str | Path],
+    sensor_map: SensorMap | str | Path,
+    height: float,
+    mass: float,
+    out: str | Path,
+    *,
+    subject: str = "unknown",
+    name: str | None = None,
+    grf: str | Path | None = None,
+    speed: float | None = None,
+    start_s: float | None = None,
+    end_s: float | None = None,
+    standing: bool = True,
+    max_gap_s: float = DEFAULT_MAX_GAP_S,
+    split: str = "all",
+) -> ImportResult:
+    """Import one trial (module docstring). ``height`` m, ``mass`` kg, ``speed`` m/s, times s."""
+    files = [Path(f) for f in imu_files]
+    smap = sensor_map if isinstance(sensor_map, SensorMap) else SensorMap.from_yaml(sensor_map)
+    if split not in (*SPLITS, "all"):
+        raise IMUImportError(f"split must be one of {[*SPLITS, 'all']}, got {split!r}")
+    name = name or default_name(files)
+    stream = read_imu_files(files)
+    smap.check_sensors(stream.names, stream.source)
+    stream.sensors = {s: stream.sensors[s] for s in stream.names if s in smap.assignments}
+    t_file0 = min(float(s.time[0]) for s in stream.sensors.values())
+    if start_s is not None or end_s is not None:
+        stream = stream.crop(start_s, end_s)
+    grid, stream = resample(stream, max_gap_s=max_gap_s)
+    by_segment = smap.by_segment()
+    signals = {seg: (stream.sensors[a.sensor].acc, stream.sensors[a.sensor].gyr) for seg, a in by_segment.items()}
+    cal = calibrate(signals, by_segment, RATE_HZ, standing="auto" if standing else None, source=stream.source)
+    check_mounting(signals, cal, by_segment, {seg: stream.sensors[a.sensor].source for seg, a in by_segment.items()})
+    projected = {seg: cal.sensors[seg].project(*signals[seg]) for seg in by_segment}
+    imu = np.stack([projected[seg] for seg in smap.segments], axis=1)
+    times = grid - t_file0  # s from the start of the IMU files
+    keep = np.ones(len(grid), dtype=bool)
+    labels: dict[str, np.ndarray] = {}
+    alignment = None
+    notes = list(stream.notes)
+    if grf is not None:
+        alignment, grf_labels, keep, grf_notes = _grf_labels(Path(grf), signals, cal, times)
+        labels.update(grf_labels)
+        notes += grf_notes
+    if speed is not None:
+        if not np.isfinite(speed) or not 0 <= speed <= 12:
+            raise IMUImportError(f"speed {speed} m/s is outside 0–12 m/s (give m/s)")
+        labels["speed"] = np.full(len(grid), float(speed))
+    if keep.sum() < 2:
+        raise IMUImportError(f"{stream.source}: no IMU sample is covered by the GRF file {grf}")
+    labels = {k: v[keep] for k, v in labels.items()}
+    provenance: dict[str, Any] = {
+        "kind": "imported IMU recording", "importer_version": IMPORTER_VERSION, "imu_files": [str(f) for f in files],
+        "sensor_map": smap.source, "start_s_in_files": round(float(times[keep][0]), 4),
+        "end_s_in_files": round(float(times[keep][-1]), 4), "imu_frame": "segment frame (calibrated; placement angle 0)",
+        "calibration": {seg: c.to_dict() for seg, c in cal.sensors.items()},
+        "standing_s": None if cal.standing is None else [round((cal.standing[0]) / RATE_HZ + float(times[0]), 3),
+                                                         round(cal.standing[1] / RATE_HZ + float(times[0]), 3)],
+        "stride_period_s": round(cal.stride_period_s, 3), "warnings": list(cal.warnings), "notes": cal.notes + notes,
+        "gaps": [g.describe() for g in stream.gaps],
+    }
+    if grf is not None:
+        provenance.update(grf_file=str(grf), grf_alignment=alignment.to_dict() if alignment else None)
+    if speed is not None:
+        provenance["speed_source"] = "given (constant, m/s)"
+    try:
+        rec = Recording(
+            name=name, imu=imu[keep], segments=smap.segments, height=height, mass=mass, subject=subject,
+            placement=smap.placement(height), labels=Labels.from_columns(labels, int(keep.sum())) if labels else None,
+            provenance=provenance,
+        )
+    except DataFormatError as exc:
+        raise IMUImportError(f"{stream.source} after calibration: {exc}") from None
+    out = Path(out)
+    csv = rec.save(out)
+    add_to_index(out, rec, split)
+    context = {"files": ", ".join(str(f) for f in files), "sensor map": smap.source,
+               "subject": f"{subject}, {height} m, {mass} kg", "recording": f"{csv} ({rec.n_samples} samples, {rec.duration:.2f} s)"}
+    report = out / f"{name}_calibration.md"
+    report.write_text(calibration_markdown(name, cal, alignment, context, notes), encoding="utf-8")
+    (out / f"{name}_calibration.json").write_text(json.dumps(
+        {"sensors": provenance["calibration"], "alignment": provenance.get("grf_alignment"), "warnings": provenance["warnings"],
+         "notes": provenance["notes"]}, indent=2))
+    figure = plot_calibration(out / f"{name}_calibration.png", name, cal, projected, {s: v[1] for s, v in signals.items()})
+    return ImportResult(rec, cal, alignment, csv, report, figure)
+
+
+def _grf_labels(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], cal: Calibration, times: np.ndarray
+                ) -> tuple[Alignment, dict[str, np.ndarray], np.ndarray, list[str]]:
+    """(alignment, GRF label columns on the IMU samples, mask of the samples the GRF covers, notes)."""
+    t_grf, forces = read_treadmill_grf(path)
+    t_grf = t_grf - t_grf[0]
+    rate = 1.0 / float(np.median(np.diff(t_grf)))
+    notes = []
+    if rate > 1.01 * RATE_HZ:  # force plates often run at 1 kHz: anti-alias before going to 100 Hz
+        sos = butter(4, ANTI_ALIAS_HZ, fs=rate, output="sos")
+        forces = {s: sosfiltfilt(sos, f, axis=0) for s, f in forces.items()}
+        notes.append(f"GRF {path.name}: {rate:.4g} Hz low-pass filtered at {ANTI_ALIAS_HZ:g} Hz before resampling to 100 Hz")
+    grid = np.arange(int(np.floor(t_grf[-1] * RATE_HZ + 1e-9)) + 1) / RATE_HZ
+    on_grid = {s: np.column_stack([np.interp(grid, t_grf, f[:, k]) for k in range(2)]) for s, f in forces.items()}
+    feet = {s[-1]: s for s in signals if s.startswith("foot")}
+    shanks = {s[-1]: s for s in signals if s.startswith("tibia")}
+    still, hit = (feet or shanks), (shanks or feet)
+    if not still:
+        raise IMUImportError(f"{path}: aligning the GRF needs a foot or shank sensor on each side with a force plate; the map has none")
+    names = ("foot" if feet else "shank", "shank" if shanks else "foot")
+    activity = sum(np.linalg.norm(g, axis=1) for _, g in signals.values())
+    alignment = align_to_grf({s: np.linalg.norm(signals[seg][1], axis=1) for s, seg in still.items()},
+                             {s: signals[seg][0] for s, seg in hit.items()}, {s: f[:, 1] for s, f in on_grid.items()},
+                             activity, cal.stride_period_s, RATE_HZ, max_lag_s=max(grid[-1], times[-1] - times[0]) + 1.0,
+                             names=names)
+    # the alignment's lag is between the two grids' first samples: grid time = (IMU sample time − first IMU time) + lag
+    t_on_grf = times - times[0] + alignment.lag_s
+    file_lag = alignment.lag_s - float(times[0])
+    keep = (t_on_grf >= 0) & (t_on_grf <= grid[-1])
+    notes.append(f"GRF {path.name}: lag {file_lag:+.3f} s between the files' starts (t_GRF = t_IMU + lag); "
+                 f"{int((~keep).sum())} IMU samples outside the GRF dropped")
+    labels = {}
+    for side in ("r", "l"):
+        sign = walking_direction_sign(on_grid[side][:, 0], on_grid[side][:, 1], RATE_HZ)
+        if sign < 0:
+            notes.append(f"GRF {path.name}, side {side}: the force x axis points against the walking direction; flipped")
+        labels[f"grf_x_{side}"] = sign * np.interp(t_on_grf, grid, on_grid[side][:, 0])
+        labels[f"grf_y_{side}"] = np.interp(t_on_grf, grid, on_grid[side][:, 1])
+    assert set(labels) == set(GRF)
+    return alignment, labels, keep, notes
+
+
+def add_to_index(folder: Path, rec: Recording, split: str) -> Path:
+    """Add ``rec`` to ``folder/dataset.json`` (created if absent) in ``split`` (``"all"``: train,
+    val and test); a recording of the same name is replaced."""
+    index = folder / "dataset.json"
+    meta: dict[str, Any] = {"format": "sspinn-dataset", "version": VERSION, "splits": {}, "info": {}}
+    if index.exists():
+        try:
+            meta = json.loads(index.read_text())
+        except json.JSONDecodeError as exc:
+            raise DataFormatError(f"{index}: not valid JSON ({exc}); remove it or import into another folder") from None
+        if not isinstance(meta, dict) or not isinstance(meta.get("splits"), dict):
+            raise DataFormatError(f"{index}: not a dataset index (no 'splits'); import into another folder")
+    splits = {k: [n for n in v if n != rec.name] for k, v in meta["splits"].items()}
+    for s in (SPLITS if split == "all" else (split,)):
+        splits.setdefault(s, []).append(rec.name)
+    meta["splits"] = {s: splits[s] for s in SPLITS if s in splits}
+    info = meta.setdefault("info", {})
+    info.setdefault("imported", {})[rec.name] = {"subject": rec.subject, "split": split, "format": FORMAT}
+    info["note"] = ("recordings imported with `sspinn import`; split 'all' lists a recording in train, val and test "
+                    "(self-supervised use on the same data)")
+    index.write_text(json.dumps(meta, indent=2))
+    return index
+
+
+# ---------------------------------------------------------------------------------- command line
+def add_parser(sub: argparse._SubParsersAction, bounded: Any) -> None:
+    """Register ``sspinn import`` (``bounded``: the CLI's range-checked number type)."""
+    p = sub.add_parser("import", help="vendor IMU files (OpenSense .trc, Xsens .txt) + sensor map → calibrated recording")
+    p.add_argument("--imu", type=Path, nargs="+", required=True, help="IMU files: one OpenSense _Accel.trc[.gz] or Xsens .txt per sensor")
+    p.add_argument("--sensor-map", type=Path, required=True, help="YAML sensor → segment map (configs/sensor_maps/)")
+    p.add_argument("--height", type=bounded(float, 0.5, 2.5, " m"), required=True, help="subject height, m")
+    p.add_argument("--mass", type=bounded(float, 10.0, 300.0, " kg"), required=True, help="subject mass, kg")
+    p.add_argument("--out", type=Path, required=True, help="dataset folder (created; dataset.json updated)")
+    p.add_argument("--subject", default="unknown", help="subject id (splits are by subject)")
+    p.add_argument("--name", default=None, help="recording name (default: from the file name)")
+    p.add_argument("--grf", type=Path, default=None, help="GRF .mot[.gz] to align and store as grf_* labels (N)")
+    p.add_argument("--speed", type=bounded(float, 0.0, 12.0, " m/s"), default=None, help="constant speed label, m/s (treadmill)")
+    p.add_argument("--start", type=bounded(float, 0.0, 1e6, " s"), default=None, help="import from this time, s from the files' start")
+    p.add_argument("--end", type=bounded(float, 0.0, 1e6, " s"), default=None, help="import up to this time, s")
+    p.add_argument("--no-standing", action="store_true", help="ignore quiet standing (in-plane angles from walking alone)")
+    p.add_argument("--max-gap", type=bounded(float, 0.0, 10.0, " s"), default=DEFAULT_MAX_GAP_S, help="longest gap interpolated, s")
+    p.add_argument("--split", default="all", choices=[*SPLITS, "all"], help="split of dataset.json (all: train, val and test)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``sspinn import`` and print a summary."""
+    result = import_imu(
+        args.imu, args.sensor_map, args.height, args.mass, args.out, subject=args.subject, name=args.name, grf=args.grf,
+        speed=args.speed, start_s=args.start, end_s=args.end, standing=not args.no_standing, max_gap_s=args.max_gap,
+        split=args.split,
+    )
+    rec, cal = result.recording, result.calibration
+    print(f"{rec.name}: {rec.n_samples} samples ({rec.duration:.1f} s), IMUs {list(rec.segments)} → {result.csv}")
+    for seg, c in cal.sensors.items():
+        print(f"  {c.sensor} → {seg}: out-of-plane {c.out_of_plane_fraction:.1%}, φ {c.angle_deg:+.1f}°, sign margin {c.sign_margin:.2f}")
+    if result.alignment is not None:
+        print(f"  GRF: {result.alignment.describe()}")
+    if rec.provenance["gaps"]:
+        print(f"  {len(rec.provenance['gaps'])} gap(s) interpolated (listed in the report), the first: {rec.provenance['gaps'][0]}")
+    for warning in cal.warnings:
+        print(f"  WARNING: {warning}")
+    print(f"calibration report: {result.report} (+ {result.figure.name})")
+    return 0
