@@ -17,7 +17,12 @@
    with ``torch.compile``, :class:`sspinn.estimator.training.PhysicsTerms`), measured in the same run, with
    the one-off compile time (the first step) beside the throughput.
 
-Usage: ``python benchmarks/bench_sspinn.py [--quick] [--json PATH]``.
+4. **Sharing the machine**: demo-size training steps (eager physics) alone and beside one
+   busy-looping neighbour process, with 2 threads, 1 thread and ``threads: 0`` (the default:
+   the CPUs other work leaves free, :class:`sspinn.estimator.cpu_share.ThreadShare`), measured in
+   the same run; target with a neighbour ≥ 0.4× the rate alone, and the default unchanged alone.
+
+Usage: ``python benchmarks/bench_sspinn.py [--quick] [--only-sharing] [--json PATH]``.
 """
 
 from __future__ import annotations
@@ -192,16 +197,51 @@ def profile_step(config: NetworkConfig, batch: int, window: int, repeats: int, t
             "compiled": compiled, "first_step_s": first_step}
 
 
+def _busy_loop() -> None:  # pragma: no cover - runs in the neighbour process
+    while True:
+        pass
+
+
+def bench_sharing(config: NetworkConfig, batch: int, window: int, repeats: int, rng: np.random.Generator) -> dict:
+    """Demo-size steps/s alone and beside one busy-looping process, for 2, 1 and auto threads."""
+    import multiprocessing as mp
+
+    from sspinn.estimator.cpu_share import free_cpus
+
+    rates: dict[str, dict[str, float]] = {}
+    for setting in ("2", "1", "auto"):
+        rates[setting] = {}
+        for neighbour in (False, True):
+            proc = mp.get_context("spawn").Process(target=_busy_loop, daemon=True) if neighbour else None
+            if proc is not None:
+                proc.start()
+                time.sleep(1.0)
+            try:
+                threads = free_cpus() if setting == "auto" else int(setting)
+                prof = profile_step(config, batch, window, repeats, threads, rng, compiled=False)
+            finally:
+                if proc is not None:
+                    proc.terminate()
+                    proc.join()
+            rates[setting]["beside" if neighbour else "alone"] = prof["samples_per_s"] / (batch * window)
+            rates[setting]["threads_beside" if neighbour else "threads_alone"] = threads
+    return rates
+
+
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="tiny sizes for a smoke run")
     ap.add_argument("--json", default=None, help="also write the results as JSON")
+    ap.add_argument("--only-sharing", action="store_true", help="only section 4 (training beside a busy neighbour)")
     args = ap.parse_args(argv)
     rng = np.random.default_rng(0)
     paper = NetworkConfig()
     cfg = NetworkConfig(hidden=32, layers=2, dense=16) if args.quick else paper
     n, batch, window, repeats = (30, 4, 32, 2) if args.quick else (2000, 32, 256, 5)
     threads_before = torch.get_num_threads()
+    demo = TrainConfig.from_yaml(Path(__file__).resolve().parents[1] / "configs" / "sspinn" / "demo.yaml")
+    if args.only_sharing:
+        return {"sharing": report_sharing(demo, cfg, batch, window, repeats, args.quick, rng)}
     print(f"sspinn SSPINNpose benchmark — torch {torch.__version__}, {platform.machine()}, model LSTM {cfg.layers}×{cfg.hidden}, dense {cfg.dense}")
     s = bench_streaming(cfg, n, rng)
     print(f"\n1. streaming latency per sample, 1 CPU thread, {s['samples']} samples in {s['rounds']} alternating rounds (p50 / p99, ms)")
@@ -216,7 +256,6 @@ def main(argv: list[str] | None = None) -> dict:
     print(f"   plain PyTorch (same model, MSE on raw outputs)          {t['plain_windows_per_s']:9.1f}")
     print(f"   sspinn (all physics losses)                             {t['sspinn_windows_per_s']:9.1f}")
     print(f"   physics overhead: sspinn / plain = {t['sspinn_windows_per_s'] / t['plain_windows_per_s']:.2f}×")
-    demo = TrainConfig.from_yaml(Path(__file__).resolve().parents[1] / "configs" / "sspinn" / "demo.yaml")
     demo_net, demo_size = (cfg, (batch, window)) if args.quick else (demo.network, (demo.batch_size, demo.window))
     profiles = {}
     for name, net, (pb, pw) in (("demo", demo_net, demo_size), ("paper", cfg, (batch, window))):
@@ -234,12 +273,26 @@ def main(argv: list[str] | None = None) -> dict:
               f"  → after/before {pair[True]['samples_per_s'] / pair[False]['samples_per_s']:.2f}×")
         print(f"   first step, compilation included (a few seconds when inductor's cache holds it): "
               f"{pair[True]['first_step_s']:.1f} s, against {pair[False]['first_step_s']:.2f} s eager")
+    sharing = report_sharing(demo, cfg, batch, window, repeats, args.quick, rng)
     torch.set_num_threads(threads_before)
-    result = {"streaming": s, "training": t, "profile": profiles, "config": cfg.__dict__, "quick": args.quick}
+    result = {"streaming": s, "training": t, "profile": profiles, "sharing": sharing, "config": cfg.__dict__, "quick": args.quick}
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(result, fh, indent=2)
     return result
+
+
+def report_sharing(demo: TrainConfig, cfg: NetworkConfig, batch: int, window: int, repeats: int, quick: bool,
+                   rng: np.random.Generator) -> dict:
+    net, (pb, pw) = (cfg, (batch, window)) if quick else (demo.network, (demo.batch_size, demo.window))
+    rates = bench_sharing(net, pb, pw, repeats if quick else 30, rng)
+    print(f"\n4. training beside a busy neighbour, demo size (batch {pb} × {pw}, eager physics; steps/s)")
+    print(f"   {'threads':<8} {'alone':>8} {'beside one busy process':>24} {'ratio':>7}")
+    for setting, r in rates.items():
+        ratio = r["beside"] / r["alone"]
+        print(f"   {setting:<8} {r['alone']:8.1f} {r['beside']:24.1f} {ratio:7.2f}×   (threads used {r['threads_alone']}/{r['threads_beside']})"
+              + ("   target ≥ 0.4×: " + ("met" if ratio >= 0.4 else "NOT met") if setting == "auto" else ""))
+    return rates
 
 
 if __name__ == "__main__":

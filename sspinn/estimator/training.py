@@ -28,6 +28,7 @@ import torch
 import yaml
 
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Recording
+from sspinn.estimator.cpu_share import ThreadShare
 from sspinn.estimator.losses import Batch, IMUNoise, LossWeights, PhysicsLosses
 from sspinn.estimator.model_store import MODEL_ENTRIES, StoredModel, load_model, load_weights, save_model
 from sspinn.estimator.network import (
@@ -83,7 +84,8 @@ class TrainConfig:
         grad_clip: gradient-norm clipping threshold.
         seed: seed of the window draws, the noise and the initial weights.
         device: cpu, cuda or auto.
-        threads: torch intra-op threads on CPU; 0 = torch's default.
+        threads: torch intra-op threads on CPU; 0 = the CPUs not busy with other work, re-measured
+            every ``checkpoint_every`` steps (:class:`~sspinn.estimator.cpu_share.ThreadShare`).
         log_every: steps between TensorBoard/progress logs.
         checkpoint_every: steps between checkpoints.
         time_limit_s: safety net: stop (with a checkpoint and a loud TimeLimitWarning) after
@@ -446,8 +448,7 @@ class Trainer:
         random.seed(cfg.seed)
         np.random.seed(cfg.seed)
         torch.manual_seed(cfg.seed)  # identical initial weights on every rank
-        if cfg.threads > 0:
-            torch.set_num_threads(cfg.threads)
+        self.threads = ThreadShare(cfg.threads, every=cfg.checkpoint_every)
         self.rng = np.random.default_rng([cfg.seed, self.rank])  # but different windows
         self.data = prepare(train, self.segments, grf=cfg.network.grf)
         #: names of the recordings whose IMU signals this model's training saw (with init_from,
@@ -640,6 +641,7 @@ class Trainer:
                                 writer.add_scalar(f"loss/{k}" if k != "wall_s" else "time/wall_s", v, self.step)
                 if self.step % cfg.checkpoint_every == 0 and lead:
                     self.save_checkpoint()
+                self.threads.update(self.step)
                 if self._agree(interrupt.requested):
                     raise KeyboardInterrupt
                 if cfg.time_limit_s and self._agree(time.perf_counter() - start_time > cfg.time_limit_s):
