@@ -87,3 +87,16 @@ def test_heel_strike_timing_of_an_estimate() -> None:
     assert ms == pytest.approx(0.0, abs=10.0)  # the swap itself is what the shift undoes
     ms, matched = heel_strike_timing(mirrored, rec.labels, slice(0, None), 70.0 * GRAVITY)
     assert np.isnan(ms) and matched == 0.0  # stance on the wrong foot: nothing within 0.3 s
+
+
+def test_contact_onsets_raw_and_periodic() -> None:
+    from sspinn.data.gait_events import contact_onsets, stance_fractions
+
+    fy = np.array([0.5, 0.5, 0.0, 0.0, 0.5, 0.5, 0.0, 0.5])
+    assert contact_onsets(fy).tolist() == [4, 7]  # a signal loaded from its first sample has no onset there
+    assert contact_onsets(fy, periodic=True).tolist() == [4, 7]
+    wrap = np.array([0.5, 0.5, 0.0, 0.0])
+    assert contact_onsets(wrap, periodic=True).tolist() == [0]  # the cycle's last sample precedes its first
+    assert contact_onsets(wrap, threshold_bw=0.6, periodic=True).tolist() == []
+    st = stance_fractions(fy, fy[::-1])
+    assert st["stance_r"] == 0.625 and st["double_support"] + st["flight"] <= 1.0

@@ -11,7 +11,7 @@ Time alignment: the solution's node times t_k = k·T/N are the data's times (the
 start at right heel strike at t = 0 and node 0 was tracked to the data's first sample), so by
 default the solution is compared at the label times without any shift (``align="data"``). The
 heel strike of the model (first node whose right vertical GRF exceeds
-:data:`~predictive.ocp.solution.CONTACT_THRESHOLD_BW`) and of the labels (same threshold) are reported
+:data:`~sspinn.data.gait_events.CONTACT_THRESHOLD_BW`) and of the labels (same threshold) are reported
 as a check; ``align="heel_strike"`` instead shifts the solution in time so that the two coincide.
 """
 
@@ -24,10 +24,11 @@ from typing import Any, Literal
 
 import numpy as np
 
-from predictive.ocp.solution import CONTACT_THRESHOLD_BW, GaitSolution
+from predictive.ocp.solution import GaitSolution
 from predictive.ocp.tracking import TrackingResult
 from predictive.ocp.tracking_data import stride_duration
 from sspinn.data.dataset import Recording
+from sspinn.data.gait_events import CONTACT_THRESHOLD_BW, contact_onsets
 from sspinn.estimator.evaluation import compute_metrics
 from sspinn.estimator.inference import GaitEstimate
 from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, JOINTS
@@ -124,9 +125,9 @@ def solution_at_times(sol: GaitSolution, times: np.ndarray, shift: float = 0.0, 
 
 def _heel_strike_pct(fy_bw: np.ndarray) -> float:
     """% of the cycle at which a periodic vertical GRF (BW, sampled uniformly over one cycle)
-    first rises above the contact threshold after being below it."""
-    loaded = fy_bw > CONTACT_THRESHOLD_BW
-    onsets = np.flatnonzero(loaded & ~np.roll(loaded, 1))
+    first rises above the contact threshold after being below it
+    (:func:`sspinn.data.gait_events.contact_onsets`)."""
+    onsets = contact_onsets(fy_bw, CONTACT_THRESHOLD_BW, periodic=True)
     return float(100.0 * onsets[0] / len(fy_bw)) if len(onsets) else float("nan")
 
 

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from sspinn.data.gait_events import CONTACT_THRESHOLD_BW, contact_onsets, stance_fractions
 from sspinn.errors import UserError
 from sspinn.model.body import BodyParameters
 from sspinn.model.contact import ContactParameters
@@ -28,10 +29,6 @@ MIRROR_Q = np.array([0, 1, 2, 6, 7, 8, 3, 4, 5])
 MIRROR_TAU = np.array([3, 4, 5, 0, 1, 2])
 #: The same for the GRF vector [Fx_r, Fy_r, Fx_l, Fy_l].
 MIRROR_GRF = np.array([2, 3, 0, 1])
-
-#: Vertical GRF above which a foot counts as in contact, BW (the smooth contact model produces
-#: a small force a few millimetres above the ground).
-CONTACT_THRESHOLD_BW = 0.1
 
 #: The arrays of the npz file: the trajectory's fields and the normalising torques.
 _ARRAYS = (*FIELDS, "tau_max")
@@ -123,20 +120,16 @@ class GaitSolution(Trajectory):
 
     def stance_fractions(self, threshold_bw: float = CONTACT_THRESHOLD_BW) -> dict[str, float]:
         """Fractions of the cycle (at the nodes) with a foot loaded above ``threshold_bw``:
-        ``stance_r``, ``stance_l``, ``double_support`` and ``flight`` (no foot loaded)."""
-        fy = self.grf_bw()[:, [1, 3]] > threshold_bw
-        return {
-            "stance_r": float(fy[:, 0].mean()),
-            "stance_l": float(fy[:, 1].mean()),
-            "double_support": float((fy[:, 0] & fy[:, 1]).mean()),
-            "flight": float((~fy[:, 0] & ~fy[:, 1]).mean()),
-        }
+        ``stance_r``, ``stance_l``, ``double_support`` and ``flight`` (no foot loaded;
+        :func:`sspinn.data.gait_events.stance_fractions`)."""
+        grf = self.grf_bw()
+        return stance_fractions(grf[:, 1], grf[:, 3], threshold_bw)
 
     def right_heel_strike(self, threshold_bw: float = CONTACT_THRESHOLD_BW) -> int:
         """Index of the node at which the right vertical GRF rises above ``threshold_bw``
-        (first loaded node after an unloaded one; 0 if the foot never leaves the ground)."""
-        loaded = self.grf_bw()[:, 1] > threshold_bw
-        onsets = np.flatnonzero(loaded & ~np.roll(loaded, 1))
+        (first loaded node after an unloaded one, the cycle wrapping around; 0 if the foot never
+        leaves the ground; :func:`sspinn.data.gait_events.contact_onsets`)."""
+        onsets = contact_onsets(self.grf_bw()[:, 1], threshold_bw, periodic=True)
         return int(onsets[0]) if len(onsets) else 0
 
     # ------------------------------------------------------------------ residual checks

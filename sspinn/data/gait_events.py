@@ -1,8 +1,10 @@
 """Gait events from the vertical ground reaction force: heel strike and toe-off, and how well
 an estimate times them.
 
-A foot is in contact while its vertical GRF exceeds a threshold (by default 5 % of body weight,
-:data:`CONTACT_THRESHOLD_BW`). Heel strike (HS) is the first contact sample, toe-off (TO) the first
+This is the project's one gait-event module: the estimator's evaluation, the optimal-control
+solutions, the controller comparison and the agents' rollouts all detect contact here, with one
+threshold. A foot is in contact while its vertical GRF exceeds a threshold (by default 5 % of body
+weight, :data:`CONTACT_THRESHOLD_BW`). Heel strike (HS) is the first contact sample, toe-off (TO) the first
 sample after contact. Contact and swing phases shorter than ``min_phase_s`` (default 50 ms) are
 treated as noise: a morphological closing then opening of the contact mask
 (:func:`scipy.ndimage.binary_closing` / ``binary_opening``) removes them, so a force that
@@ -83,6 +85,24 @@ def detect_events(vertical: np.ndarray, body_weight: float, rate_hz: float,
     contact = contact_mask(vertical, threshold_bw * body_weight, max(1, round(min_phase_s * rate_hz)))
     change = np.diff(contact.astype(np.int8))
     return GaitEvents(np.flatnonzero(change == 1) + 1, np.flatnonzero(change == -1) + 1, contact)
+
+
+def contact_onsets(vertical_bw: np.ndarray, threshold_bw: float = CONTACT_THRESHOLD_BW, periodic: bool = False) -> np.ndarray:
+    """Sample indices at which a vertical force (in body weights) rises above ``threshold_bw``
+    after being at or below it — raw crossings, without :func:`contact_mask`'s cleaning, for
+    noise-free signals such as a simulated or optimised gait cycle. ``periodic``: the signal is
+    one cycle that wraps around (its first sample follows its last)."""
+    loaded = np.asarray(vertical_bw) > threshold_bw
+    before = np.roll(loaded, 1) if periodic else np.concatenate([[True], loaded[:-1]])
+    return np.flatnonzero(loaded & ~before)
+
+
+def stance_fractions(vertical_r_bw: np.ndarray, vertical_l_bw: np.ndarray, threshold_bw: float = CONTACT_THRESHOLD_BW) -> dict[str, float]:
+    """Fractions of the samples with each foot loaded above ``threshold_bw`` (vertical forces in
+    body weights): ``stance_r``, ``stance_l``, ``double_support`` and ``flight`` (neither)."""
+    r, l = np.asarray(vertical_r_bw) > threshold_bw, np.asarray(vertical_l_bw) > threshold_bw
+    return {"stance_r": float(r.mean()), "stance_l": float(l.mean()), "double_support": float((r & l).mean()),
+            "flight": float((~r & ~l).mean())}
 
 
 def strides(heel_strikes: np.ndarray, rate_hz: float, min_s: float = 0.3, max_s: float = 3.0) -> list[tuple[int, int]]:
