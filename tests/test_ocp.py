@@ -148,15 +148,21 @@ def test_normalised_cycle_starts_at_right_heel_strike(slow_walk: GaitSolution) -
     np.testing.assert_allclose(cyc.hip, np.roll(slow_walk.q[:, 3], -start))
 
 
-def test_comparison_with_winter_and_plot(slow_walk: GaitSolution, tmp_path: Path) -> None:
+@pytest.mark.slow
+def test_walking_against_winter_as_documented(tmp_path: Path) -> None:
+    """docs/trajectory_optimisation.md: at 1.3 m/s (the default 50 nodes per half cycle) the
+    hip is within the 10° target of Winter's walking, the knee and ankle miss it (13.0°, 14.3°),
+    vertical GRF 0.31 BW. The bounds hold the documented figures with a margin for other IPOPT
+    paths (other CPUs reach other local optima), so that a regression fails."""
     if not (SHARED_DATA / "winter_walking").exists():
         pytest.skip("../shared/data/winter_walking not present")
     ref = load_winter(SHARED_DATA)
     assert len(ref.percent) == 50 and ref.speed == pytest.approx(1.325)
-    rmsd = compare_with_reference(slow_walk, ref)
-    for key in ("rmsd_hip_deg", "rmsd_knee_deg", "rmsd_ankle_deg", "rmsd_grf_y_bw"):
-        assert np.isfinite(rmsd[key]) and rmsd[key] >= 0
-    png = plot_gait(slow_walk, tmp_path / "walk.png", ref)
+    rmsd = compare_with_reference(solve_predictive(1.3), ref)
+    assert rmsd["rmsd_hip_deg"] <= 10.0
+    assert rmsd["rmsd_knee_deg"] <= 15.0 and rmsd["rmsd_ankle_deg"] <= 16.0
+    assert rmsd["rmsd_grf_y_bw"] <= 0.4
+    png = plot_gait(solve_predictive(1.2, n_nodes=25), tmp_path / "walk.png", ref)
     assert png.stat().st_size > 10_000
 
 

@@ -138,7 +138,7 @@ def run_track_imu(args: argparse.Namespace) -> int:
     )
     alignment = (
         f"time alignment: {args.align} (shift {comparison.shift_applied_pct:+.1f} % cycle); right heel strike "
-        f"(vertical GRF > 0.05 BW) at {comparison.heel_strike_model_pct:.1f} % (model) vs "
+        f"(vertical GRF > 0.1 BW) at {comparison.heel_strike_model_pct:.1f} % (model) vs "
         f"{comparison.heel_strike_labels_pct:.1f} % (labels)"
     )
     text = f"{header}\n\n{table}\n\n{alignment}\n\n{starts}\n"

@@ -25,11 +25,6 @@ from predictive.ocp.solution import GaitSolution
 
 #: Stride boundary relative to the right foot's contact onset, fraction of the cycle.
 DEFAULT_BOUNDARY: Final = -0.12
-#: The vertical force (BW) whose crossing defines that onset — the synthetic recordings' phase
-#: origin, not an event detector (events are detected with
-#: :data:`sspinn.data.gait_events.CONTACT_THRESHOLD_BW`). Part of the generator's definition:
-#: changing it moves every synthetic stride boundary and invalidates the caches.
-PHASE_ORIGIN_BW: Final = 0.1
 
 
 @dataclass(frozen=True)
@@ -54,7 +49,7 @@ class CycleShape:
         q[:, 0] -= sol.speed * sol.time
         u = sol.u.copy()
         u[:, 0] -= sol.speed
-        origin = sol.right_heel_strike(PHASE_ORIGIN_BW) / sol.n_nodes + boundary
+        origin = sol.right_heel_strike() / sol.n_nodes + boundary
         phase = (sol.time / sol.duration - origin) % 1.0
         order = np.argsort(phase)
         return cls(

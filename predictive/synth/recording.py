@@ -32,7 +32,7 @@ from predictive.ocp.stride_nlp import StridePlan, StrideSolverCache
 from predictive.synth.cache import CODE_VERSION, GENERATOR_NAME, SynthCache, jsonable, stable_hash
 from predictive.synth.chain import FALLBACKS, ChainError, ChainResult, StrideRecord, simulate_chain
 from predictive.synth.config import SynthConfig
-from predictive.synth.periodic_reference import PHASE_ORIGIN_BW, PeriodicReference
+from predictive.synth.periodic_reference import PeriodicReference
 from predictive.synth.planning import plan_strides
 from predictive.synth.subjects import VirtualSubject
 from sspinn.data.dataset import Labels, Recording
@@ -219,8 +219,7 @@ def residual_stats(rec: Recording, body: BodyParameters) -> dict[str, float]:
 
 def gait_stats(chain: ChainResult, body: BodyParameters) -> dict[str, float]:
     """Stance fractions per foot, double support, flight and the peak vertical GRF (BW) of a
-    chain, written into every synthetic recording's provenance. Counted above
-    :data:`~predictive.synth.periodic_reference.PHASE_ORIGIN_BW` (0.1 BW), the generator's own
-    threshold, so that recordings in existing caches and datasets stay what a new run writes."""
+    chain, written into every synthetic recording's provenance (contact above
+    :data:`sspinn.data.gait_events.CONTACT_THRESHOLD_BW`)."""
     fy = chain.grf[:, [1, 3]] / body.body_weight
-    return {**stance_fractions(fy[:, 0], fy[:, 1], PHASE_ORIGIN_BW), "peak_grf_y_bw": float(fy.max())}
+    return {**stance_fractions(fy[:, 0], fy[:, 1]), "peak_grf_y_bw": float(fy.max())}

@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from sspinn.data.dataset import SAMPLE_RATE_HZ, DataFormatError, Labels, Recording, read_csv_table
 from sspinn.model.body import IMUPlacement
 from sspinn.model.conventions import GRAVITY, GRF, IMU_CHANNELS, JOINTS, SEGMENTS
-from sspinn.data.dataset import SAMPLE_RATE_HZ, DataFormatError, Labels, Recording, read_csv_table
 
 #: OpenSim coordinate names of our joints (as used in ../shared/data): hip_r → hip_flexion_r.
 OPENSIM_NAMES = {j: j.replace("hip", "hip_flexion").replace("knee", "knee_angle").replace("ankle", "ankle_angle") for j in JOINTS}

@@ -37,10 +37,10 @@ from typing import Any, Final
 
 import numpy as np
 
+from sspinn.data.plausibility import check_imu_plausibility
+from sspinn.errors import DataFormatError
 from sspinn.model.body import IMUPlacement, ParameterError
 from sspinn.model.conventions import GRAVITY, IMU_CHANNELS, SEGMENTS
-from sspinn.errors import DataFormatError
-from sspinn.data.plausibility import check_imu_plausibility
 from sspinn.model.trajectory import COLUMNS, Trajectory
 
 FORMAT: Final = "sspinn-recording"

@@ -3,8 +3,8 @@ an estimate times them.
 
 This is the project's one gait-event module: the estimator's evaluation, the optimal-control
 solutions, the controller comparison and the agents' rollouts all detect contact here, with one
-threshold. A foot is in contact while its vertical GRF exceeds a threshold (by default 5 % of body
-weight, :data:`CONTACT_THRESHOLD_BW`). Heel strike (HS) is the first contact sample, toe-off (TO) the first
+threshold. A foot is in contact while its vertical GRF exceeds a threshold (by default 10 % of
+body weight, :data:`CONTACT_THRESHOLD_BW`). Heel strike (HS) is the first contact sample, toe-off (TO) the first
 sample after contact. Contact and swing phases shorter than ``min_phase_s`` (default 50 ms) are
 treated as noise: a morphological closing then opening of the contact mask
 (:func:`scipy.ndimage.binary_closing` / ``binary_opening``) removes them, so a force that
@@ -26,8 +26,13 @@ from typing import Final
 import numpy as np
 from scipy.ndimage import binary_closing, binary_opening
 
-#: Contact threshold of the vertical GRF, in body weights.
-CONTACT_THRESHOLD_BW: Final = 0.05
+#: Contact threshold of the vertical GRF, in body weights. Why 0.1 and not the force plates' usual
+#: 20–50 N: the model's smooth spring-damper contact already carries a few percent of body weight
+#: while a foot approaches the ground (the 1.3 m/s optimal-control walking solution exceeds
+#: 0.05 BW 9 % of the cycle before it exceeds 0.1 BW), and the synthetic labels and the estimates
+#: come from that model. The synthetic generator's stride boundaries are defined on it too:
+#: changing it changes the generated data (bump ``predictive.synth.cache.CODE_VERSION``).
+CONTACT_THRESHOLD_BW: Final = 0.1
 #: Shortest contact or swing phase taken as real, s.
 MIN_PHASE_S: Final = 0.05
 

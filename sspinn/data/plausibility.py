@@ -35,9 +35,9 @@ from typing import Final
 
 import numpy as np
 
+from sspinn.errors import DataFormatError
 from sspinn.model.body import WINTER, IMUPlacement
 from sspinn.model.conventions import GRAVITY, SEGMENTS
-from sspinn.errors import DataFormatError
 
 #: Largest sagittal angular rate per segment kind, rad/s (above sprinting values).
 MAX_GYRO_RAD_S: Final[dict[str, float]] = {"pelvis": 12.0, "femur": 25.0, "tibia": 35.0, "foot": 45.0}

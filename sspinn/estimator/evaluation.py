@@ -13,7 +13,7 @@ Metrics (computed over the label columns that are available):
   the speed error above, but not for this one); NaN for a recording shorter than one window;
 * **jitter** — mean |d³θ/dt³| of the estimated joint angles, rad/s³ (smoothness; lower is smoother);
 * **heel-strike timing** — mean |Δt| between the heel strikes of the estimated and the measured
-  vertical GRF of each foot (:mod:`sspinn.data.gait_events`; 5 % BW threshold on both; events more
+  vertical GRF of each foot (:mod:`sspinn.data.gait_events`; its 10 % BW threshold on both; events more
   than 0.3 s apart count as missed), ms, and the share of measured heel strikes matched;
 * **Kane residual** — RMS of the estimate's own equations-of-motion residual
   (:meth:`sspinn.model.trajectory.Trajectory.kane_residual` with the assumed body: BW for the two
@@ -269,7 +269,7 @@ def write_report(
         ax.set_title("estimated poses (spread out in x) with GRF")
         lab = rec.labels
         grf_ref = lab.column("grf_y_r") if lab is not None and "grf_y_r" in lab.columns() else est.grf[:, 1]
-        # heel strikes as raw upward crossings of 5 % BW (no minimum phase: the reference is clean)
+        # heel strikes as raw upward crossings of the contact threshold (no minimum phase: the reference is clean)
         heel_strikes = detect_events(grf_ref[skip:], rec.mass * GRAVITY, SAMPLE_RATE_HZ, min_phase_s=0.0).heel_strikes
         cycles = [(a + skip, b + skip) for a, b in strides(heel_strikes, SAMPLE_RATE_HZ)]
         panels = [("hip_r", "angle"), ("knee_r", "angle"), ("ankle_r", "angle"), ("tau_knee_r", "torque"), ("grf_y_r", "grf")]

@@ -1,0 +1,30 @@
+"""Recordings from every on-disk form the project reads, through one call: :func:`open_recordings`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from sspinn.data.csv_readers import read_averaged_stride
+from sspinn.data.dataset import DataFormatError, Dataset, Recording
+
+
+def open_recordings(
+    path: str | Path, split: str = "train", periods: int = 10, height: float = 1.75, mass: float = 70.0,
+) -> list[Recording]:
+    """The recordings at ``path``:
+
+    * a dataset folder (with ``dataset.json``): the recordings of one ``split``;
+    * a folder with one averaged stride (``signals.csv`` + ``meta.json``): the stride resampled to
+      100 Hz and repeated ``periods`` times (the paper's circular padding), for a subject of
+      ``height`` m and ``mass`` kg when ``meta.json`` gives none;
+    * a recording ``.csv`` with its JSON sidecar.
+
+    Raises :class:`~sspinn.data.dataset.DataFormatError` naming the path otherwise."""
+    path = Path(path)
+    if (path / "dataset.json").exists():
+        return Dataset.open(path).load(split)
+    if (path / "signals.csv").exists() and (path / "meta.json").exists():
+        return [read_averaged_stride(path, height=height, mass=mass, periods=periods)]
+    if path.suffix == ".csv":
+        return [Recording.load(path)]
+    raise DataFormatError(f"{path}: not a dataset folder (dataset.json), an averaged-stride folder (signals.csv + meta.json) or a recording .csv")
