@@ -1,4 +1,4 @@
-"""SSPINNpose on real continuous IMU recordings: the CMU treadmill benchmark (issue #13, part 5).
+"""SSPINNpose on real continuous IMU recordings: the CMU treadmill benchmark.
 
 Six adults walked ~60 s on an instrumented treadmill at 0.72–0.78 m/s, normally (``CSBaseline``)
 and with a mock stiff knee (``CSStiffKnee``), with 8 Xsens IMUs in unknown mountings
@@ -24,7 +24,7 @@ and with a mock stiff knee (``CSStiffKnee``), with 8 Xsens IMUs in unknown mount
    Beside them the baselines, on the same samples: the training subjects' constant mean GRF and
    mean speed (:class:`sspinn.estimator.trivial_predictors.TrivialPredictor`), and their mean GRF profile placed at
    the test trial's measured heel strikes (:class:`sspinn.estimator.trivial_predictors.GRFProfilePredictor`, oracle
-   timing, per condition). Targets (issue #13): GRF RMSE ≤ 15 %BW, heel-strike timing ≤ 30 ms,
+   timing, per condition). Targets: GRF RMSE ≤ 15 %BW, heel-strike timing ≤ 30 ms,
    speed error ≤ 0.10 m/s.
 4. **Report**: ``<out>/report.md`` (tables per trial and per condition, verdicts), ``metrics.json``,
    and plots of estimated vs measured GRF over a few strides (``<out>/plots``).

@@ -1,4 +1,4 @@
-"""Try every bad-input case of issue #12 (and the bad IMU files of issue #13) and print the
+"""Try every bad-input case (bad options, files, models and run folders, and bad real IMU files) and print the
 Markdown table of ``docs/bad_input.md``: the case, what was run, the exit status (or
 exception/warning) and the exact message the user sees.
 
@@ -427,7 +427,7 @@ def main() -> None:
              "refusing to load posix.system", lambda: raises(lambda: _load_statistics(tmp, RunsCode()))),
         Case("all", "agents: missing config", "python -m agents train --config missing.yaml", "exit 2", "missing.yaml",
              lambda: cli(agents_main, ["train", "--config", str(tmp / "missing.yaml"), "--out", str(tmp / "ag")])),
-        # issue #13: bad IMU files (sspinn import of edited copies of a real CMU OpenSense export)
+        # bad IMU files (sspinn import of edited copies of a real CMU OpenSense export)
         Case("13a", "thighs' sensors swapped between the sides in the map", "sspinn import --sensor-map thighs_swapped.yaml",
              "exit 0", "'femur_l_imu_offset_imu' (femur_r) leads 'tibia_r_imu_offset_imu' (tibia_r)",
              lambda: imu_import(smap=sensor_map_edited(CMU_MAP, legs[:2]))),

@@ -1,7 +1,7 @@
 """Do the optimisation tests and the default synthetic dataset survive other machines?
 
 IPOPT's path depends on rounding: the same code and inputs reached other local optima (and one
-infeasible stride) on a CPU with other vector units (``../shared/TRAPS.md``). This script
+infeasible stride) on an AMD EPYC with AVX-512 than on an AVX2 machine. This script
 simulates such machines by perturbations that change the floating-point path but not the
 problem, and runs, under each of them,
 

@@ -1,4 +1,4 @@
-"""Issue #12: one error path for the three command lines (sspinn.errors.run_cli), the agents' run
+"""One error path for the three command lines (sspinn.errors.run_cli), the agents' run
 folder lock, and the core's independence from envs/predictive/agents."""
 
 from __future__ import annotations

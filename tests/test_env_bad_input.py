@@ -1,4 +1,4 @@
-"""Issue #12 item 6: non-finite actions and steps after the end of an episode follow Gymnasium's
+"""Non-finite actions and steps after the end of an episode follow Gymnasium's
 conventions (a clear error; a warning, sticky flags and zero reward)."""
 
 from __future__ import annotations

@@ -287,7 +287,7 @@ def test_reproducible_with_same_seed(gait, p, nominal):
     d, _ = measure_imu(q, u, qdd, p, nominal, model, rng=100)
     assert np.array_equal(a, b) and np.array_equal(a, c) and not np.allclose(a, d)
     assert info_a["true_placement"] == info_b["true_placement"]
-    # a fixed true placement is honoured (several recordings of one session)
+    # a fixed true placement is honoured (several recordings without re-attaching the sensors)
     fixed = sample_true_placement(nominal, model, 5)
     e, info_e = measure_imu(q, u, qdd, p, nominal, model, rng=99, true_placement=fixed)
     assert info_e["true_placement"] is fixed and np.array_equal(info_e["noise"], info_a["noise"])

@@ -1,6 +1,6 @@
 """``sspinn import``: synthetic Xsens files with random mountings end to end, one-line errors, and
 a 10 s excerpt of a real CMU trial (with GRF) that ``Dataset``, ``open_recordings`` and
-``sspinn infer`` read unchanged; bad files (issue #13: a wrong sensor map, a missing sensor, a
+``sspinn infer`` read unchanged; bad files (a wrong sensor map, a missing sensor, a
 gap, a sensor mounted upside down, a constant axis), synthetic and edited copies of the real CMU
 OpenSense files, give one-line errors or warnings naming file and sensor."""
 
@@ -198,7 +198,7 @@ def test_cmu_excerpt_imports_and_is_read_unchanged(tmp_path, tiny_run, capsys) -
     assert (tmp_path / "inf" / "OpenSim_Sub01_CSBaseline_estimate.csv").exists()
 
 
-# ---------------------------------------------------------------------------------- bad files (issue #13)
+# ---------------------------------------------------------------------------------- bad files
 def test_xsens_missing_file_dead_gyro_axis_and_short_gap(xsens_trial, tmp_path, capsys, no_figure) -> None:
     folder, files, smap, _, _ = xsens_trial
     status = main(_import([*files[:6], files[7]], smap, tmp_path / "missing"))  # foot_l's file left out

@@ -1,4 +1,4 @@
-"""Issue #12 items 1, 2 and 7: safe model/checkpoint files with clear errors, one process per run
+"""Safe model/checkpoint files with clear errors, one process per run
 folder, and a Ctrl-C resume that is bit-identical to an uninterrupted run."""
 
 from __future__ import annotations
@@ -239,7 +239,7 @@ def test_bad_options_are_one_line_errors(tiny_run, tmp_path, capsys):
 
 
 def test_two_real_training_processes_and_a_real_ctrl_c(tiny_run, tmp_path, capsys):
-    """The issue's reproduction: a second `sspinn train` into the folder of a running one stops
+    """The reported case: a second `sspinn train` into the folder of a running one stops
     with the owner's PID; Ctrl-C (SIGINT) to the first saves a checkpoint at a step boundary,
     exits 130 and releases the folder."""
     import time

@@ -1,4 +1,4 @@
-"""Issue #12 item 4: no estimate or report is written with non-finite values, and nothing is
+"""No estimate or report is written with non-finite values, and nothing is
 written when a command fails."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue #12 item 5: the predictive CLI rejects impossible requests up front with one line and
+"""The predictive CLI rejects impossible requests up front with one line and
 exit code 2, and reports a solution that violates the dynamics or physics as failed (exit 1)."""
 
 from __future__ import annotations

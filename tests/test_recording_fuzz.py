@@ -1,4 +1,4 @@
-"""Issue #12 item 3: fuzzing of the recording readers with hypothesis; the property is "loads with
+"""Fuzzing of the recording readers with hypothesis; the property is "loads with
 finite values, or a DataFormatError naming the file, on one line". The cases it found are kept as
 explicit ``@example``s (see docs/bad_input.md)."""
 

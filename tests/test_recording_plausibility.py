@@ -1,4 +1,4 @@
-"""Issue #12 item 3: each reported bad recording gets a DataFormatError naming the file, the
+"""Each reported bad recording gets a DataFormatError naming the file, the
 column and the value (the fuzzing of the readers is in tests/test_recording_fuzz.py)."""
 
 from __future__ import annotations

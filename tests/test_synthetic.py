@@ -241,7 +241,7 @@ def test_paces_scale_the_speeds_and_stratify_the_splits() -> None:
     # one pace: the speeds are the program's and the splits those of the one-pace stratification
     one = dataclasses.replace(default, paces=(1.0,))
     assert {tuple(one.speeds(i, i % 2)) for i in range(20)} == {tuple(p) for p in one.programs}
-    # ... the test split of sessions 8-11 (S05, S09, S13 walking; S06, S08, S20 running)
+    # ... the one-pace test split (S05, S09, S13 walking; S06, S08, S20 running)
     assert sorted(s.id[-3:] for s in sample_subjects(one) if s.split == "test") == ["S05", "S06", "S08", "S09", "S13", "S20"]
     with pytest.raises(ValueError, match="paces"):
         SynthConfig(paces=())

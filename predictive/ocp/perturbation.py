@@ -1,8 +1,8 @@
 """Floating-point-path perturbations of every IPOPT solve, for robustness checks.
 
 IPOPT from one initial guess is one sample of a distribution: the same code reaches different
-local optima on machines whose BLAS, vector units or thread counts round differently
-(``../shared/TRAPS.md``). ``scripts/check_robustness.py`` simulates other machines by running the
+local optima on machines whose BLAS, vector units or thread counts round differently (measured:
+other local optima and one infeasible stride on an AVX-512 AMD EPYC than on an AVX2 one). ``scripts/check_robustness.py`` simulates other machines by running the
 OCP tests and the default synthetic dataset under perturbations that change the floating-point
 path without changing the problem. They are read from environment variables, so that they reach
 every solve in subprocesses (pytest, spawned generator workers) without new arguments:

@@ -480,7 +480,7 @@ def measure_imu(
         sample_rate_hz: f_s of the samples, Hz (sets the noise std, drift increments and STA time base).
         segments: sensors to return, names from SEGMENTS, in the output order.
         true_placement: use this placement instead of drawing one (e.g. to share the sensor
-            placement between several recordings of one session); its stream is still consumed.
+            placement between several recordings made without re-attaching the sensors); its stream is still consumed.
 
     Returns:
         ``(imu, info)``: ``imu`` (T, n_seg, 3) [acc_x (m/s²), acc_y (m/s²), gyr_z (rad/s)], and

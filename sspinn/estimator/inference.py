@@ -266,7 +266,7 @@ class StreamingEstimator:
     :meth:`reset` (after training the model further, call :meth:`reset`). Why hand-written: one
     time step at batch 1 is little more than one matrix-vector product per layer (~0.3 ms for
     the paper model, weights read from cache), but stepping ``nn.LSTM`` costs 1–2 ms on one CPU
-    thread (7–10 ms with oneDNN on; ../shared/TRAPS.md), most of it per-call overhead, and
+    thread (7–10 ms with PyTorch's default oneDNN path), most of it per-call overhead, and
     NumPy's ``W @ x`` goes through multi-threaded OpenBLAS, which took ~8 ms for the 2048×1024
     layer on this loaded 2-core machine; no library offers a lean single-step LSTM on CPU. The
     cell fuses each layer's input and recurrent products into one pass over [W_ih | W_hh] with

@@ -38,7 +38,7 @@ Fine-tuning multiplies the kane, temporal and contact weights by 10 (:meth:`Loss
 **Forward, not backward.** Accelerometers and gyroscopes cannot see a constant velocity added to
 the whole body, and without the foot-speed term (running: no zero-velocity phase) nothing else
 told a gait from its mirror image running backwards: trained on running, the network converged
-to pelvis velocities of −2 to −3 m/s (issue #14; the Hamner running trial gave −3 m/s). The
+to pelvis velocities of −2 to −3 m/s (the semi-real running trial gave −3 m/s). The
 calibration (:mod:`sspinn.imu.calibration`) and the synthetic data define x as the subject's
 anterior direction, so the mean forward velocity over a training window (≥ 1 s, a stride or
 more) is ≥ 0 for every gait, standing included; its violation is part of L_B.

@@ -4,8 +4,8 @@ A model file (``model.pt`` of a ``sspinn train`` run) is a ``"sspinn-model"`` fi
 :mod:`sspinn.torch_files` (the safe, versioned ``.pt`` format) with the entries
 :data:`MODEL_ENTRIES`: the network's weights, the hyperparameters that rebuild it
 (:class:`~sspinn.estimator.network.SSPINNposeNet`), the IMU segments it reads, the training configuration
-(a plain dict) and the per-channel IMU standard deviations, and (files written since session 10)
-``trained_on``: the names of the recordings whose IMU signals its self-supervised training saw,
+(a plain dict) and the per-channel IMU standard deviations, and ``trained_on`` (absent from
+the oldest files): the names of the recordings whose IMU signals its self-supervised training saw,
 those of the model it was fine-tuned or adapted from included (:func:`trained_on`; evaluation
 names the evaluated recordings among them). A training checkpoint holds the same entries and
 more, so it can be loaded as a model too.

@@ -100,7 +100,7 @@ class TrainConfig:
             start's continuation; in a single run the same steps), e.g. ``{foot_speed: 0}``:
             L_FS helps the starts find the gait's direction and phase, but the ZUPT foot speeds
             it compares with are biased low, and so was the estimated walking and running speed
-            while it stayed on (docs/estimator.md, session 10).
+            while it stayed on (docs/estimator_method.md, "No foot-speed term after the starts").
         joint_limits: the bounds term's ranges of motion: ``"paper"`` (hip and ankle ±60°, knee
             −60°…+0.1 rad) or ``"anatomical"`` (:meth:`~sspinn.model.body.JointLimits.anatomical`, wide
             enough for the knee flexion of running).
@@ -223,11 +223,11 @@ def adaptation_config(trained: dict[str, Any], source: str, settings: list[str] 
     ``source`` names the model file in messages.
 
     Why: on subjects it has not seen the trained network fits their gyroscopes 1.5–5× worse
-    than on its training subjects (docs/estimator.md, session 10); the physics losses need no
+    than on its training subjects (docs/estimator_method.md, "Self-supervised adaptation"); the physics losses need no
     labels, so a thousand steps on the new recordings close most of that gap. Input noise
     regularises training for subjects not seen; adapting to the very recordings that will be
     estimated, it only shrinks the estimate towards its mean (regression dilution: joint-angle
-    amplitudes 1–7 % small, strides short, speed biased low; session 11).
+    amplitudes 1–7 % small, strides short, speed biased low on five of six test recordings).
     """
     data = json.loads(json.dumps(trained))  # a deep copy of plain data
     data["weights"] = {**data.get("weights", {}), **data.get("weights_after_starts", {})}
@@ -683,7 +683,7 @@ class Trainer:
 
         Why: on running, about one seed in three converged to a solution whose stance sits on the
         wrong foot (the loss of that solution is higher, but gradient descent does not leave it);
-        the Kane term separates the two within a few hundred steps (issue #14)."""
+        the Kane term separates the two within a few hundred steps (docs/estimator_method.md)."""
         cfg = self.config
         if self.world > 1:
             raise ValueError("starts > 1 is not supported under torchrun; train the starts on one process")

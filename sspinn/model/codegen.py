@@ -12,7 +12,7 @@ Run ``python -m sspinn.model.codegen`` (or ``make generate``) to rewrite:
 Both are written with SymPy's common-subexpression elimination. ``tests/test_codegen.py`` fails
 if regenerating would change the committed files. Why hand-written printing and not
 ``sympy.lambdify``: lambdify on whole matrices wraps results in ``torch.tensor`` (breaking autograd
-and batching, see ../shared/TRAPS.md), knows no CasADi, and emits no CSE'd, readable module.
+and batching), knows no CasADi, and emits no CSE'd, readable module.
 """
 
 from __future__ import annotations
