@@ -137,16 +137,14 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 
 def _trivial_predictor(data: Path, split: str, evaluated: list[Recording]):
-    """The trivial predictor of the report: fitted on the dataset's labelled training split when
-    there is one (and it is not the evaluated split), else on the evaluated recordings (oracle)."""
-    from sspinn.baselines import TrivialPredictor
+    """The trivial predictor of the report (:func:`sspinn.baselines.reference_predictor`): the
+    dataset's training split when there is one, else the evaluated recordings (an oracle)."""
+    from sspinn.baselines import reference_predictor
 
-    if split != "train" and (data / "dataset.json").exists() and "train" in Dataset.open(data).splits:
-        try:
-            return TrivialPredictor.fit(Dataset.open(data).load("train"), f"means of the training split of {data}")
-        except ValueError:
-            pass
-    return TrivialPredictor.fit(evaluated, "oracle: means of the evaluated recordings themselves")
+    training = None
+    if (data / "dataset.json").exists() and "train" in Dataset.open(data).splits:
+        training = evaluated if split == "train" else Dataset.open(data).load("train")
+    return reference_predictor(evaluated, training, str(data))
 
 
 def _infer(args: argparse.Namespace) -> int:
