@@ -91,14 +91,16 @@ def import_imu(
     standing: bool = True,
     max_gap_s: float = DEFAULT_MAX_GAP_S,
     split: str = "all",
+    imu_rate_hz: float | None = None,
 ) -> ImportResult:
-    """Import one trial (module docstring). ``height`` m, ``mass`` kg, ``speed`` m/s, times s."""
+    """Import one trial (module docstring). ``height`` m, ``mass`` kg, ``speed`` m/s, times s;
+    ``imu_rate_hz``: the update rate of Xsens files whose header lacks one (Hz)."""
     files = [Path(f) for f in imu_files]
     smap = sensor_map if isinstance(sensor_map, SensorMap) else SensorMap.from_yaml(sensor_map)
     if split not in (*SPLITS, "all"):
         raise IMUImportError(f"split must be one of {[*SPLITS, 'all']}, got {split!r}")
     name = name or default_name(files)
-    stream = read_imu_files(files)
+    stream = read_imu_files(files, imu_rate_hz, known=(*smap.assignments, *smap.ignore))
     smap.check_sensors(stream.names, stream.source)
     stream.sensors = {s: stream.sensors[s] for s in stream.names if s in smap.assignments}
     t_file0 = min(float(s.time[0]) for s in stream.sensors.values())
@@ -109,6 +111,7 @@ def import_imu(
     signals = {seg: (stream.sensors[a.sensor].acc, stream.sensors[a.sensor].gyr) for seg, a in by_segment.items()}
     cal = calibrate(signals, by_segment, RATE_HZ, standing="auto" if standing else None, source=stream.source)
     check_mounting(signals, cal, by_segment, {seg: stream.sensors[a.sensor].source for seg, a in by_segment.items()})
+    cal.warnings[:0] = stream.warnings
     projected = {seg: cal.sensors[seg].project(*signals[seg]) for seg in by_segment}
     imu = np.stack([projected[seg] for seg in smap.segments], axis=1)
     times = grid - t_file0  # s from the start of the IMU files
@@ -246,6 +249,9 @@ def add_parser(sub: argparse._SubParsersAction, bounded: Any) -> None:
     p.add_argument("--no-standing", action="store_true", help="ignore quiet standing (in-plane angles from walking alone)")
     p.add_argument("--max-gap", type=bounded(float, 0.0, 10.0, " s"), default=DEFAULT_MAX_GAP_S, help="longest gap interpolated, s")
     p.add_argument("--split", default="all", choices=[*SPLITS, "all"], help="split of dataset.json (all: train, val and test)")
+    p.add_argument("--imu-rate", type=bounded(float, 1.0, 2000.0, " Hz"), default=None,
+                   help="update rate of the Xsens files, Hz: needed where PacketCounter times the samples and no "
+                   "'// Update Rate' header line gives it (a header that disagrees is an error)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -253,7 +259,7 @@ def run(args: argparse.Namespace) -> int:
     result = import_imu(
         args.imu, args.sensor_map, args.height, args.mass, args.out, subject=args.subject, name=args.name, grf=args.grf,
         speed=args.speed, start_s=args.start, end_s=args.end, standing=not args.no_standing, max_gap_s=args.max_gap,
-        split=args.split,
+        split=args.split, imu_rate_hz=args.imu_rate,
     )
     rec, cal = result.recording, result.calibration
     print(f"{rec.name}: {rec.n_samples} samples ({rec.duration:.1f} s), IMUs {list(rec.segments)} → {result.csv}")

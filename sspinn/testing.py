@@ -122,24 +122,40 @@ def walking_like_3d(n: int, rng: np.random.Generator, rate: float = 100.0) -> tu
 
 
 def write_xsens_txt(path: Path, acc: np.ndarray, gyr: np.ndarray, rate: float = 100.0, counter0: int = 0, tick0: int = 0,
-                    drop: tuple[int, ...] = (), sep: str = "\t", columns: tuple[str, ...] | None = None) -> Path:
-    """An MT Manager text export: '//' header, PacketCounter (16 bit), SampleTimeFine (1e-4 s
-    ticks, 32 bit), Acc, Gyr, Mag, Quat; rows listed in ``drop`` are left out (dropped packets)."""
+                    drop: tuple[int, ...] = (), sep: str = "\t", columns: tuple[str, ...] | None = None,
+                    time_format: str = "ticks", header: bool = True, decimal_comma: bool = False) -> Path:
+    """An MT Manager text export: '//' header (left out with ``header=False``), PacketCounter
+    (16 bit), SampleTimeFine, Acc, Gyr, Mag, Quat, separated by ``sep`` (``" "``: aligned by
+    spaces); rows listed in ``drop`` are left out (dropped packets).
+
+    ``time_format``: SampleTimeFine as ``"ticks"`` (1e-4 s, 32 bit, from ``tick0``),
+    ``"seconds"`` (from ``tick0`` × 1e-4 s), ``"blank"`` (empty in every row, as MT Manager
+    writes it when the time was not exported) or ``"nan"`` (``NaN`` in every row).
+    ``decimal_comma``: numbers written with a decimal comma (a European locale; use ``sep=";"``).
+    """
+    if time_format not in ("ticks", "seconds", "blank", "nan"):
+        raise ValueError(f"time_format must be ticks, seconds, blank or nan, got {time_format!r}")
     n = len(acc)
-    header = columns or ("PacketCounter", "SampleTimeFine", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z",
-                         "Mag_X", "Mag_Y", "Mag_Z", "Quat_q0", "Quat_q1", "Quat_q2", "Quat_q3")
+    names = columns or ("PacketCounter", "SampleTimeFine", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z",
+                        "Mag_X", "Mag_Y", "Mag_Z", "Quat_q0", "Quat_q1", "Quat_q2", "Quat_q3")
     lines = ["// Start Time: Unknown", f"// Update Rate: {rate:.1f}Hz", "// Filter Profile: human (46.1)",
-             "// Option Flags: AHS Disabled ICC Disabled", "// Firmware Version: 4.0.2", sep.join(header)]
+             "// Option Flags: AHS Disabled ICC Disabled", "// Firmware Version: 4.0.2"] if header else []
+    lines.append(sep.join(names))
     for k in range(n):
         if k in drop:
             continue
-        values = {"PacketCounter": f"{(counter0 + k) % 65536:05d}", "SampleTimeFine": str((tick0 + round(k * 1e4 / rate)) % 2**32)}
+        ticks = (tick0 + round(k * 1e4 / rate)) % 2**32
+        fine = {"ticks": str(ticks), "seconds": f"{(tick0 + k * 1e4 / rate) * 1e-4:.6f}", "blank": "", "nan": "NaN"}[time_format]
+        values = {"PacketCounter": f"{(counter0 + k) % 65536:05d}", "SampleTimeFine": fine}
         values.update({f"Acc_{a}": f"{acc[k, i]:.6f}" for i, a in enumerate("XYZ")})
         values.update({f"Gyr_{a}": f"{gyr[k, i]:.6f}" for i, a in enumerate("XYZ")})
         values.update({f"FreeAcc_{a}": f"{acc[k, i] - (9.81 if a == 'X' else 0):.6f}" for i, a in enumerate("XYZ")})
         values.update({f"Mag_{a}": "0.5" for a in "XYZ"})
         values.update({"Quat_q0": "1", "Quat_q1": "0", "Quat_q2": "0", "Quat_q3": "0"})
-        lines.append(sep.join(values[c] for c in header))
+        row = [values[c] for c in names]
+        if decimal_comma:
+            row = [v.replace(".", ",") for v in row]
+        lines.append(sep.join(row))
     path.write_text("\n".join(lines) + "\n")
     return path
 
