@@ -4,8 +4,9 @@ Nothing here is used by the library itself: random but plausible model inputs, s
 recordings (random, or with walking-like channels), a CSV column edit for corrupting files, a
 tiny dataset + configuration + finished 4-step training run, vendor IMU files (Xsens MT
 Manager text exports, OpenSense ``.trc``) written from given signals, and edits of real
-OpenSense exports and sensor maps (bad files: a sensor removed, rows deleted, a sensor turned
-over, a dead axis, sides swapped).
+OpenSense exports, GRF ``.mot`` files and sensor maps (bad files: a sensor removed, rows deleted,
+a sensor turned over, a dead axis, sides swapped; force channels swapped, delayed, negated,
+rescaled or zeroed).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import yaml
 
 from sspinn.conventions import COORDINATES, GRAVITY, SEGMENTS
 from sspinn.dataset import Dataset, Labels, Recording
-from sspinn.vendor_formats import opensense_files, read_trc_vectors
+from sspinn.vendor_formats import opensense_files, read_mot, read_trc_vectors
 
 
 def random_inputs(rng: np.random.Generator, batch: tuple[int, ...] = ()) -> dict[str, np.ndarray]:
@@ -244,3 +245,60 @@ def sensor_map_edited(path: Path, swap: tuple[str, ...] = (), **entries: object)
         data["sensors"][sensor] = segment if isinstance(entry, str) else {**entry, "segment": segment}
     data["sensors"].update(entries)
     return data
+
+
+# ---------------------------------------------------------------------------------- GRF files
+#: An edit of a GRF table: (column names, (rows, columns) values, time (rows,) s) → new values.
+GRFEdit = Callable[[list[str], np.ndarray, np.ndarray], np.ndarray]
+
+
+def write_grf_edited(source: Path, out: Path, edit: GRFEdit) -> Path:
+    """A copy of the OpenSim ``.mot`` ``source`` (plain or gzip) with ``edit`` applied to its
+    values, written as a plain ``.mot`` at ``out`` (header: name, version, nRows, nColumns,
+    inDegrees=no, endheader)."""
+    names, table = read_mot(source)
+    values = edit(names, table.copy(), table[:, names.index("time")])
+    lines = [out.name, "version=1", f"nRows={len(values)}", f"nColumns={len(names)}", "inDegrees=no", "endheader",
+             "\t".join(names)] + ["\t".join(f"{v:.8f}" for v in row) for row in values]
+    out.write_text("\n".join(lines) + "\n")
+    return out
+
+
+def _force_columns(names: list[str], side: str) -> list[int]:
+    return [k for k, n in enumerate(names) if n.startswith(f"{side}F") or n.startswith(f"{side}COP") or n.startswith(f"{side}M")]
+
+
+def grf_sides_swapped(names: list[str], values: np.ndarray, time: np.ndarray) -> np.ndarray:
+    """A GRF edit: the right and left columns (``r*``/``l*`` forces, centres of pressure, moments) exchanged."""
+    r, l = _force_columns(names, "r"), _force_columns(names, "l")
+    values[:, r + l] = values[:, l + r]
+    return values
+
+
+def grf_side_delayed(side: str, seconds: float) -> GRFEdit:
+    """A GRF edit: one side's columns delayed by ``seconds`` (its first value repeated before)."""
+    def edit(names: list[str], values: np.ndarray, time: np.ndarray) -> np.ndarray:
+        k = int(round(seconds / float(np.median(np.diff(time)))))
+        cols = _force_columns(names, side)
+        values[k:, cols] = values[:-k, cols].copy()
+        values[:k, cols] = values[k, cols]
+        return values
+    return edit
+
+
+def grf_scaled(factor: float) -> GRFEdit:
+    """A GRF edit: every force column (``*F*``) times ``factor`` (−1: negated; 1/9.81: kgf)."""
+    def edit(names: list[str], values: np.ndarray, time: np.ndarray) -> np.ndarray:
+        cols = [k for k, n in enumerate(names) if n[1:2] == "F"]
+        values[:, cols] *= factor
+        return values
+    return edit
+
+
+def grf_unloaded(start_s: float, seconds: float) -> GRFEdit:
+    """A GRF edit: both feet's forces zero from ``start_s`` for ``seconds`` (contact with the plates lost)."""
+    def edit(names: list[str], values: np.ndarray, time: np.ndarray) -> np.ndarray:
+        rows = (time >= start_s) & (time < start_s + seconds)
+        values[np.ix_(rows, [k for k, n in enumerate(names) if n[1:2] == "F"])] = 0.0
+        return values
+    return edit

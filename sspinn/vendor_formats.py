@@ -566,12 +566,18 @@ def read_treadmill_grf(path: str | Path) -> tuple[np.ndarray, dict[str, np.ndarr
     forces per side, N, from an OpenSim GRF ``.mot`` (columns ``rFx, rFy, lFx, lFy`` or
     ``ground_force_r_vx/vy``…). The lab x direction is not assumed forward (see
     :func:`sspinn.time_alignment.walking_direction_sign`)."""
+    time, forces, _ = read_treadmill_grf_columns(path)
+    return time, forces
+
+
+def read_treadmill_grf_columns(path: str | Path) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, tuple[str, str]]]:
+    """:func:`read_treadmill_grf` and, per side, the names of the (horizontal, vertical) columns read."""
     path = Path(path)
     names, table = read_mot(path)
     col = {n: i for i, n in enumerate(names)}
     if "time" not in col:
         raise IMUImportError(f"{path}: no 'time' column (has {names[:8]}…)")
-    forces = {}
+    forces, columns = {}, {}
     for side in ("r", "l"):
         pair = next(((x.format(s=side), y.format(s=side)) for x, y in GRF_COLUMN_PATTERNS
                      if x.format(s=side) in col and y.format(s=side) in col), None)
@@ -579,7 +585,8 @@ def read_treadmill_grf(path: str | Path) -> tuple[np.ndarray, dict[str, np.ndarr
             raise IMUImportError(f"{path}: no force columns for side {side!r} (expected {side}Fx/{side}Fy or "
                                  f"ground_force_{side}_vx/vy; has {names})")
         forces[side] = table[:, [col[pair[0]], col[pair[1]]]]
+        columns[side] = pair
     time = table[:, col["time"]]
     if np.any(np.diff(time) <= 0):
         raise IMUImportError(f"{path}: the time column does not increase")
-    return time, forces
+    return time, forces, columns
