@@ -62,7 +62,7 @@ AMBIGUOUS_RATIO: Final = 1.05
 #: Each foot's own lag (its loading peak within half a stride of the chosen lag, refined to its
 #: impact peak) further from the other foot's than this is a warning (force channels offset in
 #: time), s. The twelve CMU trials (whole, and their first 10 s and 20 s): 0.00–0.05 s apart;
-#: with the left channel delayed by 0.15 s: 0.10–0.17 s.
+#: with the left channel delayed by 0.15 s: 0.10–0.18 s.
 SIDE_LAG_TOLERANCE_S: Final = 0.08
 #: Aligned with the force channels' sides exchanged, a score more than this many times the
 #: labelled sides' is a warning (sides swapped between the GRF file and the IMUs). The twelve
