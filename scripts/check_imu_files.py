@@ -13,7 +13,6 @@ Exit status 2 with one line on stderr when a file cannot be read (the readers' e
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 

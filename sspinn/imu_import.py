@@ -57,7 +57,7 @@ from sspinn.time_alignment import Alignment, align_to_grf, walking_direction_sig
 from sspinn.vendor_formats import read_imu_files, read_treadmill_grf_columns
 
 #: Version of the import procedure, stored in the provenance.
-IMPORTER_VERSION: Final = 2
+IMPORTER_VERSION: Final = 3
 
 
 @dataclass
