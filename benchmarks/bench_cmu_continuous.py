@@ -31,6 +31,11 @@ and with a mock stiff knee (``CSStiffKnee``), with 8 Xsens IMUs in unknown mount
 
 Usage: ``python benchmarks/bench_cmu_continuous.py [--out results/cmu] [--pretrained
 results/demo/run/model.pt] [--steps 6000] [--arms scratch finetune zero_shot adapted] [--threads 1]``.
+The same protocol runs on other trials of this kind (continuous IMU + treadmill GRF, one trial per
+subject and condition): ``--source DIR --train-subjects A B --test-subjects C --conditions X Y
+--imu-pattern '{subject}/{condition}/*_Accel.trc' --grf-pattern '{subject}/{condition}/*_GRF.mot'
+[--subjects-csv table.csv] [--sensor-map map.yaml]`` (files raw or ``.gz``; the defaults are the
+CMU trials above).
 """
 
 from __future__ import annotations
@@ -58,7 +63,12 @@ from sspinn.model.conventions import GRAVITY
 REPO = Path(__file__).resolve().parents[1]
 TRAIN_SUBJECTS = ("Sub01", "Sub02", "Sub03", "Sub04")
 TEST_SUBJECTS = ("Sub05", "Sub06")
+#: Condition → what it is, for the report (another condition is shown by its name).
 CONDITIONS = {"CSBaseline": "normal walking", "CSStiffKnee": "stiff-knee walking"}
+#: Where a trial's files are, below ``--source``; ``{subject}`` and ``{condition}`` are filled
+#: in, glob wildcards allowed; a file may also be gzip-compressed (the pattern + ``.gz``).
+IMU_PATTERN = "{subject}/{condition}/OpenSim_{subject}_{condition}_Accel.trc"
+GRF_PATTERN = "{subject}/{condition}/OpenSim_{subject}_{condition}_GRF.mot"
 ARMS = ("scratch", "zero_shot", "finetune", "adapted")
 WARMUP = 100  # samples (1 s) of LSTM warm-up left out of every metric
 TARGETS = {"grf_rmse": 15.0, "hs_ms": 30.0, "speed": 0.10}
@@ -66,30 +76,91 @@ EVENT_WINDOW_S = 0.3  # an estimated event further than this from the measured o
 
 
 # ------------------------------------------------------------------------------------- 1. import
-def import_trials(source: Path, data: Path, train_subjects: tuple[str, ...], test_subjects: tuple[str, ...],
+@dataclasses.dataclass(frozen=True)
+class Protocol:
+    """Which trials the benchmark runs on (the command line's ``--source``, ``--train-subjects``,
+    ``--test-subjects``, ``--conditions``, ``--imu-pattern``, ``--grf-pattern``,
+    ``--subjects-csv``, ``--sensor-map``; defaults: the CMU treadmill data as in the module
+    docstring). ``subjects_csv`` has one row per subject with ``subject, height_m, mass_kg,
+    treadmill_speed_mps``."""
+
+    source: Path
+    train_subjects: tuple[str, ...] = TRAIN_SUBJECTS
+    test_subjects: tuple[str, ...] = TEST_SUBJECTS
+    conditions: tuple[str, ...] = tuple(CONDITIONS)
+    imu_pattern: str = IMU_PATTERN
+    grf_pattern: str = GRF_PATTERN
+    subjects_csv: Path | None = None
+    sensor_map: Path = REPO / "configs/sensor_maps/cmu_treadmill.yaml"
+
+    def label(self, condition: str) -> str:
+        return CONDITIONS.get(condition, condition)
+
+
+@dataclasses.dataclass(frozen=True)
+class Trial:
+    """One trial's files and subject: IMU file (any file of the export), GRF file, height m, mass kg, belt speed m/s."""
+
+    subject: str
+    condition: str
+    imu: Path
+    grf: Path
+    height_m: float
+    mass_kg: float
+    speed_mps: float
+
+    @property
+    def name(self) -> str:
+        return f"{self.subject}_{self.condition}"
+
+
+def _find(source: Path, pattern: str, subject: str, condition: str, what: str) -> Path:
+    """The one file of ``pattern`` (filled in; raw or ``.gz``) below ``source``."""
+    filled = pattern.format(subject=subject, condition=condition)
+    found = sorted({*source.glob(filled), *source.glob(filled + ".gz")})
+    if len(found) != 1:
+        raise FileNotFoundError(f"{source}: {'no' if not found else len(found)} {what} file(s) match {filled}[.gz]"
+                                + (f" ({', '.join(p.name for p in found[:4])})" if found else "")
+                                + ": check --source and the file pattern")
+    return found[0]
+
+
+def discover_trials(protocol: Protocol, subjects: tuple[str, ...] | None = None) -> list[Trial]:
+    """The trials of ``subjects`` (default: the protocol's training then test subjects) in every
+    condition, with their files and the subject table's height, mass and belt speed."""
+    table = protocol.subjects_csv or protocol.source / "subjects.csv"
+    if not table.exists():
+        raise FileNotFoundError(f"{table}: no subject table (subject, height_m, mass_kg, treadmill_speed_mps); give --subjects-csv")
+    with open(table, newline="") as fh:
+        rows = {row["subject"]: row for row in csv.DictReader(fh)}
+    trials = []
+    for subject in subjects or (*protocol.train_subjects, *protocol.test_subjects):
+        if subject not in rows:
+            raise KeyError(f"{table}: no row for subject {subject!r} (has {sorted(rows)})")
+        row = rows[subject]
+        for condition in protocol.conditions:
+            trials.append(Trial(subject, condition, _find(protocol.source, protocol.imu_pattern, subject, condition, "IMU"),
+                                _find(protocol.source, protocol.grf_pattern, subject, condition, "GRF"),
+                                float(row["height_m"]), float(row["mass_kg"]), float(row["treadmill_speed_mps"])))
+    return trials
+
+
+def import_trials(protocol: Protocol, data: Path, train_subjects: tuple[str, ...], test_subjects: tuple[str, ...],
                   end_s: float | None = None) -> None:
     """Import every trial of the subjects into the dataset folder ``data`` (cached; ``end_s``:
     only the first seconds, for ``--quick``)."""
-    with open(source / "subjects.csv", newline="") as fh:
-        subjects = {row["subject"]: row for row in csv.DictReader(fh)}
-    for subject in (*train_subjects, *test_subjects):
-        row = subjects[subject]
-        for condition in CONDITIONS:
-            name = f"{subject}_{condition}"
-            sidecar = data / f"{name}.json"
-            if sidecar.exists() and json.loads(sidecar.read_text()).get("provenance", {}).get("importer_version") == IMPORTER_VERSION:
-                continue
-            folder = source / subject / condition
-            start = time.perf_counter()
-            result = import_imu(
-                [folder / f"OpenSim_{subject}_{condition}_Accel.trc.gz"], REPO / "configs/sensor_maps/cmu_treadmill.yaml",
-                float(row["height_m"]), float(row["mass_kg"]), data, subject=subject, name=name,
-                grf=folder / f"OpenSim_{subject}_{condition}_GRF.mot.gz", speed=float(row["treadmill_speed_mps"]),
-                split="train" if subject in train_subjects else "test", end_s=end_s,
-            )
-            lag = result.alignment.lag_s if result.alignment else float("nan")
-            print(f"imported {name}: {result.recording.duration:.1f} s, GRF lag {lag:+.3f} s "
-                  f"({time.perf_counter() - start:.1f} s)", flush=True)
+    for trial in discover_trials(protocol, (*train_subjects, *test_subjects)):
+        sidecar = data / f"{trial.name}.json"
+        if sidecar.exists() and json.loads(sidecar.read_text()).get("provenance", {}).get("importer_version") == IMPORTER_VERSION:
+            continue
+        start = time.perf_counter()
+        result = import_imu(
+            [trial.imu], protocol.sensor_map, trial.height_m, trial.mass_kg, data, subject=trial.subject, name=trial.name,
+            grf=trial.grf, speed=trial.speed_mps, split="train" if trial.subject in train_subjects else "test", end_s=end_s,
+        )
+        lag = result.alignment.lag_s if result.alignment else float("nan")
+        print(f"imported {trial.name}: {result.recording.duration:.1f} s, GRF lag {lag:+.3f} s "
+              f"({time.perf_counter() - start:.1f} s)", flush=True)
 
 
 # ------------------------------------------------------------------------------------- 2. train
@@ -140,24 +211,25 @@ def trial_metrics(grf: np.ndarray, speed: float | None, rec: Recording) -> dict[
     return out
 
 
-def condition_of(rec: Recording) -> str:
-    """The trial's condition (a key of :data:`CONDITIONS`), from its name."""
-    return next(c for c in CONDITIONS if rec.name.endswith(c))
+def condition_of(rec: Recording, conditions: tuple[str, ...] = tuple(CONDITIONS)) -> str:
+    """The trial's condition (one of ``conditions``), from its name ``<subject>_<condition>``."""
+    return next(c for c in conditions if rec.name.endswith(f"_{c}"))
 
 
-def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recording]
+def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recording], conditions: tuple[str, ...] = tuple(CONDITIONS)
              ) -> tuple[dict, dict[str, dict[str, GaitEstimate]], dict[str, np.ndarray]]:
     """Per trial: the metrics of every arm and of the baselines; the estimates and the mean
     profile's GRF (for the plots)."""
-    trivial = TrivialPredictor.fit(train, "the training subjects' labels (Sub01–Sub04)")
-    profiles = {c: GRFProfilePredictor.fit([r for r in train if condition_of(r) == c], f"training subjects, {c}") for c in CONDITIONS}
+    trivial = TrivialPredictor.fit(train, f"the training subjects' labels ({', '.join(sorted({r.subject for r in train}))})")
+    profiles = {c: GRFProfilePredictor.fit([r for r in train if condition_of(r, conditions) == c], f"training subjects, {c}")
+                for c in conditions}
     results: dict[str, dict] = {}
     estimates: dict[str, dict[str, GaitEstimate]] = {}
     profile_grf: dict[str, np.ndarray] = {}
     loaded = {arm: load_model(path) for arm, path in models.items()}
     for rec in test:
         base = trivial.predict(rec)
-        profile_grf[rec.name] = profiles[condition_of(rec)].predict_grf(rec)
+        profile_grf[rec.name] = profiles[condition_of(rec, conditions)].predict_grf(rec)
         row = {"belt_speed": float(np.mean(rec.labels.speed)) if rec.labels and rec.labels.speed is not None else None,
                "constant mean GRF / mean speed": trial_metrics(base.grf, float(np.mean(base.u[:, 0])), rec),
                "mean GRF profile (measured timing)": trial_metrics(profile_grf[rec.name], None, rec)}
@@ -208,11 +280,13 @@ def _fmt(value: float | None, spec: str) -> str:
     return "n/a" if value is None or not np.isfinite(value) else format(value, spec)
 
 
-def report(results: dict, training: dict[str, dict], out: Path) -> str:
+def report(results: dict, training: dict[str, dict], out: Path, protocol: Protocol | None = None) -> str:
     """Markdown tables: per trial, and per condition (mean over the test subjects) with verdicts."""
+    protocol = protocol or Protocol(REPO.parent / "shared/data/cmu_treadmill_imu_grf")
     rows = ["constant mean GRF / mean speed", "mean GRF profile (measured timing)", *[a for a in ARMS if a in training or a == "zero_shot"]]
-    lines = ["# SSPINNpose on real continuous IMU data (CMU treadmill; test subjects Sub05, Sub06)", "",
-             "Trained (self-supervised, no labels) on Sub01–Sub04, both conditions; metrics over each whole aligned "
+    lines = [f"# SSPINNpose on real continuous IMU data ({protocol.source.name}; test subjects {', '.join(protocol.test_subjects)})", "",
+             f"Trained (self-supervised, no labels) on {', '.join(protocol.train_subjects)}, conditions "
+             f"{', '.join(protocol.conditions)}; metrics over each whole aligned "
              f"test trial after {WARMUP / SAMPLE_RATE_HZ:.0f} s of warm-up. GRF RMSE in %BW (both feet), event timing "
              "errors in ms (mean |Δt| over matched events; matched = share of measured events with an estimated one within "
              f"{1e3 * EVENT_WINDOW_S:.0f} ms), speed in m/s.", ""]
@@ -230,8 +304,11 @@ def report(results: dict, training: dict[str, dict], out: Path) -> str:
                          f"{_fmt(m['to_ms'], '.0f')} | {_fmt(m.get('speed'), '.3f')} | {_fmt(row['belt_speed'], '.3f')} | "
                          f"{_fmt(m.get('speed_error'), '.3f')} |")
     lines += ["", "## Per condition (mean over the two test subjects) against the targets", ""]
-    for condition, label in CONDITIONS.items():
-        trials = [row for name, row in results.items() if name.endswith(condition)]
+    for condition in protocol.conditions:
+        label = protocol.label(condition)
+        trials = [row for name, row in results.items() if name.endswith(f"_{condition}")]
+        if not trials:
+            continue
         lines += [f"### {label} ({condition})", "", "| predictor | GRF all | vGRF | hGRF | HS ms | TO ms | speed error |", "|---|---:|---:|---:|---:|---:|---:|"]
         means = {p: {k: _finite_mean([t[p].get(k, np.nan) for t in trials]) for k in ("all", "vertical", "horizontal", "hs_ms", "to_ms", "speed_error")}
                  for p in rows if p in trials[0]}
@@ -252,7 +329,7 @@ def report(results: dict, training: dict[str, dict], out: Path) -> str:
                 f"subjects' mean speed ({const['speed_error']:.3f})",
             ]
             lines.append(f"- **{arm}**: " + "; ".join(verdicts))
-        names = [name for name in results if name.endswith(condition)]
+        names = [name for name in results if name.endswith(f"_{condition}")]
         for arm in (a for a in ARMS if a in means and len(names) == 2):
             (n1, r1), (n2, r2) = ((n, results[n]) for n in names)
             lines.append(f"- speed tracking, {arm}: estimate {n1.split('_')[0]} − {n2.split('_')[0]} = "
@@ -265,10 +342,21 @@ def report(results: dict, training: dict[str, dict], out: Path) -> str:
     return text
 
 
-def main(argv: list[str] | None = None) -> dict:
-    """Run the benchmark (module docstring); returns the per-trial metrics (empty with ``--no-report``)."""
+def parse_args(argv: list[str] | None = None) -> tuple[argparse.Namespace, Protocol]:
+    """The command line (module docstring) and the trials' protocol it describes."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--source", type=Path, default=REPO.parent / "shared/data/cmu_treadmill_imu_grf")
+    parser.add_argument("--source", type=Path, default=REPO.parent / "shared/data/cmu_treadmill_imu_grf",
+                        help="folder of the trials (the file patterns are below it)")
+    parser.add_argument("--train-subjects", nargs="+", default=list(TRAIN_SUBJECTS), help="subjects trained on (train split)")
+    parser.add_argument("--test-subjects", nargs="+", default=list(TEST_SUBJECTS), help="held-out subjects evaluated (test split)")
+    parser.add_argument("--conditions", nargs="+", default=list(CONDITIONS), help="conditions: every subject has one trial of each")
+    parser.add_argument("--imu-pattern", default=IMU_PATTERN,
+                        help="IMU file of a trial below --source, with {subject} and {condition} (glob wildcards allowed; "
+                             "the file may be gzipped, pattern + .gz)")
+    parser.add_argument("--grf-pattern", default=GRF_PATTERN, help="GRF .mot file of a trial, as --imu-pattern")
+    parser.add_argument("--subjects-csv", type=Path, default=None,
+                        help="subject table (subject, height_m, mass_kg, treadmill_speed_mps); default <source>/subjects.csv")
+    parser.add_argument("--sensor-map", type=Path, default=REPO / "configs/sensor_maps/cmu_treadmill.yaml")
     parser.add_argument("--out", type=Path, default=REPO / "results/cmu")
     parser.add_argument("--pretrained", type=Path, default=REPO / "results/demo/run/model.pt",
                         help="model trained on synthetic data only (what `make demo` writes)")
@@ -277,17 +365,39 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--arms", nargs="+", choices=ARMS, default=list(ARMS))
     parser.add_argument("--threads", type=int, default=1, help="torch threads per training (two side by side: 1 each)")
     parser.add_argument("--no-report", action="store_true", help="only import and train (e.g. one arm per process)")
-    parser.add_argument("--quick", action="store_true", help="smoke run: Sub01 → Sub05, first 20 s, 3 steps")
+    parser.add_argument("--quick", action="store_true",
+                        help="smoke run: the first training subject → the first test subject, first 20 s, 3 steps")
     args = parser.parse_args(argv)
-    subjects = (TRAIN_SUBJECTS[:1], TEST_SUBJECTS[:1]) if args.quick else (TRAIN_SUBJECTS, TEST_SUBJECTS)
-    steps = 3 if args.quick else args.steps
+    overlap = set(args.train_subjects) & set(args.test_subjects)
+    if overlap:
+        parser.error(f"subjects {sorted(overlap)} are in both --train-subjects and --test-subjects")
+    for option, pattern in (("--imu-pattern", args.imu_pattern), ("--grf-pattern", args.grf_pattern)):
+        try:
+            pattern.format(subject="s", condition="c")
+        except (KeyError, IndexError, ValueError) as exc:
+            parser.error(f"{option} {pattern!r}: only {{subject}} and {{condition}} can be filled in ({exc})")
     if not args.source.exists():
-        parser.error(f"{args.source}: the CMU treadmill data is not there (see ../shared/data/README.md)")
+        parser.error(f"{args.source}: the trials' folder is not there (the CMU treadmill data: see ../shared/data/README.md)")
     needs_pretrained = {"zero_shot", "finetune", "adapted"} & set(args.arms)
     if needs_pretrained and not args.pretrained.exists():
         parser.error(f"{args.pretrained}: no synthetic-only model for {sorted(needs_pretrained)}; run `make demo` first or pass --pretrained")
+    protocol = Protocol(args.source, tuple(args.train_subjects), tuple(args.test_subjects), tuple(args.conditions),
+                        args.imu_pattern, args.grf_pattern, args.subjects_csv, args.sensor_map)
+    try:  # every file there before anything runs
+        discover_trials(protocol, (*protocol.train_subjects[:1], *protocol.test_subjects[:1]) if args.quick else None)
+    except (FileNotFoundError, KeyError) as exc:
+        parser.error(str(exc).strip('"'))
+    return args, protocol
+
+
+def main(argv: list[str] | None = None) -> dict:
+    """Run the benchmark (module docstring); returns the per-trial metrics (empty with ``--no-report``)."""
+    args, protocol = parse_args(argv)
+    subjects = ((protocol.train_subjects[:1], protocol.test_subjects[:1]) if args.quick
+                else (protocol.train_subjects, protocol.test_subjects))
+    steps = 3 if args.quick else args.steps
     data = args.out / "data"
-    import_trials(args.source, data, *subjects, end_s=20.0 if args.quick else None)
+    import_trials(protocol, data, *subjects, end_s=20.0 if args.quick else None)
     dataset = Dataset.open(data)
     train, test = dataset.load("train"), dataset.load("test")
     models: dict[str, Path] = {}
@@ -306,13 +416,13 @@ def main(argv: list[str] | None = None) -> dict:
                                     "adapted": "the pretrained model's own (sspinn adapt), on the TEST subjects' unlabeled IMU"}.get(arm, args.config.name)}
     if args.no_report:
         return {}
-    results, estimates, profile_grf = evaluate(models, test, train)
+    results, estimates, profile_grf = evaluate(models, test, train, protocol.conditions)
     (args.out / "plots").mkdir(parents=True, exist_ok=True)
     for rec in test:
         plot_trial(args.out / "plots" / f"{rec.name}.png", rec, estimates[rec.name], profile_grf[rec.name])
     metrics = {"training": training, "trials": results}
     (args.out / "metrics.json").write_text(json.dumps(finite_or_null(metrics), indent=2, allow_nan=False))
-    print(report(results, training, args.out))
+    print(report(results, training, args.out, protocol))
     return results
 
 

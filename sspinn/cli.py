@@ -100,13 +100,13 @@ def _evaluate(args: argparse.Namespace) -> int:
 
     recs = open_recordings(args.data, args.split, args.periods, args.height, args.mass)
     reference = None
-    if args.split != "train" and (args.data / "dataset.json").exists():
+    if (args.data / "dataset.json").exists():
         dataset = Dataset.open(args.data)
         if "train" in dataset.splits:
-            reference = dataset.load("train")
+            reference = recs if args.split == "train" else dataset.load("train")
     est = SSPINNpose.load(args.model)
     try:
-        result = evaluate(est, recs, args.out, reference=reference, reference_name=f"the training split of {args.data}",
+        result = evaluate(est, recs, args.out, reference=reference, reference_where=str(args.data),
                           title=f"{args.model} on {args.data} ({args.split})", skip=args.skip)
     except (EvaluationError, NonFiniteEstimateError, ImplausibleEstimateError) as exc:
         raise type(exc)(f"{args.model} on {args.data} ({args.split} split), recording {exc}") from None

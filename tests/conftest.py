@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,8 @@ import pytest
 from sspinn.model.body import BodyParameters, IMUPlacement
 from sspinn.model.contact import ContactParameters
 
-SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+#: ../shared/data beside the repository; ``SSPINN_SHARED_DATA`` points elsewhere (a worktree in another folder).
+SHARED_DATA = Path(os.environ.get("SSPINN_SHARED_DATA") or Path(__file__).resolve().parents[1].parent / "shared" / "data")
 
 
 @pytest.fixture(scope="session")

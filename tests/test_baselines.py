@@ -91,3 +91,40 @@ def test_speed_tracking_sees_what_the_mean_speed_error_cannot() -> None:
     # only whole windows count; none fits → NaN
     assert speed_tracking_error(np.r_[np.ones(200), 5 * np.ones(50)], np.zeros(250), 100.0) == pytest.approx(1.0)
     assert np.isnan(speed_tracking_error(np.ones(199), np.zeros(199), 100.0))
+
+
+def test_reference_predictor_is_labelled_by_what_it_was_fitted_on() -> None:
+    from sspinn.estimator.trivial_predictors import ORACLE_SOURCE, reference_predictor
+
+    a, b, c = (_recording(n, "walk", 1.3 + 0.1 * k, 0.5, k) for k, n in enumerate("abc"))
+    assert reference_predictor([a, b], [a, b], "d").source == ORACLE_SOURCE  # split "all": train is the evaluated set
+    assert reference_predictor([a, b], None, "d").source == ORACLE_SOURCE
+    assert reference_predictor([a, b], [a], "d").source == f"{ORACLE_SOURCE} (1 of the 2: the training split of d)"
+    partial = reference_predictor([a, b], [b, c], "d")
+    assert "holds 1 of the 2 evaluated recordings (in part an oracle)" in partial.source
+    fair = reference_predictor([a], [b, c], "d")
+    assert fair.source == "means of the training split of d" and fair.means[ALL].speed == pytest.approx(1.45)
+    unlabelled = Recording("u", c.imu, SEGMENTS, 1.75, 70.0)
+    assert reference_predictor([a], [unlabelled], "d").source == f"{ORACLE_SOURCE} (the training split of d has no labels)"
+
+
+def test_evaluate_after_import_split_all_calls_the_baseline_an_oracle(tmp_path: Path, tiny_run, capsys) -> None:
+    """A folder where every recording is in train, val and test (``sspinn import --split all``):
+    the trivial predictor is fitted on the evaluated recordings and must say so."""
+    from sspinn.cli import main
+    from sspinn.imu.pipeline import add_to_index
+    from sspinn.testing import make_recording
+
+    _, _, _, _, run = tiny_run
+    data = tmp_path / "data"
+    data.mkdir()
+    rng = np.random.default_rng(0)
+    for name in ("p", "q"):
+        rec = make_recording(name, name, 150, rng)
+        rec.save(data)
+        add_to_index(data, rec, "all")
+    assert main(["evaluate", "--model", str(run / "model.pt"), "--data", str(data), "--out", str(tmp_path / "ev"), "--skip", "10"]) == 0
+    printed = capsys.readouterr().out
+    assert "against the trivial predictors (oracle: fitted on the evaluated recordings):" in printed
+    report = (tmp_path / "ev" / "report.md").read_text()
+    assert "(oracle: fitted on the evaluated recordings)" in report and "training split" not in report

@@ -8,6 +8,7 @@ measured in the same run), never in tests. The benchmarks set torch's thread cou
 from __future__ import annotations
 
 import json
+import re
 import runpy
 from pathlib import Path
 from typing import Any
@@ -83,3 +84,41 @@ def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     saved = json.loads((tmp_path / "cmu" / "metrics.json").read_text())
     assert saved["training"]["scratch"]["steps"] == 3 and saved["training"]["adapted"]["steps"] == 3
     assert torch.load(tmp_path / "cmu" / "adapted" / "checkpoint.pt", weights_only=False)["recordings"] == ["Sub05_CSBaseline", "Sub05_CSStiffKnee"]
+
+
+def test_bench_cmu_continuous_finds_trials_by_pattern(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Argument parsing and file discovery on a made-up folder (no import, no training): other
+    subjects, conditions and file patterns, raw and gzipped files; missing files are one-line errors."""
+    bench = runpy.run_path(str(BENCHMARKS / "bench_cmu_continuous.py"), run_name="bench_cmu_continuous")
+    source = tmp_path / "lab"
+    for subject in ("P1", "P2", "P3"):
+        for condition in ("slow", "fast"):
+            folder = source / subject
+            folder.mkdir(parents=True, exist_ok=True)
+            (folder / f"{subject}_{condition}_imu_Accel.trc{'.gz' if subject == 'P2' else ''}").write_text("")
+            (folder / f"{subject}_{condition}_forces.mot").write_text("")
+    (source / "people.csv").write_text("subject,height_m,mass_kg,treadmill_speed_mps\nP1,1.70,60,1.0\nP2,1.80,80,1.1\nP3,1.75,70,1.2\n")
+    argv = ["--source", str(source), "--train-subjects", "P1", "P2", "--test-subjects", "P3", "--conditions", "slow", "fast",
+            "--imu-pattern", "{subject}/{subject}_{condition}_*_Accel.trc", "--grf-pattern", "{subject}/*_{condition}_forces.mot",
+            "--subjects-csv", str(source / "people.csv"), "--arms", "scratch", "--out", str(tmp_path / "out")]
+    args, protocol = bench["parse_args"](argv)
+    trials = bench["discover_trials"](protocol)
+    assert [t.name for t in trials] == ["P1_slow", "P1_fast", "P2_slow", "P2_fast", "P3_slow", "P3_fast"]
+    assert trials[2].imu.name == "P2_slow_imu_Accel.trc.gz" and trials[5].grf.name == "P3_fast_forces.mot"
+    assert (trials[3].height_m, trials[3].mass_kg, trials[3].speed_mps) == (1.80, 80.0, 1.1)
+    assert protocol.label("slow") == "slow" and args.steps == 6000
+    # the defaults are the CMU protocol
+    default = bench["Protocol"](source)
+    assert default.train_subjects == ("Sub01", "Sub02", "Sub03", "Sub04") and default.test_subjects == ("Sub05", "Sub06")
+    assert default.conditions == ("CSBaseline", "CSStiffKnee") and default.label("CSStiffKnee") == "stiff-knee walking"
+    for bad, message in (
+        (["--conditions", "slow", "medium"], r"no GRF file\(s\) match P1/\*_medium_forces\.mot\[\.gz\]|no IMU file\(s\) match P1/P1_medium"),
+        (["--test-subjects", "P4"], r"people\.csv: no row for subject 'P4'"),
+        (["--test-subjects", "P2"], r"subjects \['P2'\] are in both"),
+        (["--imu-pattern", "{subj}/x"], r"--imu-pattern '\{subj\}/x': only \{subject\} and \{condition\}"),
+    ):
+        with pytest.raises(SystemExit) as exit_info:
+            bench["parse_args"](argv + bad)
+        assert exit_info.value.code == 2
+        err = capsys.readouterr().err.strip().splitlines()[-1]
+        assert re.search(message, err), err

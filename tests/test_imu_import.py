@@ -256,6 +256,33 @@ def test_xsens_thighs_swapped_in_the_map_are_reported(xsens_trial, tmp_path, cap
                          rf"'{IDS['tibia_' + other]}' \(tibia_{other}\) by", text), text
 
 
+def test_xsens_files_as_mt_manager_writes_them(xsens_trial, tmp_path, no_figure) -> None:
+    """The synthetic trial rewritten as the real MT Manager exports are (``<trial>-000_<ID>.txt``,
+    comma-separated, SampleTimeFine blank, one packet counter shared by all sensors, two files
+    without the '//' header, the pelvis keyed by its file stem in the map) imports to the same
+    recording as the tick-timed files."""
+    _, files, smap, _, _ = xsens_trial
+    stream = imu_import.read_imu_files(files[:7])
+    (tmp_path / "real").mkdir()
+    rewritten = [write_xsens_txt(tmp_path / "real" / f"S01-Walk-1-000_{name}.txt", s.acc, s.gyr, sep=",", time_format="blank",
+                                 counter0=19741, header=k not in (2, 5)) for k, (name, s) in enumerate(stream.sensors.items())]
+    pelvis_stem = rewritten[0].stem
+    data = yaml.safe_load(smap.read_text())
+    data["sensors"] = {(pelvis_stem if k == IDS["pelvis"] else k): v for k, v in data["sensors"].items()}
+    data["ignore"] = []
+    real_map = _write_map(tmp_path / "real_map.yaml", data)
+    tick_map = _write_map(tmp_path / "tick_map.yaml", {"sensors": yaml.safe_load(smap.read_text())["sensors"]})
+    assert main(_import(files[:7], tick_map, tmp_path / "ticks", "--name", "w")) == 0
+    assert main(_import(rewritten, real_map, tmp_path / "blank", "--name", "w")) == 0
+    ticks, blank = Recording.load(tmp_path / "ticks" / "w.csv"), Recording.load(tmp_path / "blank" / "w.csv")
+    assert len(blank.provenance["warnings"]) == len(ticks.provenance["warnings"])  # the random mountings' upside-down warnings
+    assert blank.n_samples == ticks.n_samples
+    np.testing.assert_allclose(blank.imu, ticks.imu, atol=1e-4)
+    notes = " ".join(blank.provenance["notes"])
+    assert f"sensor '{pelvis_stem}' (the file stem (named in the sensor map))" in notes
+    assert notes.count("SampleTimeFine blank in every row: time = PacketCounter") == 7 and notes.count("the other files' header") == 2
+
+
 def _skip_figure(path: str | Path, *args: object, **kwargs: object) -> Path:
     return Path(path)
 

@@ -9,7 +9,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sspinn.imu.time_alignment import AlignmentError, align_to_grf, normalized_xcorr, walking_direction_sign
+from sspinn.imu.time_alignment import (
+    AMBIGUOUS_RATIO,
+    SWAPPED_SIDES_RATIO,
+    AlignmentError,
+    align_to_grf,
+    normalized_xcorr,
+    walking_direction_sign,
+)
 from sspinn.model.body import BodyParameters, IMUPlacement
 from sspinn.model.conventions import SEGMENTS
 from sspinn.model.kinematics import virtual_imu
@@ -69,7 +76,40 @@ def test_synthetic_pair_with_a_known_lag(rng) -> None:
     assert best.activity > 0.8 and best.loading > 0.5 and best.impact > 0.5  # standing before and after: activity helps
     assert abs(abs(runner.lag_s - best.lag_s) - 1.14) < 0.2 and result.ratio > 1.05  # periodic: a stride away
     assert "t_reference = t_imu + lag_s" in str(result.to_dict()) and "lag +2.37 s" in result.describe()
-    assert not result.notes
+    assert not result.warnings and all(abs(v - result.lag_s) < 0.03 for v in result.side_lags.values())
+    assert result.swapped_sides_score < result.best.score  # the side check ran and the sides fit
+
+
+def _align_crop(foot, shank, vertical, activity, a: int = 237):
+    """The synthetic pair's IMU signals cropped to start ``a`` samples after the GRF, aligned."""
+    crop = slice(a, a + len(activity) - 400)
+    return align_to_grf({s: v[crop] for s, v in foot.items()}, {s: v[crop] for s, v in shank.items()}, vertical,
+                        activity[crop], 1.14, max_lag_s=10.0)
+
+
+def test_ambiguous_lag_is_a_warning_naming_both_lags() -> None:
+    """No standing, no start or end of walking: the lag is only known up to whole strides."""
+    foot, shank, vertical, activity, _ = synthetic_pair(np.random.default_rng(1), strides=20, stand_s=0.0)
+    result = _align_crop(foot, shank, vertical, activity)
+    assert result.ratio < AMBIGUOUS_RATIO
+    (warning,) = result.warnings
+    assert warning.startswith(f"the time alignment is ambiguous: lags {result.lag_s:+.2f} s (score {result.best.score:.3f}, used) "
+                              f"and {result.runner_up.lag_s:+.2f} s (score {result.runner_up.score:.3f})")
+    assert result.to_dict()["warnings"] == [warning]
+
+
+def test_force_channels_offset_or_swapped_are_warned(rng) -> None:
+    foot, shank, vertical, activity, _ = synthetic_pair(rng)
+    late = {"r": vertical["r"], "l": np.concatenate([np.full(20, vertical["l"][0]), vertical["l"][:-20]])}  # left 0.2 s late
+    result = _align_crop(foot, shank, late, activity)
+    assert result.side_lags["l"] - result.side_lags["r"] == pytest.approx(0.2, abs=0.03)
+    assert any(w.startswith(f"the right and left force channels look offset in time: the right foot's stance aligns at lag "
+                            f"{result.side_lags['r']:+.2f} s, the left at {result.side_lags['l']:+.2f} s") for w in result.warnings)
+    swapped = _align_crop(foot, shank, {"r": vertical["l"], "l": vertical["r"]}, activity)
+    assert swapped.swapped_sides_score > SWAPPED_SIDES_RATIO * swapped.best.score
+    (warning,) = [w for w in swapped.warnings if w.startswith("right and left look swapped between the GRF file and the IMUs: "
+                                                              "with the force channels' sides exchanged the alignment scores")]
+    assert "lag +2.37 s" in warning  # exchanged back: the true lag
 
 
 def test_walking_direction_of_the_force_axis(rng) -> None:
@@ -100,4 +140,5 @@ def test_real_cmu_trial_alignment() -> None:
     # the two CMU streams start within a tenth of a second of each other (11 of the 12 trials: −0.07…+0.05 s)
     assert abs(result.lag_s) < 0.1 and result.ratio > 1.1
     assert result.best.activity > 0.9 and result.best.loading > 0.8 and result.best.impact > 0.5
-    assert abs(abs(result.runner_up.lag_s) - 1.3) < 0.2 and not result.notes
+    assert abs(abs(result.runner_up.lag_s) - 1.3) < 0.2 and not result.warnings
+    assert abs(result.side_lags["r"] - result.side_lags["l"]) <= 0.05

@@ -325,28 +325,13 @@ def finite_or_null(value: Any) -> Any:
     return value
 
 
-def reference_predictor(evaluated: list[Recording], reference: list[Recording] | None, reference_name: str) -> TrivialPredictor:
-    """The trivial predictor that every figure of a report is compared with: the means of the
-    labelled ``reference`` recordings (the model's training split, named ``reference_name``) when
-    there are any, else — and said so in its ``source`` — an oracle fitted on the evaluated
-    recordings themselves (it knows their means: harder to beat)."""
-    from sspinn.estimator.trivial_predictors import TrivialPredictor
-
-    if reference:
-        try:
-            return TrivialPredictor.fit(reference, f"means of {reference_name}")
-        except ValueError:  # no labels in the reference
-            pass
-    return TrivialPredictor.fit(evaluated, "oracle: means of the evaluated recordings themselves")
-
-
 def evaluate(
     estimator: SSPINNpose,
     recordings: list[Recording],
     out: str | Path,
     *,
     reference: list[Recording] | None = None,
-    reference_name: str = "the training split",
+    reference_where: str = "the dataset",
     title: str | None = None,
     skip: int = 50,
 ) -> dict:
@@ -355,8 +340,10 @@ def evaluate(
 
     The rules of a fair report live here: every estimate is checked before anything is written;
     the trivial predictors are fitted on ``reference`` (the model's labelled training split), else
-    they are an oracle and the report says so (:func:`reference_predictor`); recordings whose IMU
-    signals the model's training saw are named in the title and in a ``NOTE:`` line."""
+    they are an oracle and the report says so
+    (:func:`~sspinn.estimator.trivial_predictors.reference_predictor`); recordings whose IMU
+    signals the model's training saw are named in the title and in a ``NOTE:`` line. ``reference``
+    is the labelled training split found at ``reference_where`` (a folder, named in the report)."""
     out = Path(out)
     title = title or f"{estimator.path_} on {len(recordings)} recording(s)"
     seen = [r.name for r in recordings if r.name in estimator.trained_on_]
@@ -367,5 +354,7 @@ def evaluate(
         print(f"NOTE: {note}")
     estimates = [estimator.predict(r) for r in recordings]
     check_evaluable(estimates, recordings, skip)
-    baseline = reference_predictor(recordings, reference, reference_name)
+    from sspinn.estimator.trivial_predictors import reference_predictor
+
+    baseline = reference_predictor(recordings, reference, reference_where)
     return write_report(estimates, recordings, out, title=title, skip=skip, baseline=baseline)

@@ -13,7 +13,9 @@ with the means taken over the labelled *reference* recordings — the training s
 fair choice — per gait program (``walk``/``run``, from the recordings' provenance) when the
 reference has recordings of that program, else over all of them. When no labelled training data
 exist, :meth:`TrivialPredictor.fit` on the evaluated recordings themselves gives an *oracle*
-baseline (it knows the test means; harder to beat), and says so in ``source``.
+baseline (it knows the test means; harder to beat), and says so in ``source``;
+:func:`reference_predictor` picks between the two and labels the result by what it was fitted on
+(a training split that holds the evaluated recordings is an oracle too).
 """
 
 from __future__ import annotations
@@ -173,6 +175,37 @@ class GRFProfilePredictor:
                 out[s : e + 1, 2 * foot : 2 * foot + 2] = np.column_stack(
                     [np.interp(grid, np.linspace(0, 1, 101), self.profile[foot, :, k]) for k in range(2)])
         return out * bw
+
+
+#: ``TrivialPredictor.source`` when it was fitted on the very recordings it is compared on.
+ORACLE_SOURCE: str = "oracle: fitted on the evaluated recordings"
+
+
+def reference_predictor(evaluated: Sequence[Recording], training: Sequence[Recording] | None, where: str) -> TrivialPredictor:
+    """The trivial predictor an evaluation is compared with, labelled by what it was fitted on.
+
+    Fitted on ``training`` (the labelled training split found at ``where``) when it has labels,
+    else on ``evaluated``. Recordings are matched by name (names are unique in a dataset folder):
+    a training split that *is* the evaluated recordings (a dataset imported with split "all",
+    or the training split evaluated) gives :data:`ORACLE_SOURCE`, never "training split"; one
+    that holds some of them says how many.
+    """
+    names = {r.name for r in evaluated}
+    fallback = ""
+    if training:
+        held = names & {r.name for r in training}
+        if held == {r.name for r in training}:  # nothing in the training split but evaluated recordings
+            label = ORACLE_SOURCE if held == names else f"{ORACLE_SOURCE} ({len(held)} of the {len(names)}: the training split of {where})"
+        elif held:
+            label = (f"means of the training split of {where}, which holds {len(held)} of the {len(names)} evaluated "
+                     "recordings (in part an oracle)")
+        else:
+            label = f"means of the training split of {where}"
+        try:
+            return TrivialPredictor.fit(training, label)
+        except ValueError:
+            fallback = f" (the training split of {where} has no labels)"
+    return TrivialPredictor.fit(evaluated, ORACLE_SOURCE + fallback)
 
 
 def _strides(rec: Recording) -> list[list[tuple[int, int]]]:

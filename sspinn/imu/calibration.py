@@ -164,7 +164,8 @@ class Calibration:
         walking_runs: (start, stop) samples of the walking spans used.
         notes: how the calibration went (for the report).
         warnings: what the user must check (uncertain signs here; :mod:`sspinn.imu.cross_sensor_checks`
-            adds upside-down sensors and legs mixed up in the map); ``sspinn import`` prints them.
+            adds upside-down sensors and legs mixed up in the map, ``sspinn import`` the readers'
+            and the GRF file's warnings); ``sspinn import`` prints them.
     """
 
     sensors: dict[str, SensorCalibration]

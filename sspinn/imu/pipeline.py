@@ -4,8 +4,9 @@ unchanged, plus a calibration report.
 
 Pipeline (:func:`import_imu`):
 
-1. read the files (:func:`sspinn.imu.vendor_readers.read_imu_files`: OpenSense ``_Accel/_Gyro.trc``
-   or Xsens MT Manager ``.txt``), check them against the sensor map
+1. read the files (:func:`sspinn.imu.vendor_readers.read_imu_files`: OpenSense ``_Accel/_Gyro.trc``,
+   OpenSim's ``_linear_accelerations/_angular_velocity.sto`` or Xsens MT Manager ``.txt``; Xsens
+   sensors are named as the map names them: file stem or device ID), check them against the sensor map
    (:class:`sspinn.imu.sensor_map.SensorMap`), crop to ``start_s``/``end_s`` (seconds from the start
    of the files), check units and gaps and resample to 100 Hz (:func:`sspinn.imu.stream.resample`);
 2. calibrate each sensor onto its segment's sagittal plane from the data
@@ -14,9 +15,12 @@ Pipeline (:func:`import_imu`):
    explicit ones); check the sensors against each other (:func:`sspinn.imu.cross_sensor_checks.check_mounting`:
    a sensor upside down compared with the others, legs mixed up in the map) — warnings, printed and
    stored in the provenance and the report;
-3. optionally read the GRF (``.mot``; :func:`sspinn.imu.vendor_readers.read_treadmill_grf`; above
-   100 Hz low-pass filtered at 40 Hz first), align it
-   (:func:`sspinn.imu.time_alignment.align_to_grf`), orient its horizontal axis along the walking
+3. optionally read the GRF (``.mot``; :func:`sspinn.imu.vendor_readers.read_treadmill_grf_columns`;
+   above 100 Hz low-pass filtered at 40 Hz first), check it against the subject
+   (:mod:`sspinn.imu.grf_checks`: the vertical force's sign and unit are errors, a mean away from body
+   weight and both feet unloaded for long are warnings), align it
+   (:func:`sspinn.imu.time_alignment.align_to_grf`; an ambiguous lag, force channels offset in time
+   and sides swapped against the IMUs are warnings), orient its horizontal axis along the walking
    direction (:func:`sspinn.imu.time_alignment.walking_direction_sign`), resample it onto the IMU
    samples (linear) and store ``grf_x_r, grf_y_r, grf_x_l, grf_y_l`` (N) as labels — the
    recording is cropped to the samples the GRF covers; the lag is in the provenance;
@@ -45,14 +49,15 @@ from sspinn.data.dataset import FORMAT, SPLITS, VERSION, DataFormatError, Labels
 from sspinn.imu.calibration import Calibration, calibrate
 from sspinn.imu.calibration_report import calibration_markdown, plot_calibration
 from sspinn.imu.cross_sensor_checks import check_mounting
+from sspinn.imu.grf_checks import check_vertical_force, unloaded_share_warning
 from sspinn.imu.sensor_map import SensorMap
 from sspinn.imu.stream import ANTI_ALIAS_HZ, DEFAULT_MAX_GAP_S, RATE_HZ, IMUImportError, resample
 from sspinn.imu.time_alignment import Alignment, align_to_grf, walking_direction_sign
-from sspinn.imu.vendor_readers import read_imu_files, read_treadmill_grf
+from sspinn.imu.vendor_readers import read_imu_files, read_treadmill_grf_columns
 from sspinn.model.conventions import GRF
 
 #: Version of the import procedure, stored in the provenance.
-IMPORTER_VERSION: Final = 2
+IMPORTER_VERSION: Final = 3
 
 
 @dataclass
@@ -91,14 +96,16 @@ def import_imu(
     standing: bool = True,
     max_gap_s: float = DEFAULT_MAX_GAP_S,
     split: str = "all",
+    imu_rate_hz: float | None = None,
 ) -> ImportResult:
-    """Import one trial (module docstring). ``height`` m, ``mass`` kg, ``speed`` m/s, times s."""
+    """Import one trial (module docstring). ``height`` m, ``mass`` kg, ``speed`` m/s, times s;
+    ``imu_rate_hz``: the update rate of Xsens files whose header lacks one (Hz)."""
     files = [Path(f) for f in imu_files]
     smap = sensor_map if isinstance(sensor_map, SensorMap) else SensorMap.from_yaml(sensor_map)
     if split not in (*SPLITS, "all"):
         raise IMUImportError(f"split must be one of {[*SPLITS, 'all']}, got {split!r}")
     name = name or default_name(files)
-    stream = read_imu_files(files)
+    stream = read_imu_files(files, imu_rate_hz, known=(*smap.assignments, *smap.ignore))
     smap.check_sensors(stream.names, stream.source)
     stream.sensors = {s: stream.sensors[s] for s in stream.names if s in smap.assignments}
     t_file0 = min(float(s.time[0]) for s in stream.sensors.values())
@@ -109,6 +116,7 @@ def import_imu(
     signals = {seg: (stream.sensors[a.sensor].acc, stream.sensors[a.sensor].gyr) for seg, a in by_segment.items()}
     cal = calibrate(signals, by_segment, RATE_HZ, standing="auto" if standing else None, source=stream.source)
     check_mounting(signals, cal, by_segment, {seg: stream.sensors[a.sensor].source for seg, a in by_segment.items()})
+    cal.warnings[:0] = stream.warnings
     projected = {seg: cal.sensors[seg].project(*signals[seg]) for seg in by_segment}
     imu = np.stack([projected[seg] for seg in smap.segments], axis=1)
     times = grid - t_file0  # s from the start of the IMU files
@@ -117,9 +125,10 @@ def import_imu(
     alignment = None
     notes = list(stream.notes)
     if grf is not None:
-        alignment, grf_labels, keep, grf_notes = _grf_labels(Path(grf), signals, cal, times)
+        alignment, grf_labels, keep, grf_notes, grf_warnings = _grf_labels(Path(grf), signals, cal, times, mass)
         labels.update(grf_labels)
         notes += grf_notes
+        cal.warnings += grf_warnings
     if speed is not None:
         if not np.isfinite(speed) or not 0 <= speed <= 12:
             raise IMUImportError(f"speed {speed} m/s is outside 0–12 m/s (give m/s)")
@@ -163,10 +172,12 @@ def import_imu(
     return ImportResult(rec, cal, alignment, csv, report, figure)
 
 
-def _grf_labels(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], cal: Calibration, times: np.ndarray
-                ) -> tuple[Alignment, dict[str, np.ndarray], np.ndarray, list[str]]:
-    """(alignment, GRF label columns on the IMU samples, mask of the samples the GRF covers, notes)."""
-    t_grf, forces = read_treadmill_grf(path)
+def _grf_labels(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], cal: Calibration, times: np.ndarray,
+                mass: float) -> tuple[Alignment, dict[str, np.ndarray], np.ndarray, list[str], list[str]]:
+    """(alignment, GRF label columns on the IMU samples, mask of the samples the GRF covers, notes,
+    warnings: :mod:`sspinn.imu.grf_checks` and the alignment's)."""
+    t_grf, forces, columns = read_treadmill_grf_columns(path)
+    warnings = check_vertical_force(path, forces, columns, mass)
     t_grf = t_grf - t_grf[0]
     rate = 1.0 / float(np.median(np.diff(t_grf)))
     notes = []
@@ -176,6 +187,8 @@ def _grf_labels(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], c
         notes.append(f"GRF {path.name}: {rate:.4g} Hz low-pass filtered at {ANTI_ALIAS_HZ:g} Hz before resampling to 100 Hz")
     grid = np.arange(int(np.floor(t_grf[-1] * RATE_HZ + 1e-9)) + 1) / RATE_HZ
     on_grid = {s: np.column_stack([np.interp(grid, t_grf, f[:, k]) for k in range(2)]) for s, f in forces.items()}
+    unloaded = unloaded_share_warning(path, on_grid["r"][:, 1], on_grid["l"][:, 1], mass)
+    warnings += [unloaded] if unloaded else []
     feet = {s[-1]: s for s in signals if s.startswith("foot")}
     shanks = {s[-1]: s for s in signals if s.startswith("tibia")}
     still, hit = (feet or shanks), (shanks or feet)
@@ -187,6 +200,7 @@ def _grf_labels(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], c
                              {s: signals[seg][0] for s, seg in hit.items()}, {s: f[:, 1] for s, f in on_grid.items()},
                              activity, cal.stride_period_s, RATE_HZ, max_lag_s=max(grid[-1], times[-1] - times[0]) + 1.0,
                              names=names)
+    warnings += [f"{path}: {w}" for w in alignment.warnings]
     # the alignment's lag is between the two grids' first samples: grid time = (IMU sample time − first IMU time) + lag
     t_on_grf = times - times[0] + alignment.lag_s
     file_lag = alignment.lag_s - float(times[0])
@@ -201,7 +215,7 @@ def _grf_labels(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], c
         labels[f"grf_x_{side}"] = sign * np.interp(t_on_grf, grid, on_grid[side][:, 0])
         labels[f"grf_y_{side}"] = np.interp(t_on_grf, grid, on_grid[side][:, 1])
     assert set(labels) == set(GRF)
-    return alignment, labels, keep, notes
+    return alignment, labels, keep, notes, warnings
 
 
 def add_to_index(folder: Path, rec: Recording, split: str) -> Path:
@@ -246,6 +260,9 @@ def add_parser(sub: argparse._SubParsersAction, bounded: Any) -> None:
     p.add_argument("--no-standing", action="store_true", help="ignore quiet standing (in-plane angles from walking alone)")
     p.add_argument("--max-gap", type=bounded(float, 0.0, 10.0, " s"), default=DEFAULT_MAX_GAP_S, help="longest gap interpolated, s")
     p.add_argument("--split", default="all", choices=[*SPLITS, "all"], help="split of dataset.json (all: train, val and test)")
+    p.add_argument("--imu-rate", type=bounded(float, 1.0, 2000.0, " Hz"), default=None,
+                   help="update rate of the Xsens files, Hz: needed where PacketCounter times the samples and no "
+                   "'// Update Rate' header line gives it (a header that disagrees is an error)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -253,7 +270,7 @@ def run(args: argparse.Namespace) -> int:
     result = import_imu(
         args.imu, args.sensor_map, args.height, args.mass, args.out, subject=args.subject, name=args.name, grf=args.grf,
         speed=args.speed, start_s=args.start, end_s=args.end, standing=not args.no_standing, max_gap_s=args.max_gap,
-        split=args.split,
+        split=args.split, imu_rate_hz=args.imu_rate,
     )
     rec, cal = result.recording, result.calibration
     print(f"{rec.name}: {rec.n_samples} samples ({rec.duration:.1f} s), IMUs {list(rec.segments)} → {result.csv}")

@@ -8,6 +8,7 @@ sagittal plane (:mod:`sspinn.imu.calibration`).
 * :class:`IMUStream` — the sensors of one recording (synchronised with each other: one clock).
 * :func:`check_sensor` — units and liveness: a gyroscope in deg/s, an accelerometer in g (or
   without gravity), a constant axis, non-finite values; one-line errors naming file and sensor.
+* :func:`standing_statistics` — a still sensor's |specific force| (≈ g) and gyroscope bias.
 * :func:`find_gaps` — dropped samples from the packet counter (wraps at 65536) or time stamps.
 * :func:`resample` — every sensor on one 100 Hz grid over the span all sensors cover: gaps up to
   ``max_gap_s`` are interpolated and reported, longer ones are an error naming file, sensor, time
@@ -122,11 +123,14 @@ class IMUStream:
         sensors: name → :class:`SensorSignals`, in file order.
         source: the files, for messages.
         notes: what the readers and :func:`resample` report (gaps filled, files found).
+        warnings: what the readers found suspicious but readable (e.g. two files with the same
+            values), one line each naming the files.
     """
 
     sensors: dict[str, SensorSignals]
     source: str
     notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def names(self) -> list[str]:
@@ -159,7 +163,7 @@ class IMUStream:
                 counter=None if s.counter is None else s.counter[keep],
                 gaps=[g for g in s.gaps if lo <= g.start_s < hi],
             )
-        return IMUStream(out, self.source, list(self.notes))
+        return IMUStream(out, self.source, list(self.notes), list(self.warnings))
 
 
 # ---------------------------------------------------------------------------------- checks
@@ -194,6 +198,50 @@ def check_sensor(s: SensorSignals) -> None:
     if median > high:
         raise IMUImportError(f"{s.source}, sensor {s.name!r}: median |acc| is {median:.4g}, {median / GRAVITY:.3g} g: "
                              "a wrong unit (cm/s²: divide by 100, mm/s²: by 1000)")
+
+
+@dataclass(frozen=True)
+class StandingStatistics:
+    """One sensor's signals over a span in which it is assumed still (a static trial, quiet standing).
+
+    Attributes:
+        sensor: its name; source: the file.
+        seconds: the span, s; samples: complete samples in it.
+        acc_norm_m_s2: mean |specific force|, m/s² (g = 9.81 for a working accelerometer in m/s²).
+        acc_norm_sd_m_s2: its standard deviation, m/s².
+        gyro_bias_rad_s: (3,) mean angular rate per sensor axis, rad/s (the gyroscope bias when still).
+        gyro_sd_rad_s: (3,) standard deviation of the angular rate per axis, rad/s (noise and sway).
+    """
+
+    sensor: str
+    source: str
+    seconds: float
+    samples: int
+    acc_norm_m_s2: float
+    acc_norm_sd_m_s2: float
+    gyro_bias_rad_s: np.ndarray
+    gyro_sd_rad_s: np.ndarray
+
+    def describe(self) -> str:
+        bias = ", ".join(f"{v:+.4f}" for v in self.gyro_bias_rad_s)
+        sd = ", ".join(f"{v:.4f}" for v in self.gyro_sd_rad_s)
+        return (f"{self.sensor}: {self.samples} samples over {self.seconds:.2f} s; |acc| {self.acc_norm_m_s2:.3f} ± "
+                f"{self.acc_norm_sd_m_s2:.3f} m/s² ({self.acc_norm_m_s2 / GRAVITY - 1:+.1%} from g); gyro bias ({bias}) rad/s "
+                f"(|bias| {np.linalg.norm(self.gyro_bias_rad_s):.4f}), sd ({sd}) rad/s")
+
+
+def standing_statistics(s: SensorSignals, start_s: float | None = None, end_s: float | None = None) -> StandingStatistics:
+    """Statistics of ``s`` between ``start_s`` and ``end_s`` (s from its first sample; default:
+    all of it), assuming the sensor is still there; rows with a missing value are left out."""
+    t = s.time - s.time[0]
+    keep = (t >= (start_s or 0.0) - 1e-9) & (t < (np.inf if end_s is None else end_s) - 1e-9)
+    keep &= np.isfinite(s.acc).all(axis=1) & np.isfinite(s.gyr).all(axis=1)
+    if keep.sum() < 2:
+        raise IMUImportError(f"{s.source}, sensor {s.name!r}: fewer than 2 complete samples between {start_s} s and {end_s} s")
+    norm = np.linalg.norm(s.acc[keep], axis=1)
+    span = float(t[keep][-1] - t[keep][0])
+    return StandingStatistics(s.name, s.source, span, int(keep.sum()), float(norm.mean()), float(norm.std()),
+                              s.gyr[keep].mean(axis=0), s.gyr[keep].std(axis=0))
 
 
 def find_gaps(s: SensorSignals) -> list[Gap]:
@@ -266,4 +314,4 @@ def resample(stream: IMUStream, max_gap_s: float = DEFAULT_MAX_GAP_S, rate_hz: f
         elif abs(rate - rate_hz) > 0.01 * rate_hz:
             notes.append(f"{s.source}, sensor {name!r}: {rate:.4g} Hz resampled to {rate_hz:g} Hz (cubic spline)")
         out[name] = SensorSignals(name, s.source, grid, CubicSpline(t, acc)(grid), CubicSpline(t, gyr)(grid), gaps=list(s.gaps))
-    return grid, IMUStream(out, stream.source, notes)
+    return grid, IMUStream(out, stream.source, notes, list(stream.warnings))

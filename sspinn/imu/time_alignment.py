@@ -21,13 +21,27 @@ the refined lag (the activity correlation only when it peaks above
 :data:`ACTIVITY_MIN_CORRELATION` somewhere: otherwise the recording holds no change of activity
 and it is noise). The best candidate gives ``lag_s``, with **t_reference = t_imu + lag_s**.
 Confidence (:class:`Alignment`): the three correlations at the chosen lag, and the runner-up
-candidate (usually one stride away) with the ratio of the scores — close to 1 means the
-alignment may be off by whole strides (no change of activity in the recording).
+candidate (usually one stride away) with the ratio of the scores — below
+:data:`AMBIGUOUS_RATIO` a **warning** names both lags (the alignment may be off by whole strides:
+no change of activity in the recording).
+
+Two more checks of the force file against the IMUs, each a warning naming the lags:
+
+* **channels offset**: each foot's own lag (its loading peak within half a stride of the chosen
+  lag, refined to its impact peak) — further apart than :data:`SIDE_LAG_TOLERANCE_S`, the right
+  and left channels are offset in time;
+* **sides swapped**: the alignment is repeated with the force channels' sides exchanged (each
+  foot's stillness against the other foot's force); scoring more than
+  :data:`SWAPPED_SIDES_RATIO` times the labelled sides' score, the sides look swapped (in the GRF
+  file or in the sensor map). A symmetric gait looks alike swapped and half a stride later: what
+  tells them apart is the activity pair (a change of activity pins the lag) and asymmetries of
+  the gait, so without a change of activity the check is weak.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import dataclasses
+from dataclasses import dataclass, field
 from typing import Final
 
 import numpy as np
@@ -41,6 +55,22 @@ MIN_OVERLAP_S: Final = 5.0
 ACTIVITY_MIN_CORRELATION: Final = 0.7
 #: Half-width of the impact refinement around each loading candidate, s.
 IMPACT_WINDOW_S: Final = 0.15
+#: A lag whose score is less than this many times the runner-up's (a candidate at least a
+#: quarter stride away) is ambiguous: a warning naming both lags. The twelve CMU trials score
+#: 1.02–1.36 (two below it, both Sub05).
+AMBIGUOUS_RATIO: Final = 1.05
+#: Each foot's own lag (its loading peak within half a stride of the chosen lag, refined to its
+#: impact peak) further from the other foot's than this is a warning (force channels offset in
+#: time), s. The twelve CMU trials (whole, and their first 10 s and 20 s): 0.00–0.05 s apart;
+#: with the left channel delayed by 0.15 s: 0.10–0.18 s.
+SIDE_LAG_TOLERANCE_S: Final = 0.08
+#: Aligned with the force channels' sides exchanged, a score more than this many times the
+#: labelled sides' is a warning (sides swapped between the GRF file and the IMUs). The twelve
+#: CMU trials, exchanged / labelled score — as recorded: 0.77–0.95 in eleven and 1.02 in Sub05
+#: CSBaseline (first 10 s: at most 0.99; 20 s: 1.01); sides exchanged on purpose: 1.06–1.31 in
+#: eleven (first 10 s: 1.05–1.27; 20 s: 1.04–1.25) and 0.98 in Sub05 CSBaseline, whose lag is
+#: ambiguous (not caught).
+SWAPPED_SIDES_RATIO: Final = 1.03
 
 
 class AlignmentError(UserError):
@@ -66,7 +96,9 @@ class Candidate:
 @dataclass(frozen=True)
 class Alignment:
     """The result of :func:`align_to_grf`: ``lag_s`` (t_reference = t_imu + lag_s), the chosen
-    candidate, the runner-up (None if there is none), the candidates by score, and the pairs."""
+    candidate, the runner-up (None if there is none), the candidates by score, the pairs, notes,
+    each foot's own lag (s), the warnings (ambiguous lag, channels offset, sides swapped; one
+    line each) and the score with the force channels' sides exchanged (None if not checked)."""
 
     lag_s: float
     best: Candidate
@@ -74,6 +106,9 @@ class Alignment:
     candidates: tuple[Candidate, ...]
     pairs: dict[str, str]
     notes: tuple[str, ...] = ()
+    side_lags: dict[str, float] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+    swapped_sides_score: float | None = None
 
     @property
     def ratio(self) -> float:
@@ -87,6 +122,8 @@ class Alignment:
                 f"{b.loading:.3f}, impact {b.impact:.3f} (score {b.score:.3f})")
         if r is not None:
             text += f"; runner-up {r.lag_s:+.2f} s (score {r.score:.3f}, ratio {self.ratio:.3f})"
+        if len(self.side_lags) == 2:
+            text += f"; per foot r {self.side_lags['r']:+.2f} s, l {self.side_lags['l']:+.2f} s"
         return text
 
     def to_dict(self) -> dict:
@@ -97,7 +134,10 @@ class Alignment:
         return {"lag_s": round(self.lag_s, 4), "convention": "t_reference = t_imu + lag_s", "best": cand(self.best),
                 "runner_up": cand(self.runner_up) if self.runner_up else None,
                 "ratio": round(self.ratio, 4) if np.isfinite(self.ratio) else None,
-                "candidates": [cand(c) for c in self.candidates[:5]], "pairs": self.pairs, "notes": list(self.notes)}
+                "side_lags_s": {s: round(v, 4) for s, v in self.side_lags.items()},
+                "swapped_sides_score": None if self.swapped_sides_score is None else round(self.swapped_sides_score, 4),
+                "candidates": [cand(c) for c in self.candidates[:5]], "pairs": self.pairs, "notes": list(self.notes),
+                "warnings": list(self.warnings)}
 
 
 def normalized_xcorr(reference: np.ndarray, signal: np.ndarray, max_lag: int, min_overlap: int) -> tuple[np.ndarray, np.ndarray]:
@@ -147,6 +187,7 @@ def align_to_grf(
     rate_hz: float = 100.0,
     max_lag_s: float = 30.0,
     names: tuple[str, str] = ("foot", "shank"),
+    check_sides: bool = True,
 ) -> Alignment:
     """Align an IMU stream to force-plate or treadmill GRF (module docstring).
 
@@ -159,6 +200,8 @@ def align_to_grf(
         rate_hz: the common sample rate, Hz.
         max_lag_s: the largest |lag| searched, s.
         names: the segments of ``stillness`` and ``impact``, for the report.
+        check_sides: with both sides, also align with the force channels' sides exchanged and
+            warn when that scores more than :data:`SWAPPED_SIDES_RATIO` times higher.
     """
     sides = [s for s in ("r", "l") if s in stillness and s in grf_vertical]
     if not sides:
@@ -168,16 +211,16 @@ def align_to_grf(
     load = grf_vertical[sides[0]] if len(sides) == 1 else np.abs(grf_vertical["r"] - grf_vertical["l"])
     lags, c_activity = normalized_xcorr(_zscore(_smooth(load, 2 * stride), "the GRF activity envelope"),
                                         _zscore(_smooth(activity, 2 * stride), "the IMU activity envelope"), max_lag, overlap)
-    c_loading = sum(normalized_xcorr(_zscore(grf_vertical[s], f"the vertical GRF of side {s}"),
-                                     _zscore(-_smooth(stillness[s], round(0.09 * rate_hz)), f"the {names[0]}_{s} rate"),
-                                     max_lag, overlap)[1] for s in sides) / len(sides)
+    loading_by_side = {s: normalized_xcorr(_zscore(grf_vertical[s], f"the vertical GRF of side {s}"),
+                                           _zscore(-_smooth(stillness[s], round(0.09 * rate_hz)), f"the {names[0]}_{s} rate"),
+                                           max_lag, overlap)[1] for s in sides}
+    c_loading = sum(loading_by_side.values()) / len(sides)
     hit = [s for s in sides if s in impact]
-    c_impact = np.zeros(len(lags))
-    if hit:
-        c_impact = sum(normalized_xcorr(
-            _zscore(_smooth(np.maximum(np.diff(grf_vertical[s], prepend=grf_vertical[s][0]), 0), 3), f"the vertical GRF rise of side {s}"),
-            _zscore(_smooth(np.linalg.norm(np.diff(impact[s], axis=0, prepend=impact[s][:1]), axis=1), 3), f"the {names[1]}_{s} jerk"),
-            max_lag, overlap)[1] for s in hit) / len(hit)
+    impact_by_side = {s: normalized_xcorr(
+        _zscore(_smooth(np.maximum(np.diff(grf_vertical[s], prepend=grf_vertical[s][0]), 0), 3), f"the vertical GRF rise of side {s}"),
+        _zscore(_smooth(np.linalg.norm(np.diff(impact[s], axis=0, prepend=impact[s][:1]), axis=1), 3), f"the {names[1]}_{s} jerk"),
+        max_lag, overlap)[1] for s in hit}
+    c_impact = sum(impact_by_side.values()) / len(hit) if hit else np.zeros(len(lags))
     valid = np.isfinite(c_activity) & np.isfinite(c_loading) & np.isfinite(c_impact)
     if not valid.any():
         raise AlignmentError(f"the IMU and GRF signals overlap by less than {MIN_OVERLAP_S:g} s at every lag searched")
@@ -198,14 +241,47 @@ def align_to_grf(
         candidates.append(Candidate(lags[k] / rate_hz, float(c_activity[k]), float(c_loading[p]), float(c_impact[k]), informative))
     candidates.sort(key=lambda c: c.score, reverse=True)
     best = candidates[0]
+    k_best = int(np.flatnonzero(lags == int(round(best.lag_s * rate_hz)))[0])
+    side_lags = {}
+    for s in sides:  # each foot's own lag within half a stride of the chosen one (loading peak, refined to its impact peak)
+        lo, hi = max(0, k_best - stride // 2), min(len(lags), k_best + stride // 2 + 1)
+        p = lo + int(np.argmax(np.where(valid[lo:hi], loading_by_side[s][lo:hi], -np.inf)))
+        k = p
+        if s in impact_by_side:
+            a, b = max(0, p - window), min(len(lags), p + window + 1)
+            near = np.where(valid[a:b], impact_by_side[s][a:b], -np.inf)
+            k = a + int(np.argmax(near)) if np.isfinite(near).any() else p
+        side_lags[s] = float(lags[k] / rate_hz)
     runner = next((c for c in candidates[1:] if abs(c.lag_s - best.lag_s) > stride / 4 / rate_hz), None)
-    if runner is not None and runner.score > 0 and best.score / runner.score < 1.05:
-        notes.append(f"the runner-up {runner.lag_s:+.2f} s scores within 5 % of the chosen lag: the alignment may be off by "
-                     "whole strides (no change of activity in the recording?)")
+    warnings = []
+    if runner is not None and runner.score > 0 and best.score / runner.score < AMBIGUOUS_RATIO:
+        warnings.append(
+            f"the time alignment is ambiguous: lags {best.lag_s:+.2f} s (score {best.score:.3f}, used) and {runner.lag_s:+.2f} s "
+            f"(score {runner.score:.3f}) score within a ratio of {best.score / runner.score:.3f} (below {AMBIGUOUS_RATIO}): the GRF "
+            "labels may be off by whole strides; import a part with quiet standing or the start or end of walking, or check the lag")
+    if len(side_lags) == 2 and abs(side_lags["r"] - side_lags["l"]) > SIDE_LAG_TOLERANCE_S + 1e-9:
+        warnings.append(
+            f"the right and left force channels look offset in time: the right foot's stance aligns at lag {side_lags['r']:+.2f} s, "
+            f"the left at {side_lags['l']:+.2f} s (more than {SIDE_LAG_TOLERANCE_S:g} s apart); the labels use {best.lag_s:+.2f} s "
+            "for both: check the GRF file's channels")
     pairs = {"activity": "summed IMU rate norms vs |F_r − F_l| (2-stride means)",
              "loading": f"vertical GRF vs {names[0]} stillness −|ω|",
              "impact": f"{names[1]} jerk |Δacc| vs rise of the vertical GRF" if hit else "none"}
-    return Alignment(best.lag_s, best, runner, tuple(candidates), pairs, tuple(notes))
+    result = Alignment(best.lag_s, best, runner, tuple(candidates), pairs, tuple(notes), side_lags, tuple(warnings))
+    if not check_sides or len(sides) < 2:
+        return result
+    swapped = align_to_grf(stillness, impact, {"r": grf_vertical["l"], "l": grf_vertical["r"]}, activity, stride_period_s,
+                           rate_hz, max_lag_s, names, check_sides=False)
+    ratio = swapped.best.score / best.score if best.score > 0 else float("inf")
+    text = (f"with the force channels' sides exchanged the alignment scores {swapped.best.score:.3f} at lag {swapped.lag_s:+.2f} s "
+            f"(loading {swapped.best.loading:.3f}: each {names[0]}'s stillness against the other foot's force), as labelled "
+            f"{best.score:.3f} at {best.lag_s:+.2f} s (loading {best.loading:.3f}); ratio {ratio:.3f}")
+    if ratio > SWAPPED_SIDES_RATIO:
+        warnings.append(f"right and left look swapped between the GRF file and the IMUs: {text} (above {SWAPPED_SIDES_RATIO}); "
+                        "check the GRF file's r/l columns and the sensor map's sides")
+    else:
+        notes.append(f"side check: {text}")
+    return dataclasses.replace(result, notes=tuple(notes), warnings=tuple(warnings), swapped_sides_score=swapped.best.score)
 
 
 def walking_direction_sign(fx: np.ndarray, fy: np.ndarray, rate_hz: float = 100.0) -> int:

@@ -4,8 +4,9 @@ Nothing here is used by the library itself: random but plausible model inputs, s
 recordings (random, or with walking-like channels), a CSV column edit for corrupting files, a
 tiny dataset + configuration + finished 4-step training run, vendor IMU files (Xsens MT
 Manager text exports, OpenSense ``.trc``) written from given signals, and edits of real
-OpenSense exports and sensor maps (bad files: a sensor removed, rows deleted, a sensor turned
-over, a dead axis, sides swapped).
+OpenSense exports, GRF ``.mot`` files and sensor maps (bad files: a sensor removed, rows deleted,
+a sensor turned over, a dead axis, sides swapped; force channels swapped, delayed, negated,
+rescaled or zeroed).
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import numpy as np
 import yaml
 
 from sspinn.data.dataset import Dataset, Labels, Recording
-from sspinn.imu.vendor_readers import opensense_files, read_trc_vectors
+from sspinn.imu.vendor_readers import opensense_files, read_mot, read_trc_vectors
 from sspinn.model.conventions import COORDINATES, GRAVITY, SEGMENTS
 
 
@@ -122,24 +123,40 @@ def walking_like_3d(n: int, rng: np.random.Generator, rate: float = 100.0) -> tu
 
 
 def write_xsens_txt(path: Path, acc: np.ndarray, gyr: np.ndarray, rate: float = 100.0, counter0: int = 0, tick0: int = 0,
-                    drop: tuple[int, ...] = (), sep: str = "\t", columns: tuple[str, ...] | None = None) -> Path:
-    """An MT Manager text export: '//' header, PacketCounter (16 bit), SampleTimeFine (1e-4 s
-    ticks, 32 bit), Acc, Gyr, Mag, Quat; rows listed in ``drop`` are left out (dropped packets)."""
+                    drop: tuple[int, ...] = (), sep: str = "\t", columns: tuple[str, ...] | None = None,
+                    time_format: str = "ticks", header: bool = True, decimal_comma: bool = False) -> Path:
+    """An MT Manager text export: '//' header (left out with ``header=False``), PacketCounter
+    (16 bit), SampleTimeFine, Acc, Gyr, Mag, Quat, separated by ``sep`` (``" "``: aligned by
+    spaces); rows listed in ``drop`` are left out (dropped packets).
+
+    ``time_format``: SampleTimeFine as ``"ticks"`` (1e-4 s, 32 bit, from ``tick0``),
+    ``"seconds"`` (from ``tick0`` × 1e-4 s), ``"blank"`` (empty in every row, as MT Manager
+    writes it when the time was not exported) or ``"nan"`` (``NaN`` in every row).
+    ``decimal_comma``: numbers written with a decimal comma (a European locale; use ``sep=";"``).
+    """
+    if time_format not in ("ticks", "seconds", "blank", "nan"):
+        raise ValueError(f"time_format must be ticks, seconds, blank or nan, got {time_format!r}")
     n = len(acc)
-    header = columns or ("PacketCounter", "SampleTimeFine", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z",
-                         "Mag_X", "Mag_Y", "Mag_Z", "Quat_q0", "Quat_q1", "Quat_q2", "Quat_q3")
+    names = columns or ("PacketCounter", "SampleTimeFine", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z",
+                        "Mag_X", "Mag_Y", "Mag_Z", "Quat_q0", "Quat_q1", "Quat_q2", "Quat_q3")
     lines = ["// Start Time: Unknown", f"// Update Rate: {rate:.1f}Hz", "// Filter Profile: human (46.1)",
-             "// Option Flags: AHS Disabled ICC Disabled", "// Firmware Version: 4.0.2", sep.join(header)]
+             "// Option Flags: AHS Disabled ICC Disabled", "// Firmware Version: 4.0.2"] if header else []
+    lines.append(sep.join(names))
     for k in range(n):
         if k in drop:
             continue
-        values = {"PacketCounter": f"{(counter0 + k) % 65536:05d}", "SampleTimeFine": str((tick0 + round(k * 1e4 / rate)) % 2**32)}
+        ticks = (tick0 + round(k * 1e4 / rate)) % 2**32
+        fine = {"ticks": str(ticks), "seconds": f"{(tick0 + k * 1e4 / rate) * 1e-4:.6f}", "blank": "", "nan": "NaN"}[time_format]
+        values = {"PacketCounter": f"{(counter0 + k) % 65536:05d}", "SampleTimeFine": fine}
         values.update({f"Acc_{a}": f"{acc[k, i]:.6f}" for i, a in enumerate("XYZ")})
         values.update({f"Gyr_{a}": f"{gyr[k, i]:.6f}" for i, a in enumerate("XYZ")})
         values.update({f"FreeAcc_{a}": f"{acc[k, i] - (9.81 if a == 'X' else 0):.6f}" for i, a in enumerate("XYZ")})
         values.update({f"Mag_{a}": "0.5" for a in "XYZ"})
         values.update({"Quat_q0": "1", "Quat_q1": "0", "Quat_q2": "0", "Quat_q3": "0"})
-        lines.append(sep.join(values[c] for c in header))
+        row = [values[c] for c in names]
+        if decimal_comma:
+            row = [v.replace(".", ",") for v in row]
+        lines.append(sep.join(row))
     path.write_text("\n".join(lines) + "\n")
     return path
 
@@ -228,3 +245,60 @@ def sensor_map_edited(path: Path, swap: tuple[str, ...] = (), **entries: object)
         data["sensors"][sensor] = segment if isinstance(entry, str) else {**entry, "segment": segment}
     data["sensors"].update(entries)
     return data
+
+
+# ---------------------------------------------------------------------------------- GRF files
+#: An edit of a GRF table: (column names, (rows, columns) values, time (rows,) s) → new values.
+GRFEdit = Callable[[list[str], np.ndarray, np.ndarray], np.ndarray]
+
+
+def write_grf_edited(source: Path, out: Path, edit: GRFEdit) -> Path:
+    """A copy of the OpenSim ``.mot`` ``source`` (plain or gzip) with ``edit`` applied to its
+    values, written as a plain ``.mot`` at ``out`` (header: name, version, nRows, nColumns,
+    inDegrees=no, endheader)."""
+    names, table = read_mot(source)
+    values = edit(names, table.copy(), table[:, names.index("time")])
+    lines = [out.name, "version=1", f"nRows={len(values)}", f"nColumns={len(names)}", "inDegrees=no", "endheader",
+             "\t".join(names)] + ["\t".join(f"{v:.8f}" for v in row) for row in values]
+    out.write_text("\n".join(lines) + "\n")
+    return out
+
+
+def _force_columns(names: list[str], side: str) -> list[int]:
+    return [k for k, n in enumerate(names) if n.startswith(f"{side}F") or n.startswith(f"{side}COP") or n.startswith(f"{side}M")]
+
+
+def grf_sides_swapped(names: list[str], values: np.ndarray, time: np.ndarray) -> np.ndarray:
+    """A GRF edit: the right and left columns (``r*``/``l*`` forces, centres of pressure, moments) exchanged."""
+    r, l = _force_columns(names, "r"), _force_columns(names, "l")
+    values[:, r + l] = values[:, l + r]
+    return values
+
+
+def grf_side_delayed(side: str, seconds: float) -> GRFEdit:
+    """A GRF edit: one side's columns delayed by ``seconds`` (its first value repeated before)."""
+    def edit(names: list[str], values: np.ndarray, time: np.ndarray) -> np.ndarray:
+        k = int(round(seconds / float(np.median(np.diff(time)))))
+        cols = _force_columns(names, side)
+        values[k:, cols] = values[:-k, cols].copy()
+        values[:k, cols] = values[k, cols]
+        return values
+    return edit
+
+
+def grf_scaled(factor: float) -> GRFEdit:
+    """A GRF edit: every force column (``*F*``) times ``factor`` (−1: negated; 1/9.81: kgf)."""
+    def edit(names: list[str], values: np.ndarray, time: np.ndarray) -> np.ndarray:
+        cols = [k for k, n in enumerate(names) if n[1:2] == "F"]
+        values[:, cols] *= factor
+        return values
+    return edit
+
+
+def grf_unloaded(start_s: float, seconds: float) -> GRFEdit:
+    """A GRF edit: both feet's forces zero from ``start_s`` for ``seconds`` (contact with the plates lost)."""
+    def edit(names: list[str], values: np.ndarray, time: np.ndarray) -> np.ndarray:
+        rows = (time >= start_s) & (time < start_s + seconds)
+        values[np.ix_(rows, [k for k, n in enumerate(names) if n[1:2] == "F"])] = 0.0
+        return values
+    return edit
