@@ -17,7 +17,6 @@ as a check; ``align="heel_strike"`` instead shifts the solution in time so that 
 
 from __future__ import annotations
 
-import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -32,6 +31,7 @@ from sspinn.dataset import Recording
 from sspinn.evaluation import compute_metrics
 from sspinn.inference import GaitEstimate
 from sspinn.plotting import save_figure
+from sspinn.run_folder import atomic_write_json
 
 #: Optimal-control baseline (IMU tracking, Dorschky et al. 2019, J Biomech 95:109278) as quoted in
 #: the SSPINNpose paper for the averaged strides: joint angles RMSD (deg), joint moments RMSD
@@ -277,8 +277,6 @@ def _speed(rec: Recording) -> float:
 
 
 def write_comparison(comparison: LabelComparison, path: str | Path, extra: dict[str, Any] | None = None) -> Path:
-    """Write the comparison (and the paper's figures) as JSON."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps({**comparison.as_dict(), "paper_ocp": PAPER_OCP, **(extra or {})}, indent=2))
-    return path
+    """Write the comparison (and the paper's figures) as JSON, atomically (a metric that could not
+    be computed, NaN, is written as ``null``)."""
+    return atomic_write_json(path, {**comparison.as_dict(), "paper_ocp": PAPER_OCP, **(extra or {})}, non_finite="null")
