@@ -250,6 +250,10 @@ REPLAY_BUFFER_GLOBALS = _NUMPY_GLOBALS | {
 }
 
 
+class _RefusedGlobal(pickle.UnpicklingError):
+    """A pickle refers to a class or function outside the allow-list (it could run code)."""
+
+
 class _AllowListUnpickler(pickle.Unpickler):
     """Unpickles only the globals in ``allowed``; any other refers to code and is refused."""
 
@@ -259,7 +263,7 @@ class _AllowListUnpickler(pickle.Unpickler):
 
     def find_class(self, module: str, name: str) -> Any:
         if (module, name) not in self.allowed:
-            raise pickle.UnpicklingError(f"refusing to load {module}.{name}")
+            raise _RefusedGlobal(f"refusing to load {module}.{name}")
         return super().find_class(module, name)
 
 
@@ -269,7 +273,7 @@ def _unpickle(path: str | Path, allowed: frozenset[tuple[str, str]], what: str, 
     try:
         with path.open("rb") as fh:
             value = _AllowListUnpickler(fh, allowed).load()
-    except pickle.UnpicklingError as exc:
+    except _RefusedGlobal as exc:
         raise UnsafeCheckpointError(f"{path}: not {what} ({exc}); refusing to run code from it ({_ONLY_OURS})") from None
     except (OSError, MemoryError):
         raise
