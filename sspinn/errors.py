@@ -102,6 +102,8 @@ def describe_os_error(exc: OSError) -> str:
         text = exc.strerror if plain else one_line(exc)
         return f"{text}; {hint}" if plain and hint else text
     where = f"{os.fsdecode(exc.filename)}" + (f" → {os.fsdecode(exc.filename2)}" if exc.filename2 is not None else "")
+    if exc.errno == errno.EEXIST and os.path.lexists(exc.filename) and not os.path.isdir(exc.filename):
+        hint = "this is a file where a folder is expected"  # mkdir of an output folder
     return f"{where}: {exc.strerror or one_line(exc)}" + (f"; {hint}" if hint else "")
 
 

@@ -121,17 +121,6 @@ def test_bounded() -> None:
 # ------------------------------------------------------------------------------------------------
 # the gait generator's training range, and summaries without NaN
 # ------------------------------------------------------------------------------------------------
-@pytest.fixture(scope="module")
-def small_generator(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """An untrained generator whose file says it was trained on 1.0–1.5 m/s, 1.6–1.9 m, 55–90 kg."""
-    from predictive.generator.gait_generator import GaitGenerator, GeneratorConfig, save_generator
-
-    config = GeneratorConfig(speeds=(1.0, 1.5), harmonics=2, hidden=8, layers=1)
-    path = tmp_path_factory.mktemp("generator") / "generator.pt"
-    save_generator(GaitGenerator(2, 8, 1).double(), path, config, wall_s=1.0)
-    return path
-
-
 @pytest.mark.parametrize(
     ("args", "message"),
     [
