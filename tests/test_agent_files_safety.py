@@ -127,6 +127,7 @@ def test_resume_refuses_crafted_vecnormalize_statistics(ppo_run, tmp_path, marke
 
 
 def test_resume_refuses_statistics_of_another_kind(ppo_run, tmp_path, marker, capsys) -> None:
+    assert load_statistics(ppo_run / "checkpoints" / "model_vecnormalize_64_steps.pkl").obs_rms.mean.shape == (22,)
     run = _copy(ppo_run, tmp_path)
     (run / "checkpoints" / "model_vecnormalize_64_steps.pkl").write_bytes(pickle.dumps(np.zeros(3)))
     code, err = _resume(run, capsys)
