@@ -216,3 +216,15 @@ def test_train_generator_runs_from_another_folder(tmp_path: Path) -> None:
                           cwd=tmp_path, capture_output=True, text=True, env=env, timeout=180)
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "run" / "generator.pt").is_file() and (tmp_path / "run" / "config.yaml").is_file()
+
+
+def test_torch_files_on_a_full_disk_are_os_errors_naming_the_file(tmp_path: Path) -> None:
+    import torch
+
+    from sspinn.model_file import save_torch_file
+
+    _keeps_the_old_file(tmp_path / "generator.pt",
+                        lambda: save_torch_file(tmp_path / "generator.pt", "gait-generator", {"w": torch.zeros(10_000)}), 4096)
+    with pytest.raises(OSError) as caught, file_size_limit(4096):
+        save_torch_file(tmp_path / "g2.pt", "gait-generator", {"w": torch.zeros(10_000)})
+    assert caught.value.filename == str(tmp_path / "g2.pt")
