@@ -10,6 +10,7 @@ import argparse
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import predictive.__main__ as predictive_cli
@@ -142,7 +143,11 @@ def test_generate_force_warns_and_records_the_extrapolation(small_generator, tmp
     assert "WARNING: speed 2.5 m/s is outside its training range 1–1.5 m/s" in captured.err
     summary = json.loads((tmp_path / "g_summary.json").read_text())
     assert summary["extrapolated"] == ["speed 2.5 m/s is outside its training range 1–1.5 m/s"]
-    assert "NaN" not in (tmp_path / "g_summary.json").read_text()
+    assert "NaN" not in (tmp_path / "g_summary.json").read_text() and "NaN" not in (tmp_path / "g.json").read_text()
+    from predictive.ocp.solution import GaitSolution
+
+    again = GaitSolution.load(tmp_path / "g")  # no build time or objective: null in the file, NaN again here
+    assert np.isnan(again.objective) and np.isnan(again.build_time) and again.q.shape[1] == 9
 
 
 def test_generate_never_writes_nan_into_the_summary(small_generator, tmp_path, capsys, monkeypatch) -> None:
