@@ -6,10 +6,12 @@ Command line (``python -m agents --help``)::
     python -m agents evaluate --checkpoint runs/ppo/best_model.zip --episodes 5 --out runs/ppo/eval
     python -m agents record --checkpoint runs/ppo/best_model.zip --out walk.gif
 
-Modules: :mod:`agents.config` (YAML → typed, validated configuration), :mod:`agents.train`
-(training script), :mod:`agents.rollout` (deterministic episodes and walking metrics),
-:mod:`agents.evaluate` (evaluation report, plots and animation), :mod:`agents.checkpoints`
-(run-directory layout, loading a trained policy), :mod:`agents.plot_learning_curve`.
+Modules: :mod:`agents.config` (YAML → typed, validated configuration), :mod:`agents.builders`
+(what a configuration builds: environment, SB3 class, network, hyperparameters),
+:mod:`agents.train` (training script), :mod:`agents.rollout` (deterministic episodes and walking
+metrics), :mod:`agents.evaluate` (evaluation report, plots and animation),
+:mod:`agents.checkpoints` (run-directory layout, saving and loading agents without running code
+from their files), :mod:`agents.plot_learning_curve`.
 Importing this package imports neither torch nor stable-baselines3.
 """
 

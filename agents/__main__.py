@@ -6,7 +6,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from sspinn.errors import ArgumentParser
+from sspinn.errors import ArgumentParser, bounded
 from sspinn.yaml_config import add_config_flags, flag_overrides
 
 #: Fields of :class:`agents.config.AgentConfig` that ``train`` takes as flags (dotted) → flag name
@@ -15,9 +15,18 @@ TRAIN_FLAGS: dict[str, str] = {"algo": "--algo", "total_timesteps": "--total-tim
                                "env.eval_target_speed": "--target-speed"}
 
 
+#: Ranges of the numeric options of ``evaluate`` and ``record`` (the ``train`` flags take theirs
+#: from :class:`agents.config.AgentConfig`): target speed (m/s, as ``env.eval_target_speed``),
+#: seeds (numpy's 32-bit seeds), episode length in control steps (10 min at 100 Hz), episodes.
+MAX_TARGET_SPEED = 12.0
+MAX_SEED = 2**32 - 1
+MAX_EPISODE_STEPS = 60_000
+MAX_EPISODES = 1000
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
-    from agents.config import AgentConfig
+    from agents.config import ENV_RATE_HZ, AgentConfig
 
     parser = ArgumentParser(prog="python -m agents", description="SB3 agents for sspinn/SagittalWalker-v0")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -35,16 +44,20 @@ def build_parser() -> argparse.ArgumentParser:
                        ("record", "render one deterministic episode to a GIF or MP4")):
         p = sub.add_parser(name, help=text)
         p.add_argument("--checkpoint", required=True, help="SB3 .zip (its run's config.yaml is found next to it)")
-        p.add_argument("--target-speed", type=float, help="m/s (default: the config's evaluation target)")
-        p.add_argument("--seed", type=int, default=0, help="first episode seed")
-        p.add_argument("--max-steps", type=int, help="episode length in control steps (default: the env's)")
+        p.add_argument("--target-speed", type=bounded(float, 0.0, MAX_TARGET_SPEED, " m/s"),
+                       help=f"m/s, 0–{MAX_TARGET_SPEED:g} (default: the config's evaluation target)")
+        p.add_argument("--seed", type=bounded(int, 0, MAX_SEED), default=0, help=f"first episode seed (0–{MAX_SEED})")
+        p.add_argument("--max-steps", type=bounded(int, 1, MAX_EPISODE_STEPS),
+                       help=f"episode length in control steps, 1–{MAX_EPISODE_STEPS} (default: the env's)")
         if name == "evaluate":
-            p.add_argument("--episodes", type=int, default=5, help="episodes (seeds seed, seed+1, ...)")
+            p.add_argument("--episodes", type=bounded(int, 1, MAX_EPISODES), default=5,
+                           help=f"episodes (seeds seed, seed+1, ...), 1–{MAX_EPISODES}")
             p.add_argument("--out", required=True, help="output folder (metrics.json, traces.png, episode.gif)")
             p.add_argument("--no-video", action="store_true", help="skip the animation")
         else:
             p.add_argument("--out", required=True, help="output file, .gif or .mp4")
-        p.add_argument("--fps", type=int, default=25, help="animation frame rate (the env runs at 100 Hz)")
+        p.add_argument("--fps", type=bounded(int, 1, ENV_RATE_HZ), default=25,
+                       help=f"animation frame rate, 1–{ENV_RATE_HZ} (the env runs at {ENV_RATE_HZ} Hz)")
     return parser
 
 

@@ -3,7 +3,7 @@
 Layout of a run directory ``<out>`` written by :mod:`agents.train`::
 
     <out>/config.yaml                          the validated configuration
-    <out>/checkpoints/model_<steps>_steps.zip   periodic checkpoints (SB3 CheckpointCallback)
+    <out>/checkpoints/model_<steps>_steps.zip   periodic checkpoints (agents.train.PeriodicCheckpoint)
     <out>/checkpoints/model_vecnormalize_<steps>_steps.pkl   their VecNormalize statistics
     <out>/checkpoints/model_replay_buffer_<steps>_steps.pkl  SAC/TD3 replay buffer (if kept)
     <out>/best_model.zip, best_vecnormalize.pkl  best periodic evaluation (mean return)
@@ -12,18 +12,23 @@ Layout of a run directory ``<out>`` written by :mod:`agents.train`::
     <out>/monitor/<i>.monitor.csv              training episodes of environment i (SB3 Monitor)
     <out>/tb/                                  TensorBoard event files
 
-Loading for evaluation (:func:`load_agent`) runs no code from the files: SB3 stores some
-attributes of a model (its spaces, policy class and keyword arguments, schedules, buffers) with
-cloudpickle, which would execute whatever a crafted ``.zip`` holds; :func:`safe_custom_objects`
-replaces every such attribute by the value rebuilt from the run's ``config.yaml`` (the network
-weights themselves are read by SB3 with ``torch.load(weights_only=True)``), and a pickled
-attribute it does not know is refused. The VecNormalize statistics (a pickle) are read by
-:class:`_StatisticsUnpickler`, which admits only the classes a VecNormalize pickle consists of.
+Loading runs no code from the files, for evaluation (:func:`load_agent`) as for ``train
+--resume`` (:func:`load_model`, :func:`load_statistics`, :func:`restore_replay_buffer`): SB3
+stores some attributes of a model (its spaces, policy class and keyword arguments, schedules,
+buffers, exploration noise) with cloudpickle, which would execute whatever a crafted ``.zip``
+holds; :func:`safe_custom_objects` replaces every such attribute by the value rebuilt from the
+run's configuration (:mod:`agents.builders`; the network weights themselves are read by SB3 with
+``torch.load(weights_only=True)``), and a pickled attribute it does not know is refused. The
+VecNormalize statistics and the replay buffer (pickles) are read by an unpickler that admits only
+the classes such a pickle consists of (:data:`STATISTICS_GLOBALS`, :data:`REPLAY_BUFFER_GLOBALS`).
+
+Writing (:func:`save_checkpoint`) is atomic per file (:func:`sspinn.run_folder.atomic_path`), the
+model's ``.zip`` last: a checkpoint whose ``.zip`` exists has its statistics and buffer complete.
 """
 
 from __future__ import annotations
 
-import collections
+import io
 import json
 import pickle
 import re
@@ -34,8 +39,10 @@ from typing import Any
 
 import numpy as np
 
-from agents.config import ALGORITHMS, AgentConfig, ConfigError, load_config
-from sspinn.errors import UserError
+from agents.builders import action_noise, algorithm_class, hyperparameter, make_env, policy_kwargs
+from agents.config import AgentConfig, ConfigError, load_config
+from sspinn.errors import UserError, one_line
+from sspinn.run_folder import atomic_path
 
 CHECKPOINT_DIR = "checkpoints"
 CHECKPOINT_PREFIX = "model"
@@ -115,15 +122,11 @@ def load_agent(checkpoint: str | Path, config: AgentConfig | None = None, device
     ``config`` defaults to the run's ``config.yaml`` (:func:`find_config`); it names the algorithm
     and the environment arguments used for evaluation.
     """
-    import stable_baselines3
-
     path = Path(checkpoint)
     if not path.is_file():
         raise FileNotFoundError(f"checkpoint {path} does not exist")
     config = config if config is not None else find_config(path)
-    cls = getattr(stable_baselines3, ALGORITHMS[config.algo])
-    model = cls.load(path, device=device, custom_objects=safe_custom_objects(path, config))
-    agent = LoadedAgent(model=model, config=config)
+    agent = LoadedAgent(model=load_model(path, config, device=device), config=config)
     stats = vecnormalize_path(path)
     if stats.is_file():
         vec_normalize = load_statistics(stats)
@@ -141,16 +144,34 @@ class UnsafeCheckpointError(UserError):
     """A saved agent that cannot be loaded without running code from it (or is not one)."""
 
 
+#: How to load only agents this project wrote (the end of every refusal).
+_ONLY_OURS = "only load agents trained with `python -m agents train`"
+
+
+def load_model(checkpoint: str | Path, config: AgentConfig, env: Any = None, device: str = "cpu", **kwargs: Any) -> Any:
+    """The SB3 model saved in ``checkpoint``, loaded without unpickling anything
+    (:func:`safe_custom_objects`); ``env`` (a VecEnv, to continue training) and ``kwargs`` go to
+    ``<Algorithm>.load``. A file that is not such a checkpoint, or whose network does not fit
+    ``config``, raises :class:`UnsafeCheckpointError` with one line."""
+    path = Path(checkpoint)
+    custom = safe_custom_objects(path, config)
+    try:
+        return algorithm_class(config).load(path, env=env, device=device, custom_objects=custom, **kwargs)
+    except pickle.UnpicklingError:  # torch.load(weights_only=True) met something other than tensors
+        raise UnsafeCheckpointError(
+            f"{path}: holds data other than network weights that would run code when loaded; refusing ({_ONLY_OURS})"
+        ) from None
+    except (RuntimeError, ValueError, KeyError, AssertionError, EOFError, zipfile.BadZipFile) as exc:
+        raise UnsafeCheckpointError(
+            f"{path}: not a {config.algo} checkpoint of this configuration ({type(exc).__name__}: {one_line(exc)[:300]})"
+        ) from None
+
+
 def safe_custom_objects(checkpoint: str | Path, config: AgentConfig) -> dict[str, Any]:
-    """SB3 ``custom_objects`` replacing every cloudpickled attribute of ``checkpoint`` with a value
-    rebuilt from ``config``, so that loading unpickles nothing. Raises UnsafeCheckpointError for a
-    file that is not an SB3 checkpoint or holds a pickled attribute not known here."""
-    import stable_baselines3
-    from stable_baselines3.common import buffers
-    from stable_baselines3.common.type_aliases import TrainFreq, TrainFrequencyUnit
-
-    from agents.train import make_env, policy_kwargs
-
+    """SB3 ``custom_objects`` replacing every cloudpickled attribute of ``checkpoint`` with the value
+    rebuilt from ``config`` (as :mod:`agents.train` built it, so that training can continue from
+    them), so that loading unpickles nothing. Raises UnsafeCheckpointError for a file that is not
+    an SB3 checkpoint or holds a pickled attribute not known here."""
     path = Path(checkpoint)
     try:
         with zipfile.ZipFile(path) as archive:
@@ -160,70 +181,150 @@ def safe_custom_objects(checkpoint: str | Path, config: AgentConfig) -> dict[str
     if not isinstance(data, dict):
         raise UnsafeCheckpointError(f"{path}: not an SB3 checkpoint (its 'data' is not a JSON object)")
     pickled = [k for k, v in data.items() if isinstance(v, dict) and ":serialized:" in v]
-    cls = getattr(stable_baselines3, ALGORITHMS[config.algo])
+    unknown = [k for k in pickled if k not in _REBUILT]
+    if unknown:
+        raise UnsafeCheckpointError(
+            f"{path}: holds pickled Python objects {unknown} that would run code when loaded; refusing ({_ONLY_OURS})"
+        )
+    from stable_baselines3.common.utils import FloatSchedule
+
     env = make_env(config)
     try:
         spaces = {"observation_space": env.observation_space, "action_space": env.action_space}
     finally:
         env.close()
-
-    def constant(_: float) -> float:
-        return 0.0  # schedules only matter for training; a loaded agent is evaluated
-
+    network = policy_kwargs(config)
+    saved = data.get("policy_kwargs")
+    if isinstance(saved, dict) and "use_sde" in saved:  # SB3 adds it for algorithms with gSDE support (SAC)
+        network["use_sde"] = bool(hyperparameter(config, "use_sde"))
+    train_freq = hyperparameter(config, "train_freq") if "train_freq" in pickled else None
     known: dict[str, Any] = {
         **spaces,
-        "policy_class": cls.policy_aliases["MlpPolicy"],
-        "policy_kwargs": policy_kwargs(config),
-        "lr_schedule": constant, "clip_range": constant, "clip_range_vf": None, "exploration_schedule": constant,
-        "rollout_buffer_class": buffers.RolloutBuffer, "replay_buffer_class": buffers.ReplayBuffer,
-        "train_freq": TrainFreq(1, TrainFrequencyUnit.STEP),  # SAC/TD3 training cadence (not used to evaluate)
-        "action_noise": None, "_last_obs": None, "_last_episode_starts": None, "_last_original_obs": None,
-        "ep_info_buffer": collections.deque(maxlen=100), "ep_success_buffer": collections.deque(maxlen=100),
+        "policy_class": algorithm_class(config).policy_aliases["MlpPolicy"],
+        "policy_kwargs": network,
+        # schedules: the constants of the configuration (SB3's _setup_model wraps them again)
+        "lr_schedule": FloatSchedule(hyperparameter(config, "learning_rate")) if "lr_schedule" in pickled else None,
+        "clip_range": hyperparameter(config, "clip_range") if "clip_range" in pickled else None,
+        "clip_range_vf": hyperparameter(config, "clip_range_vf") if "clip_range_vf" in pickled else None,
+        "train_freq": tuple(train_freq) if isinstance(train_freq, list) else train_freq,
+        "action_noise": action_noise(config, spaces["action_space"].shape[0]),
+        # SB3 picks the buffer classes as it did when the model was made (None → its default)
+        "rollout_buffer_class": None, "replay_buffer_class": None,
+        # training state that SB3 rebuilds on the next learn() (the environments are reset)
+        "_last_obs": None, "_last_episode_starts": None, "_last_original_obs": None,
+        "ep_info_buffer": None, "ep_success_buffer": None,
     }
-    unknown = [k for k in pickled if k not in known]
-    if unknown:
-        raise UnsafeCheckpointError(
-            f"{path}: holds pickled Python objects {unknown} that would run code when loaded; refusing "
-            "(only load agents trained with `python -m agents train`)"
-        )
     return {k: known[k] for k in pickled}
 
 
-#: The globals a VecNormalize pickle consists of (module, name); nothing else is unpickled.
-_STATISTICS_GLOBALS = frozenset({
-    ("stable_baselines3.common.vec_env.vec_normalize", "VecNormalize"),
-    ("stable_baselines3.common.running_mean_std", "RunningMeanStd"),
-    ("gymnasium.spaces.box", "Box"),
-    ("collections", "OrderedDict"),
+#: The pickled attributes of an SB3 checkpoint that :func:`safe_custom_objects` rebuilds.
+_REBUILT = frozenset({
+    "observation_space", "action_space", "policy_class", "policy_kwargs", "lr_schedule", "clip_range",
+    "clip_range_vf", "train_freq", "action_noise", "rollout_buffer_class", "replay_buffer_class", "_last_obs",
+    "_last_episode_starts", "_last_original_obs", "ep_info_buffer", "ep_success_buffer",
+})
+
+#: numpy's parts of a pickle: arrays, dtypes, scalars and random generators (module, name).
+_NUMPY_GLOBALS = frozenset({
     ("numpy", "dtype"), ("numpy", "ndarray"),
     *((m, n) for m in ("numpy.core.multiarray", "numpy._core.multiarray") for n in ("_reconstruct", "scalar")),
+    *((m, "_frombuffer") for m in ("numpy.core.numeric", "numpy._core.numeric")),
     ("numpy.random._pickle", "__generator_ctor"), ("numpy.random._pickle", "__bit_generator_ctor"),
     ("numpy.random._pickle", "__randomstate_ctor"),
     *(("numpy.random._" + g.lower(), g) for g in ("PCG64", "MT19937", "Philox", "SFC64")),
     ("numpy.random._pcg64", "PCG64DXSM"),
     ("numpy.random.bit_generator", "SeedSequence"), ("numpy.random.bit_generator", "__pyx_unpickle_SeedSequence"),
+    ("gymnasium.spaces.box", "Box"),
 })
+#: The globals a VecNormalize pickle consists of (module, name); nothing else is unpickled.
+STATISTICS_GLOBALS = _NUMPY_GLOBALS | {
+    ("stable_baselines3.common.vec_env.vec_normalize", "VecNormalize"),
+    ("stable_baselines3.common.running_mean_std", "RunningMeanStd"),
+    ("collections", "OrderedDict"),
+}
+#: The globals an SB3 replay buffer pickle consists of (module, name).
+REPLAY_BUFFER_GLOBALS = _NUMPY_GLOBALS | {
+    ("stable_baselines3.common.buffers", "ReplayBuffer"),
+    ("stable_baselines3.common.buffers", "NStepReplayBuffer"),
+    ("torch", "device"),
+}
 
 
-class _StatisticsUnpickler(pickle.Unpickler):
-    """Unpickles only :data:`_STATISTICS_GLOBALS` (a VecNormalize and its parts)."""
+class _RefusedGlobal(pickle.UnpicklingError):
+    """A pickle refers to a class or function outside the allow-list (it could run code)."""
+
+
+class _AllowListUnpickler(pickle.Unpickler):
+    """Unpickles only the globals in ``allowed``; any other refers to code and is refused."""
+
+    def __init__(self, file: io.BufferedIOBase, allowed: frozenset[tuple[str, str]]) -> None:
+        super().__init__(file)
+        self.allowed = allowed
 
     def find_class(self, module: str, name: str) -> Any:
-        if (module, name) not in _STATISTICS_GLOBALS:
-            raise pickle.UnpicklingError(f"refusing to load {module}.{name}")
+        if (module, name) not in self.allowed:
+            raise _RefusedGlobal(f"refusing to load {module}.{name}")
         return super().find_class(module, name)
 
 
-def load_statistics(path: str | Path) -> Any:
-    """The VecNormalize saved at ``path``, unpickling nothing but its own classes."""
+def _unpickle(path: str | Path, allowed: frozenset[tuple[str, str]], what: str, cls: type) -> Any:
+    """The ``cls`` instance pickled at ``path``, unpickling nothing outside ``allowed``."""
     path = Path(path)
     try:
         with path.open("rb") as fh:
-            return _StatisticsUnpickler(fh).load()
-    except pickle.UnpicklingError as exc:
+            value = _AllowListUnpickler(fh, allowed).load()
+    except _RefusedGlobal as exc:
+        raise UnsafeCheckpointError(f"{path}: not {what} ({exc}); refusing to run code from it ({_ONLY_OURS})") from None
+    except (OSError, MemoryError):
+        raise
+    except Exception as exc:  # noqa: BLE001 - whatever a damaged pickle raises, one line
+        raise UnsafeCheckpointError(f"{path}: damaged {what} ({type(exc).__name__}: {one_line(exc)[:200]})") from None
+    if not isinstance(value, cls):
+        raise UnsafeCheckpointError(f"{path}: not {what} (it holds a {type(value).__name__})")
+    return value
+
+
+def load_statistics(path: str | Path) -> Any:
+    """The VecNormalize saved at ``path``, unpickling nothing but its own classes (without its
+    environments: give it the training environments with ``set_venv`` to continue training)."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    return _unpickle(path, STATISTICS_GLOBALS, "VecNormalize statistics", VecNormalize)
+
+
+def load_replay_buffer(path: str | Path) -> Any:
+    """The SB3 replay buffer saved at ``path``, unpickling nothing but its own classes."""
+    from stable_baselines3.common.buffers import ReplayBuffer
+
+    return _unpickle(path, REPLAY_BUFFER_GLOBALS, "an SB3 replay buffer", ReplayBuffer)
+
+
+def restore_replay_buffer(model: Any, path: str | Path) -> None:
+    """Give ``model`` (SAC/TD3 about to continue training) the replay buffer saved at ``path``
+    (:func:`load_replay_buffer`); UnsafeCheckpointError if its shapes do not fit the model."""
+    buffer = load_replay_buffer(path)
+    expected = ((model.n_envs, *model.observation_space.shape), (model.n_envs, *model.action_space.shape))
+    found = (tuple(np.shape(buffer.observations))[1:], tuple(np.shape(buffer.actions))[1:])
+    if found != expected:
         raise UnsafeCheckpointError(
-            f"{path}: not VecNormalize statistics ({exc}); refusing to run code from it "
-            "(only load agents trained with `python -m agents train`)"
-        ) from None
-    except (EOFError, ValueError, TypeError, AttributeError, IndexError, KeyError) as exc:
-        raise UnsafeCheckpointError(f"{path}: damaged VecNormalize statistics ({type(exc).__name__}: {exc})") from None
+            f"{path}: replay buffer of (envs, observation) {found[0]} and (envs, action) {found[1]} does not fit "
+            f"this run's {expected[0]} and {expected[1]}; delete it to continue without it"
+        )
+    buffer.device = model.device
+    model.replay_buffer = buffer
+
+
+def save_checkpoint(model: Any, path: str | Path, vec_normalize: Any = None, replay_buffer: bool = False) -> Path:
+    """Write ``model`` to ``path`` (an SB3 ``.zip``) with its VecNormalize statistics
+    (:func:`vecnormalize_path`) and, for a periodic checkpoint with ``replay_buffer``, its replay
+    buffer (:func:`replay_buffer_path`); every file atomically, the ``.zip`` last."""
+    path = Path(path)
+    if vec_normalize is not None:
+        with atomic_path(vecnormalize_path(path)) as tmp:
+            vec_normalize.save(str(tmp))
+    if replay_buffer and getattr(model, "replay_buffer", None) is not None:
+        with atomic_path(replay_buffer_path(path)) as tmp:
+            model.save_replay_buffer(tmp)
+    with atomic_path(path) as tmp:
+        model.save(tmp)
+    return path

@@ -43,8 +43,11 @@ from typing import Any
 import yaml
 
 from sspinn import yaml_config
+from sspinn.run_folder import atomic_write_text
 from sspinn.yaml_config import ConfigError, option
 
+#: Control rate of the walking environment, Hz (animations show at most this many frames per second).
+ENV_RATE_HZ = 100
 #: Algorithms supported by :mod:`agents.train` (lower-case name → SB3 class name).
 ALGORITHMS: dict[str, str] = {"ppo": "PPO", "sac": "SAC", "td3": "TD3"}
 #: Vectorised-environment kinds (see :class:`EnvConfig`).
@@ -160,13 +163,13 @@ class AgentConfig:
 
     Attributes:
         algo: the SB3 algorithm, one of :data:`ALGORITHMS`.
-        seed: seeds SB3 (torch, numpy, random) and the environments.
-        total_timesteps: environment steps summed over all parallel environments.
+        seed: seeds SB3 (torch, numpy, random) and the environments (0 to 2³² − 1).
+        total_timesteps: environment steps summed over all parallel environments (at most 10¹¹).
     """
 
     algo: str = option(choices=ALGORITHMS)
-    seed: int = option(0, ge=0)
-    total_timesteps: int = option(1_000_000, gt=0)
+    seed: int = option(0, ge=0, le=2**32 - 1)
+    total_timesteps: int = option(1_000_000, gt=0, le=10**11)
     env: EnvConfig = field(default_factory=EnvConfig)
     normalize: NormalizeConfig = field(default_factory=NormalizeConfig)
     policy: PolicyConfig = field(default_factory=PolicyConfig)
@@ -289,5 +292,5 @@ def algorithm_parameters(algo: str) -> set[str]:
 
 
 def save_config(config: AgentConfig, path: str | Path) -> None:
-    """Write ``config`` as YAML (read back by :func:`load_config`)."""
-    Path(path).write_text(yaml.safe_dump(config.to_dict(), sort_keys=False))
+    """Write ``config`` as YAML (read back by :func:`load_config`), atomically."""
+    atomic_write_text(path, yaml.safe_dump(config.to_dict(), sort_keys=False))

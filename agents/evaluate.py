@@ -15,18 +15,22 @@ angles, torques and ground reaction forces, and an animation rendered by the env
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from agents.builders import make_env
 from agents.checkpoints import load_agent
+from agents.config import ENV_RATE_HZ, AgentConfig
 from agents.rollout import EpisodeResult, run_episode, summarize
+from sspinn.errors import UserError
 from sspinn.model.drawing import save_figure
+from sspinn.run_folder import atomic_path, atomic_write_json
 
-#: Control rate of the environment, Hz (frames are subsampled to the animation's fps).
-ENV_RATE_HZ = 100
+#: Most bytes of frames an animation keeps in memory before it is written (1500 frames of the
+#: default 600×400 image).
+MAX_ANIMATION_BYTES = 1500 * 600 * 400 * 3
 
 
 def evaluate(
@@ -48,10 +52,10 @@ def evaluate(
     config = agent.config
     target = config.env.target_speed if target_speed is None else float(target_speed)
     overrides: dict[str, Any] = {} if max_steps is None else {"max_episode_steps": max_steps}
-    from agents.train import make_env
-
-    env = make_env(config, render_mode="rgb_array" if video else None, **overrides)
     frame_every = _frame_every(fps) if video else 0
+    if video:
+        check_animation_size(config, max_steps, fps, "lower --fps or --max-steps, or use --no-video")
+    env = make_env(config, render_mode="rgb_array" if video else None, **overrides)
     try:
         results = [
             run_episode(agent, env, seed + i, target, record_traces=(i == 0), frame_every=frame_every if i == 0 else 0)
@@ -69,7 +73,7 @@ def evaluate(
         "episodes": [r.metrics() for r in results],
         "summary": summarize(results),
     }
-    (out_dir / "metrics.json").write_text(json.dumps(report, indent=2))
+    atomic_write_json(out_dir / "metrics.json", report)
     plot_traces(results[0], out_dir / "traces.png")
     if video:
         write_animation(results[0].frames, out_dir / "episode.gif", fps)
@@ -91,8 +95,7 @@ def record(
     config = agent.config
     target = config.env.target_speed if target_speed is None else float(target_speed)
     overrides: dict[str, Any] = {} if max_steps is None else {"max_episode_steps": max_steps}
-    from agents.train import make_env
-
+    check_animation_size(config, max_steps, fps, "lower --fps or --max-steps")
     env = make_env(config, render_mode="rgb_array", **overrides)
     try:
         result = run_episode(agent, env, seed, target, frame_every=_frame_every(fps))
@@ -106,6 +109,20 @@ def _frame_every(fps: int) -> int:
     if not 1 <= fps <= ENV_RATE_HZ:
         raise ValueError(f"fps must lie in [1, {ENV_RATE_HZ}] (the environment runs at {ENV_RATE_HZ} Hz), got {fps}")
     return max(round(ENV_RATE_HZ / fps), 1)
+
+
+def check_animation_size(config: AgentConfig, max_steps: int | None, fps: int, hint: str) -> None:
+    """UserError if the frames of one episode of ``max_steps`` (default: the environment's
+    ``max_episode_steps``) at ``fps`` would take more than :data:`MAX_ANIMATION_BYTES` of memory."""
+    from envs.config import WalkerConfig
+
+    kwargs = config.env.kwargs
+    steps = max_steps if max_steps is not None else int(kwargs.get("max_episode_steps", WalkerConfig.max_episode_steps))
+    frames = steps // _frame_every(fps) + 1
+    size = frames * int(kwargs.get("width", 600)) * int(kwargs.get("height_px", 400)) * 3
+    if size > MAX_ANIMATION_BYTES:
+        raise UserError(f"an animation of {steps} steps at {fps} frames/s holds {frames} frames ({size / 1e9:.1f} GB), "
+                        f"more than the {MAX_ANIMATION_BYTES / 1e9:.1f} GB allowed; {hint}")
 
 
 def check_animation_path(path: str | Path) -> Path:
@@ -124,17 +141,18 @@ def check_animation_path(path: str | Path) -> Path:
 
 
 def write_animation(frames: list[np.ndarray], path: str | Path, fps: int) -> Path:
-    """Write RGB frames as a looping GIF (Pillow) or an MP4 (needs the ``imageio-ffmpeg`` package)."""
+    """Write RGB frames as a looping GIF (Pillow) or an MP4 (needs the ``imageio-ffmpeg`` package),
+    atomically."""
     import imageio.v3 as iio
 
     path = check_animation_path(path)
     if not frames:
         raise ValueError("no frames to write")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if path.suffix.lower() == ".gif":
-        iio.imwrite(path, np.stack(frames), extension=".gif", duration=1000.0 / fps, loop=0)
-    else:
-        iio.imwrite(path, np.stack(frames), extension=".mp4", fps=fps)
+    with atomic_path(path) as tmp:
+        if path.suffix.lower() == ".gif":
+            iio.imwrite(tmp, np.stack(frames), extension=".gif", duration=1000.0 / fps, loop=0)
+        else:
+            iio.imwrite(tmp, np.stack(frames), extension=".mp4", fps=fps)
     return path
 
 

@@ -15,13 +15,13 @@ across ``--resume`` (the Monitor files are appended to).
 
 from __future__ import annotations
 
-import argparse
 import csv
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from sspinn.errors import ArgumentParser, bounded, run_cli
 from sspinn.model.drawing import save_figure
 
 
@@ -122,12 +122,22 @@ def plot_learning_curve(run_dir: str | Path, out: str | Path, window: int = 100,
     return save_figure(fig, out, dpi=100)
 
 
+#: Longest rolling-mean window, episodes.
+MAX_WINDOW = 100_000
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Command line: ``python -m agents.plot_learning_curve RUN_DIR --out PNG``."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    """Command line: ``python -m agents.plot_learning_curve RUN_DIR --out PNG`` (the project's
+    error path: one line and exit status 2 for a user error, see :func:`sspinn.errors.run_cli`)."""
+    return run_cli(_main, "python -m agents.plot_learning_curve", argv, user_errors=(ValueError,))
+
+
+def _main(argv: list[str]) -> int:
+    parser = ArgumentParser(prog="python -m agents.plot_learning_curve", description=__doc__.splitlines()[0])
     parser.add_argument("run_dir", help="run directory written by python -m agents train")
     parser.add_argument("--out", default=None, help="PNG path (default <run_dir>/learning_curve.png)")
-    parser.add_argument("--window", type=int, default=100, help="rolling-mean window, episodes")
+    parser.add_argument("--window", type=bounded(int, 1, MAX_WINDOW), default=100,
+                        help=f"rolling-mean window, episodes (1–{MAX_WINDOW})")
     args = parser.parse_args(argv)
     out = args.out or Path(args.run_dir, "learning_curve.png")
     print(plot_learning_curve(args.run_dir, out, window=args.window))

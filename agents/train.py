@@ -11,23 +11,21 @@ model (new, or the latest checkpoint when resuming) → callbacks (checkpoints, 
 from __future__ import annotations
 
 import csv
+import io
 import math
 import time
 from pathlib import Path
 from typing import Any
 
-import gymnasium
-import numpy as np
-import stable_baselines3
 import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
-from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.logger import configure as configure_logger
-from stable_baselines3.common.noise import NormalActionNoise
 from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv, VecNormalize
 
+from agents.builders import algorithm_class, algorithm_kwargs, make_env, policy_kwargs
 from agents.checkpoints import (
     CHECKPOINT_DIR,
     CHECKPOINT_PREFIX,
@@ -35,12 +33,16 @@ from agents.checkpoints import (
     LoadedAgent,
     checkpoint_steps,
     latest_checkpoint,
+    load_model,
+    load_statistics,
     replay_buffer_path,
+    restore_replay_buffer,
+    save_checkpoint,
     vecnormalize_path,
 )
-from agents.config import ACTIVATIONS, ALGORITHMS, AgentConfig, save_config
+from agents.config import AgentConfig, save_config
 from agents.rollout import run_episode, summarize
-from sspinn.run_folder import RunLock
+from sspinn.run_folder import RunLock, atomic_write_text
 
 #: Info fields of the environment written to the Monitor CSV of every training episode.
 MONITOR_INFO_KEYS: tuple[str, ...] = ("distance", "cost_of_transport")
@@ -49,11 +51,6 @@ EVAL_COLUMNS: tuple[str, ...] = (
     "mean_abs_speed_error_m_s", "mean_cost_of_transport", "falls", "episodes", "mean_foot_slide_m",
     "mean_cadence_steps_per_min",
 )
-
-
-def make_env(config: AgentConfig, render_mode: str | None = None, **overrides: Any) -> gymnasium.Env:
-    """One environment with the configuration's constructor arguments (``overrides`` win)."""
-    return gymnasium.make(config.env.make_id, **{**config.env.kwargs, **overrides}, render_mode=render_mode)
 
 
 def make_training_envs(config: AgentConfig, run_dir: Path, seed: int, append_monitor: bool = False) -> VecEnv:
@@ -70,29 +67,26 @@ def make_training_envs(config: AgentConfig, run_dir: Path, seed: int, append_mon
     )
 
 
-def policy_kwargs(config: AgentConfig) -> dict[str, Any]:
-    """SB3 ``policy_kwargs``: separate actor and critic networks of ``net_arch``, activation, init."""
-    p = config.policy
-    arch = list(p.net_arch)
-    kwargs: dict[str, Any] = {
-        "net_arch": {"pi": arch, "vf": arch} if config.algo == "ppo" else {"pi": arch, "qf": arch},
-        "activation_fn": getattr(torch.nn, ACTIVATIONS[p.activation]),
-    }
-    if p.log_std_init is not None:
-        kwargs["log_std_init"] = p.log_std_init
-    if p.ortho_init is not None:
-        kwargs["ortho_init"] = p.ortho_init
-    return kwargs
+class PeriodicCheckpoint(BaseCallback):
+    """Every ``save_freq`` calls (one call steps all ``n_envs`` environments): the model, its
+    VecNormalize statistics and (``replay_buffer``) its replay buffer under
+    ``<run>/checkpoints/model_<steps>_steps.*``, written by :func:`agents.checkpoints.save_checkpoint`
+    (atomic files, the ``.zip`` last). SB3's ``CheckpointCallback`` writes the same names but
+    straight into the final files, so a crash mid-write would leave a truncated checkpoint that
+    ``--resume`` picks as the latest."""
 
+    def __init__(self, folder: Path, save_freq: int, vec_normalize: VecNormalize | None, replay_buffer: bool) -> None:
+        super().__init__()
+        self.folder = folder
+        self.save_freq = save_freq
+        self.vec_normalize = vec_normalize
+        self.replay_buffer = replay_buffer
 
-def algorithm_kwargs(config: AgentConfig, n_actions: int) -> dict[str, Any]:
-    """SB3 keyword arguments from ``hyperparameters``; a number as ``action_noise`` becomes
-    Gaussian exploration noise of that standard deviation (normalised action units)."""
-    kwargs = dict(config.hyperparameters)
-    noise = kwargs.get("action_noise")
-    if isinstance(noise, (int, float)):
-        kwargs["action_noise"] = NormalActionNoise(np.zeros(n_actions), float(noise) * np.ones(n_actions))
-    return kwargs
+    def _on_step(self) -> bool:
+        if self.n_calls % self.save_freq == 0:
+            path = self.folder / f"{CHECKPOINT_PREFIX}_{self.num_timesteps}_steps.zip"
+            save_checkpoint(self.model, path, self.vec_normalize, self.replay_buffer)
+        return True
 
 
 class WalkerEvalCallback(BaseCallback):
@@ -154,17 +148,16 @@ class WalkerEvalCallback(BaseCallback):
             if value is not None:
                 self.logger.record(f"eval/{key}", value)
         self.logger.record("eval/steps_per_s", (self.num_timesteps - self.start_steps) / max(wall, 1e-9))
-        new_file = not self.csv_path.is_file()
-        with self.csv_path.open("a", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=EVAL_COLUMNS, extrasaction="ignore")
-            if new_file:
-                writer.writeheader()
-            writer.writerow(row)
+        buffer = io.StringIO()
+        writer = csv.DictWriter(buffer, fieldnames=EVAL_COLUMNS, extrasaction="ignore", lineterminator="\n")
+        if not self.csv_path.is_file():
+            writer.writeheader()
+        writer.writerow(row)
+        previous = self.csv_path.read_text() if self.csv_path.is_file() else ""
+        atomic_write_text(self.csv_path, previous + buffer.getvalue())
         if summary["mean_return"] > self.best_return:
             self.best_return = summary["mean_return"]
-            self.model.save(self.run_dir / "best_model.zip")
-            if self.vec_normalize is not None:
-                self.vec_normalize.save(str(vecnormalize_path(self.run_dir / "best_model.zip")))
+            save_checkpoint(self.model, self.run_dir / "best_model.zip", self.vec_normalize)
         print(
             f"[eval] {self.num_timesteps:>10d} steps  {wall:7.0f} s  return {summary['mean_return']:7.1f}  "
             f"distance {summary['mean_distance_m']:5.2f} m (min {summary['min_distance_m']:5.2f})  "
@@ -202,9 +195,9 @@ def _train(config: AgentConfig, out: Path, resume: bool) -> BaseAlgorithm:
     run_dir.mkdir(parents=True, exist_ok=True)
     save_config(config, run_dir / CONFIG_FILE)
     torch.set_num_threads(config.logging.torch_threads)
-    seed = config.seed + (checkpoint_steps(checkpoint) if resume else 0)
+    seed = (config.seed + (checkpoint_steps(checkpoint) if resume else 0)) % 2**32  # numpy takes 32-bit seeds
     set_random_seed(seed)
-    algo_cls = getattr(stable_baselines3, ALGORITHMS[config.algo])
+    algo_cls = algorithm_class(config)
     tensorboard_log = str(run_dir / "tb") if config.logging.tensorboard else None
 
     # 2. vectorised environments, observation/reward normalisation (statistics restored on resume)
@@ -215,7 +208,8 @@ def _train(config: AgentConfig, out: Path, resume: bool) -> BaseAlgorithm:
         stats = vecnormalize_path(checkpoint)
         if not stats.is_file():
             raise FileNotFoundError(f"--resume: {stats} (VecNormalize statistics of {checkpoint.name}) is missing")
-        vec_normalize = VecNormalize.load(str(stats), venv)
+        vec_normalize = load_statistics(stats)  # runs no code from the file (agents.checkpoints)
+        vec_normalize.set_venv(venv)
         vec_normalize.training = True
     elif norm.obs or norm.reward:
         vec_normalize = VecNormalize(
@@ -227,10 +221,10 @@ def _train(config: AgentConfig, out: Path, resume: bool) -> BaseAlgorithm:
 
     # 3. the model: new, or the latest checkpoint (with its replay buffer, if one was kept)
     if resume:
-        model = algo_cls.load(checkpoint, env=venv, device="cpu", tensorboard_log=tensorboard_log)
+        model = load_model(checkpoint, config, env=venv, device="cpu", tensorboard_log=tensorboard_log)
         buffer = replay_buffer_path(checkpoint)
-        if hasattr(model, "load_replay_buffer") and buffer.is_file():
-            model.load_replay_buffer(buffer)
+        if hasattr(model, "replay_buffer") and buffer.is_file():
+            restore_replay_buffer(model, buffer)
         print(f"resuming from {checkpoint} at {model.num_timesteps} timesteps", flush=True)
     else:
         model = algo_cls(
@@ -244,13 +238,8 @@ def _train(config: AgentConfig, out: Path, resume: bool) -> BaseAlgorithm:
 
     # 4. callbacks: periodic checkpoints (+ VecNormalize, replay buffer) and evaluations
     callbacks: list[BaseCallback] = [
-        CheckpointCallback(
-            save_freq=max(config.logging.checkpoint_freq // config.env.n_envs, 1),
-            save_path=str(run_dir / CHECKPOINT_DIR),
-            name_prefix=CHECKPOINT_PREFIX,
-            save_replay_buffer=config.logging.keep_replay_buffer,
-            save_vecnormalize=vec_normalize is not None,
-        )
+        PeriodicCheckpoint(run_dir / CHECKPOINT_DIR, max(config.logging.checkpoint_freq // config.env.n_envs, 1),
+                           vec_normalize, config.logging.keep_replay_buffer)
     ]
     if config.logging.eval_freq > 0:
         callbacks.append(WalkerEvalCallback(config, run_dir, vec_normalize))
@@ -262,8 +251,6 @@ def _train(config: AgentConfig, out: Path, resume: bool) -> BaseAlgorithm:
         tb_log_name="run",
         reset_num_timesteps=not resume,
     )
-    model.save(run_dir / "final_model.zip")
-    if vec_normalize is not None:
-        vec_normalize.save(str(vecnormalize_path(run_dir / "final_model.zip")))
+    save_checkpoint(model, run_dir / "final_model.zip", vec_normalize)
     venv.close()
     return model

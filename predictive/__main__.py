@@ -22,7 +22,8 @@ from predictive.synth import cli as synth_cli
 from sspinn.errors import ArgumentParser, run_cli
 
 
-def _parser() -> argparse.ArgumentParser:
+def build_parser() -> argparse.ArgumentParser:
+    """The command-line interface (every sub-command)."""
     parser = ArgumentParser(prog="python -m predictive", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     ocp_cli.add_parser(sub)  # solve
@@ -40,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _main(argv: list[str]) -> int:
-    args = _parser().parse_args(argv)
+    args = build_parser().parse_args(argv)
     if args.command == ocp_cli.COMMAND:
         return ocp_cli.run(args)
     if args.command == synth_cli.COMMAND:

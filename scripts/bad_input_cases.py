@@ -1,4 +1,4 @@
-"""Try every bad-input case (bad options, files, models and run folders, and bad real IMU files) and print the
+"""Try every bad-input case of issue #12 (and the bad IMU files of issue #13) and print the
 Markdown table of ``docs/bad_input.md``: the case, what was run, the exit status (or
 exception/warning) and the exact message the user sees.
 
@@ -295,6 +295,17 @@ def main() -> None:
         return cli(sspinn_main, ["import", "--imu", str(accel), "--sensor-map", str(path), "--height", "1.81", "--mass", "66.7",
                                  "--end", "10", "--out", str(folder / "out")], shown)
 
+    agents = AgentRuns(tmp, agents_main)
+
+    def generator() -> Path:
+        """An untrained gait generator whose file says it was trained on 1–1.5 m/s."""
+        from predictive.generator.gait_generator import GaitGenerator, GeneratorConfig, save_generator
+
+        path = tmp / "generator.pt"
+        if not path.exists():
+            save_generator(GaitGenerator(2, 8, 1).double(), path, GeneratorConfig(speeds=(1.0, 1.5), harmonics=2, hidden=8, layers=1))
+        return path
+
     legs = tuple(f"{k}_{s}_imu_offset_imu" for k in ("femur", "tibia", "toes") for s in "rl")
     acc = [f"pelvis_acc_{a}" for a in "xy"]
     cases = [
@@ -406,7 +417,10 @@ def main() -> None:
                lambda a=a: cli(predictive_cli.main, ["solve", *a, "--out", str(tmp / "x")]))
           for a, m in ((("--speed", "50"), "--speed 50"), (("--speed", "-1"), "--speed -1"), (("--speed", "nan"), "--speed nan"),
                        (("--speed", "1.3", "--height", "175"), "height 175"), (("--speed", "1.3", "--mass", "0"), "mass 0"),
-                       (("--speed", "1.3", "--nodes", "2"), "--nodes 2"), (("--speed", "1.3", "--guess", "missing.npz"), "missing.npz"))],
+                       (("--speed", "1.3", "--nodes", "2"), "--nodes: 2 is outside 4–1000"),
+                       (("--speed", "1.3", "--nodes", "1000000"), "--nodes: 1000000 is outside 4–1000"),
+                       (("--speed", "1.3", "--rate-hz", "1e6"), "--rate-hz: 1e6 is outside 1–1000 Hz"),
+                       (("--speed", "1.3", "--guess", "missing.npz"), "missing.npz"))],
         Case("5", "solution violating the dynamics (residual at its nodes)", "python -m predictive solve (bad solution)", "exit 1",
              "Kane residual at its own nodes", bad_solution),
         Case("5", "track-imu on a missing folder", "python -m predictive track-imu --data nowhere", "exit 2", "nowhere",
@@ -427,7 +441,48 @@ def main() -> None:
              "refusing to load posix.system", lambda: raises(lambda: _load_statistics(tmp, RunsCode()))),
         Case("all", "agents: missing config", "python -m agents train --config missing.yaml", "exit 2", "missing.yaml",
              lambda: cli(agents_main, ["train", "--config", str(tmp / "missing.yaml"), "--out", str(tmp / "ag")])),
-        # bad IMU files (sspinn import of edited copies of a real CMU OpenSense export)
+        Case("2", "agents: --resume with crafted VecNormalize statistics", "python -m agents train --resume "
+             "(checkpoints/model_vecnormalize_64_steps.pkl crafted)", "exit 2", "refusing to load posix.system",
+             lambda: agents.resume("ppo", lambda run: (run / "checkpoints" / "model_vecnormalize_64_steps.pkl").write_bytes(
+                 pickle.dumps(RunsCode())))),
+        Case("2", "agents: --resume with a pickled payload as `observation_space` in the .zip (rebuilt from the config: "
+             "loads safely, the payload never read)", "python -m agents train --resume (model_64_steps.zip crafted)", "exit 0",
+             "resuming from", lambda: agents.resume("ppo", lambda run: agents.rewrite_data(
+                 run / "checkpoints" / "model_64_steps.zip", "observation_space", RunsCode()))),
+        Case("2", "agents: --resume with a pickled payload in the .zip's torch weights", "python -m agents train --resume "
+             "(policy.pth crafted)", "exit 2", "holds data other than network weights",
+             lambda: agents.resume("ppo", lambda run: agents.crafted_weights(run / "checkpoints" / "model_64_steps.zip", RunsCode()))),
+        Case("2", "agents: --resume with a crafted replay buffer (TD3)", "python -m agents train --resume "
+             "(checkpoints/model_replay_buffer_32_steps.pkl crafted)", "exit 2", "not an SB3 replay buffer (refusing to load posix.system)",
+             lambda: agents.resume("td3", lambda run: (run / "checkpoints" / "model_replay_buffer_32_steps.pkl").write_bytes(
+                 pickle.dumps(RunsCode())))),
+        *[Case("7", f"agents: {' '.join(a)}", f"python -m agents {' '.join(a)}", "exit 2", m,
+               lambda a=a: cli(agents_main, [*a, "--out", str(tmp / "ag_out")]))
+          for a, m in ((("evaluate", "--checkpoint", "m.zip", "--fps", "1000"), "--fps: 1000 is outside 1–100"),
+                       (("evaluate", "--checkpoint", "m.zip", "--max-steps", "1000000000"), "--max-steps: 1000000000 is outside 1–60000"),
+                       (("evaluate", "--checkpoint", "m.zip", "--episodes", "0"), "--episodes: 0 is outside 1–1000"),
+                       (("train", "--config", "c.yaml", "--total-timesteps", "1000000000000"), "--total-timesteps: must be an integer > 0 and <= 1e+11"))],
+        # predictive options, the gait generator's training range, outputs
+        *[Case("7", f"{a[0]} {' '.join(a[1:])}", f"python -m predictive {' '.join(a)}", "exit 2", m,
+               lambda a=a: cli(predictive_cli.main, [*a, "--out", str(tmp / "p_out")]))
+          for a, m in ((("generate", "--model", "g.pt", "--speed", "1.3", "--refine", "100000000"), "--refine: 100000000 is outside 0–5000"),
+                       (("generate", "--model", "g.pt", "--speed", "1.3", "--refine", "-5"), "--refine: -5 is outside 0–5000"),
+                       (("synth", "--workers", "0"), "--workers: 0 is outside 1–256"),
+                       (("compare", "--seeds", "-5"), "--seeds: -5 is outside 1–1000"))],
+        Case("5", "generate outside the generator's training range (trained on 1–1.5 m/s)", "python -m predictive generate --speed 3",
+             "exit 2", "speed 3 m/s is outside its training range 1–1.5 m/s",
+             lambda: cli(predictive_cli.main, ["generate", "--model", str(generator()), "--speed", "3", "--out", str(tmp / "gen")])),
+        Case("5", "generate outside the training range with --force", "python -m predictive generate --speed 2.5 --force", "exit 0",
+             "WARNING: speed 2.5 m/s is outside its training range",
+             lambda: cli(predictive_cli.main, ["generate", "--model", str(generator()), "--speed", "2.5", "--force",
+                                               "--out", str(tmp / "gen")])),
+        Case("4", "a NaN in a generated gait's summary", "python -m predictive generate (summary with NaN)", "exit 2",
+             "refusing to write non-finite nan at stride_length_m", lambda: nan_summary(generator(), tmp, predictive_cli.main)),
+        Case("4", "--out below a file", "python -m predictive generate --out notes.txt/walk", "exit 2",
+             "this is a file where a folder is expected", lambda: below_a_file(generator(), tmp, predictive_cli.main)),
+        Case("4", "disk full while writing (file-size limit 4 kB)", "python -m predictive generate (RLIMIT_FSIZE 4096)", "exit 2",
+             "walk.npz: File too large", lambda: disk_full(generator(), tmp)),
+        # issue #13: bad IMU files (sspinn import of edited copies of a real CMU OpenSense export)
         Case("13a", "thighs' sensors swapped between the sides in the map", "sspinn import --sensor-map thighs_swapped.yaml",
              "exit 0", "'femur_l_imu_offset_imu' (femur_r) leads 'tibia_r_imu_offset_imu' (tibia_r)",
              lambda: imu_import(smap=sensor_map_edited(CMU_MAP, legs[:2]))),
@@ -484,6 +539,96 @@ def crafted_agent(tmp: Path, payload: object, agents_main: Callable[[list[str]],
     with zipfile.ZipFile(folder / "evil.zip", "w") as archive:
         archive.writestr("data", json.dumps({"policy_class": {":serialized:": evil}, "payload": {":serialized:": evil}}))
     return cli(agents_main, ["evaluate", "--checkpoint", str(folder / "evil.zip"), "--out", str(tmp / "ev")])
+
+
+class AgentRuns:
+    """Tiny finished agent runs (64 PPO steps; 32 TD3 steps with their replay buffer), copied and
+    edited for each ``--resume`` case."""
+
+    def __init__(self, tmp: Path, agents_main: Callable[[list[str]], int]) -> None:
+        self.tmp, self.main, self.runs = tmp, agents_main, {}
+
+    def run(self, algo: str) -> Path:
+        if algo not in self.runs:
+            from agents.config import config_from_dict
+            from agents.train import train
+
+            data = {"algo": algo, "seed": 3, "total_timesteps": 64 if algo == "ppo" else 32,
+                    "env": {"n_envs": 1, "kwargs": {"target_speed": 1.3, "max_episode_steps": 30}},
+                    "policy": {"net_arch": [8]},
+                    "hyperparameters": {"n_steps": 64, "batch_size": 32, "n_epochs": 1} if algo == "ppo" else
+                    {"learning_starts": 16, "batch_size": 8, "buffer_size": 200},
+                    "logging": {"checkpoint_freq": 64 if algo == "ppo" else 32, "eval_freq": 0, "tensorboard": False,
+                                "keep_replay_buffer": algo != "ppo"}}
+            folder = self.tmp / f"agent_{algo}"
+            with contextlib.redirect_stdout(io.StringIO()):
+                train(config_from_dict(data), folder)
+            self.runs[algo] = folder
+        return self.runs[algo]
+
+    def resume(self, algo: str, edit: Callable[[Path], object]) -> Outcome:
+        import shutil
+
+        run = Path(shutil.copytree(self.run(algo), self.tmp / f"resume_{algo}_{len(list(self.tmp.glob('resume_*')))}"))
+        edit(run)
+        steps = 128 if algo == "ppo" else 48
+        return cli(self.main, ["train", "--config", str(run / "config.yaml"), "--out", str(run), "--resume",
+                               "--total-timesteps", str(steps)], shown="resuming from")
+
+    @staticmethod
+    def rewrite_data(zip_path: Path, key: str, payload: object) -> None:
+        import base64
+        import zipfile
+
+        with zipfile.ZipFile(zip_path) as archive:
+            entries = {name: archive.read(name) for name in archive.namelist()}
+        data = json.loads(entries["data"])
+        data[key] = {":type:": "<class 'object'>", ":serialized:": base64.b64encode(pickle.dumps(payload)).decode()}
+        entries["data"] = json.dumps(data).encode()
+        with zipfile.ZipFile(zip_path, "w") as archive:
+            for name, content in entries.items():
+                archive.writestr(name, content)
+
+    @staticmethod
+    def crafted_weights(zip_path: Path, payload: object) -> None:
+        import zipfile
+
+        with zipfile.ZipFile(zip_path) as archive:
+            entries = {name: archive.read(name) for name in archive.namelist()}
+        buffer = io.BytesIO()
+        torch.save({"payload": payload}, buffer)
+        entries["policy.pth"] = buffer.getvalue()
+        with zipfile.ZipFile(zip_path, "w") as archive:
+            for name, content in entries.items():
+                archive.writestr(name, content)
+
+
+def nan_summary(model: Path, tmp: Path, main: Callable[[list[str]], int]) -> Outcome:
+    from predictive.ocp.solution import GaitSolution
+
+    real = GaitSolution.summary
+    GaitSolution.summary = lambda self: {**real(self), "stride_length_m": float("nan")}
+    try:
+        return cli(main, ["generate", "--model", str(model), "--speed", "1.2", "--out", str(tmp / "nan_summary")])
+    finally:
+        GaitSolution.summary = real
+
+
+def below_a_file(model: Path, tmp: Path, main: Callable[[list[str]], int]) -> Outcome:
+    (tmp / "notes.txt").write_text("a file, not a folder")
+    return cli(main, ["generate", "--model", str(model), "--speed", "1.2", "--out", str(tmp / "notes.txt" / "walk")])
+
+
+def disk_full(model: Path, tmp: Path) -> Outcome:
+    """``generate`` in a child process that may not write files larger than 4 kB."""
+    script = ("import resource, signal, sys; signal.signal(signal.SIGXFSZ, signal.SIG_IGN); "
+              "resource.setrlimit(resource.RLIMIT_FSIZE, (4096, resource.RLIM_INFINITY)); "
+              "from predictive.__main__ import main; sys.exit(main(sys.argv[1:]))")
+    proc = subprocess.run([sys.executable, "-c", script, "generate", "--model", str(model), "--speed", "1.2",
+                           "--out", str(tmp / "full" / "walk")], capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)})
+    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    return Outcome(f"exit {proc.returncode}" + ("" if len(lines) == 1 else f" ({len(lines)} lines)"), lines[-1] if lines else "")
 
 
 def _load_statistics(tmp: Path, payload: object) -> object:

@@ -11,16 +11,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
-from collections.abc import Callable
 from pathlib import Path
 
 from sspinn.data.dataset import Dataset
 from sspinn.data.loading import open_recordings
-from sspinn.errors import ArgumentParser, UserError, run_cli
+from sspinn.errors import ArgumentParser, UserError, bounded, run_cli
 from sspinn.estimator.inference import ImplausibleEstimateError, NonFiniteEstimateError
-from sspinn.yaml_config import add_config_flags, flag_overrides
+from sspinn.yaml_config import add_config_flags, flag_overrides, shipped_path
 
 #: Fields of :class:`~sspinn.estimator.training.TrainConfig` that ``train`` and ``finetune`` take as flags.
 TRAIN_FLAGS = ("steps", "seed", "device", "time_limit_s")
@@ -31,26 +29,11 @@ class RunFolderError(UserError):
     """The output folder holds a finished run, or is the source model's own folder."""
 
 
-def _bounded(kind: type, low: float, high: float, unit: str = "") -> Callable[[str], float]:
-    """An argparse ``type`` accepting finite ``kind`` values in [low, high] (one-line errors)."""
-
-    def parse(text: str) -> float:
-        try:
-            value = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not a{'n integer' if kind is int else ' number'}") from None
-        if not math.isfinite(value) or not low <= value <= high:
-            raise argparse.ArgumentTypeError(f"{text} is outside {low:g}–{high:g}{unit}")
-        return value
-
-    return parse
-
-
 def _data_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data", type=Path, required=True, help="dataset folder, averaged-stride folder or recording .csv")
-    p.add_argument("--periods", type=_bounded(int, 1, 10_000), default=10, help="strides of circular padding for averaged data (≥ 1)")
-    p.add_argument("--height", type=_bounded(float, 0.5, 2.5, " m"), default=1.75, help="assumed height (m) for averaged data without one")
-    p.add_argument("--mass", type=_bounded(float, 10.0, 300.0, " kg"), default=70.0, help="assumed mass (kg) for averaged data without one")
+    p.add_argument("--periods", type=bounded(int, 1, 10_000), default=10, help="strides of circular padding for averaged data (≥ 1)")
+    p.add_argument("--height", type=bounded(float, 0.5, 2.5, " m"), default=1.75, help="assumed height (m) for averaged data without one")
+    p.add_argument("--mass", type=bounded(float, 10.0, 300.0, " kg"), default=70.0, help="assumed mass (kg) for averaged data without one")
 
 
 def _train(args: argparse.Namespace, command: str) -> int:
@@ -185,7 +168,7 @@ def _main(argv: list[str]) -> int:
         if name == "adapt":
             p.add_argument("--model", type=Path, required=True, help="trained model.pt to adapt")
         else:
-            p.add_argument("--config", type=Path, default=Path("configs/sspinn/demo.yaml"))
+            p.add_argument("--config", type=Path, default=shipped_path("configs/sspinn/demo.yaml"), help="training configuration (default: the shipped demo.yaml)")
         _data_args(p)
         if name == "adapt":
             p.add_argument("--split", default="test", help="the dataset split to adapt to (its labels are never read)")
@@ -226,7 +209,7 @@ def _main(argv: list[str]) -> int:
 
     from sspinn.imu import pipeline as imu_import  # sspinn import: vendor IMU files + sensor map → calibrated recording
 
-    imu_import.add_parser(sub, _bounded)
+    imu_import.add_parser(sub)
 
     args = parser.parse_args(argv)
     if args.command == "showcase":

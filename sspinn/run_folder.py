@@ -9,7 +9,12 @@
 * :func:`atomic_path` — ``with atomic_path(path) as tmp:`` write ``tmp``; on success it replaces
   ``path`` in one ``os.replace`` (a reader sees the old or the new file, never a half-written
   one), on an exception the temporary file is removed. Temporary names are unique per process and
-  call (``.<name>.<pid>.<random>.tmp``), so two writers never share one.
+  call (``.<name>.<pid>.<random>.tmp``), so two writers never share one. An OSError while writing
+  (no space left, a read-only file system, ...) names ``path``, not the temporary file.
+* :func:`atomic_write_text`, :func:`atomic_write_json` — the same for a text or JSON file;
+  :func:`json_text` refuses NaN and infinity (which are not JSON: Python would write ``NaN``
+  literals that other readers reject) with :class:`NonFiniteValueError` naming the key, or
+  writes them as ``null``.
 """
 
 from __future__ import annotations
@@ -17,13 +22,14 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import json
+import math
 import os
 import socket
 import sys
 import time
 import uuid
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Final
@@ -35,6 +41,11 @@ LOCK_NAME: Final = ".lock"
 
 class RunFolderBusyError(UserError):
     """Another live process owns the run folder; the message names it."""
+
+
+class NonFiniteValueError(UserError):
+    """A result holds NaN or infinity where a finite number is required; the message names the
+    file and the key."""
 
 
 @dataclass(frozen=True)
@@ -139,6 +150,10 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     try:
         yield tmp
         os.replace(tmp, path)
+    except OSError as exc:
+        if exc.errno is None or exc.filename not in (None, str(tmp), tmp, os.fsencode(tmp)):
+            raise
+        raise OSError(exc.errno, exc.strerror or os.strerror(exc.errno), str(path)) from exc
     finally:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
@@ -149,3 +164,57 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     with atomic_path(path) as tmp:
         tmp.write_text(text)
     return Path(path)
+
+
+def _non_finite(value: Any, where: str = "") -> Iterator[tuple[str, float]]:
+    """(key path, value) of every non-finite float in plain JSON data."""
+    if isinstance(value, float) and not math.isfinite(value):
+        yield where or "(top level)", value
+    elif isinstance(value, dict):
+        for key, item in value.items():
+            yield from _non_finite(item, f"{where}.{key}" if where else str(key))
+    elif isinstance(value, list):
+        for k, item in enumerate(value):
+            yield from _non_finite(item, f"{where}[{k}]")
+
+
+def _nulled(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _nulled(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_nulled(v) for v in value]
+    return value
+
+
+def json_text(
+    data: Any, *, non_finite: str = "refuse", indent: int | None = 2, default: Callable[[Any], Any] | None = None,
+    label: object = "JSON data",
+) -> str:
+    """``data`` as JSON text (``default`` converts what JSON does not know, as in :func:`json.dumps`).
+    NaN and infinity: ``non_finite="refuse"`` raises :class:`NonFiniteValueError` naming
+    ``label`` (e.g. the file it is meant for) and the first such key; ``"null"`` writes them as
+    ``null`` (for reports where a missing number is expected)."""
+    if non_finite not in ("refuse", "null"):
+        raise ValueError(f"non_finite must be 'refuse' or 'null', got {non_finite!r}")
+    try:
+        return json.dumps(data, indent=indent, default=default, allow_nan=False)
+    except ValueError:  # a non-finite float somewhere: find it in the plain form
+        plain = json.loads(json.dumps(data, default=default))
+        if non_finite == "null":
+            return json.dumps(_nulled(plain), indent=indent, allow_nan=False)
+        bad = list(_non_finite(plain))
+        if not bad:
+            raise
+        more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
+        raise NonFiniteValueError(f"{label}: refusing to write non-finite {bad[0][1]} at {bad[0][0]}{more}") from None
+
+
+def atomic_write_json(
+    path: str | Path, data: Any, *, non_finite: str = "refuse", indent: int | None = 2,
+    default: Callable[[Any], Any] | None = None,
+) -> Path:
+    """Write ``data`` as JSON to ``path`` atomically; NaN and infinity are refused (nothing is
+    written) or written as ``null``, see :func:`json_text`."""
+    return atomic_write_text(path, json_text(data, non_finite=non_finite, indent=indent, default=default, label=path))

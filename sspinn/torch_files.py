@@ -16,6 +16,7 @@ half-written file.
 
 from __future__ import annotations
 
+import io
 import pickle
 import warnings
 import zipfile
@@ -41,11 +42,15 @@ class ModelFileError(UserError):
 
 
 def save_torch_file(path: str | Path, kind: str, payload: Mapping[str, Any]) -> Path:
-    """Write ``payload`` (tensors and plain data only) as a ``kind`` file, atomically."""
+    """Write ``payload`` (tensors and plain data only) as a ``kind`` file, atomically. The file is
+    serialised in memory first: torch's writer reports a full disk as a RuntimeError, a plain
+    write as the OSError that names the file."""
     path = Path(path)
     state = {"format": kind, "version": FORMAT_VERSION, **payload}
+    buffer = io.BytesIO()
+    torch.save(state, buffer)
     with atomic_path(path) as tmp:
-        torch.save(state, tmp)
+        tmp.write_bytes(buffer.getbuffer())
     return path
 
 

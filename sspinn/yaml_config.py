@@ -25,6 +25,10 @@ what the project needs on top of it:
 Errors are :class:`ConfigError` (a :class:`sspinn.errors.UserError`, hence a ``ValueError``); a
 loader with its own error type passes ``error=``. A missing file raises
 :class:`MissingConfigFileError` (also a ``FileNotFoundError``).
+
+The configurations shipped with the project (``configs/``) are found by :func:`shipped_path`
+from the installed package, not the working directory, so that a default ``--config`` works
+from any folder.
 """
 
 from __future__ import annotations
@@ -52,6 +56,14 @@ T = TypeVar("T")
 METADATA_KEY = "sspinn"
 #: Prefix of the ``dest`` of the flags made by :func:`add_config_flags` (see :func:`flag_overrides`).
 FLAG_DEST_PREFIX = "config:"
+#: The repository (or source tree) the ``sspinn`` package lives in: the parent of its folder.
+REPOSITORY_ROOT = Path(__file__).resolve().parents[1]
+
+
+def shipped_path(relative: str | Path) -> Path:
+    """A file shipped with the project, e.g. ``shipped_path("configs/synth/default.yaml")``: the
+    path below :data:`REPOSITORY_ROOT` (whatever the working directory is)."""
+    return REPOSITORY_ROOT / relative
 
 
 class ConfigError(UserError):

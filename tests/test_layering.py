@@ -125,41 +125,6 @@ def test_sspinn_has_no_loose_modules() -> None:
     assert not loose, f"modules outside a room: {loose}"
 
 
-def _import_graph(packages: tuple[str, ...]) -> dict[str, set[str]]:
-    """module → the project modules it imports at module level (function-level imports cannot loop
-    at import time and are how a loop is legitimately broken)."""
-    graph: dict[str, set[str]] = {}
-    for package in packages:
-        for path in _files(package):
-            rel = path.relative_to(ROOT).with_suffix("")
-            name = ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
-            deps = graph.setdefault(name, set())
-            for node in ast.parse(path.read_text(), filename=str(path)).body:
-                if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-                    if node.module.split(".")[0] in PACKAGES:
-                        deps.add(node.module)
-                        deps.update(f"{node.module}.{a.name}" for a in node.names)
-                elif isinstance(node, ast.Import):
-                    deps.update(a.name for a in node.names if a.name.split(".")[0] in PACKAGES)
-    return {k: {d for d in v if d in graph and d != k} for k, v in graph.items()}
-
-
-def test_no_import_loops() -> None:
-    graph = _import_graph(PACKAGES)
-    loops = []
-    for start in graph:
-        stack, seen = [(start, [start])], set()
-        while stack:
-            node, path = stack.pop()
-            for dep in graph[node]:
-                if dep == start:
-                    loops.append(" → ".join(path + [start]))
-                elif dep not in seen:
-                    seen.add(dep)
-                    stack.append((dep, path + [dep]))
-    assert not loops, "import loops:\n" + "\n".join(sorted(set(loops))[:20])
-
-
 def test_the_checker_sees_imports_inside_functions(tmp_path: Path) -> None:
     source = tmp_path / "module.py"
     source.write_text("import numpy\n\ndef f():\n    from agents.train import train\n    import envs.task\n")

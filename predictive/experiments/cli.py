@@ -19,15 +19,21 @@ curves, gait cycles, stick figures in ``<out>/report.md``).
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 from typing import Any
+
+from predictive.ocp.limits import MAX_SPEED, NODES_RANGE, WEIGHT_RANGE
+from sspinn.errors import bounded
+from sspinn.run_folder import atomic_write_text
+from sspinn.yaml_config import shipped_path
 
 #: Sub-command names.
 TRACK_IMU = "track-imu"
 COMPARE = "compare"
 COMMANDS = (TRACK_IMU, COMPARE)
+#: Most seeds ``compare --seeds`` keeps.
+MAX_SEEDS = 1000
 
 
 def add_track_imu_parser(sub: Any) -> argparse.ArgumentParser:
@@ -35,16 +41,19 @@ def add_track_imu_parser(sub: Any) -> argparse.ArgumentParser:
     p = sub.add_parser(TRACK_IMU, help="IMU tracking (label-free OCP baseline) of an averaged stride, compared with its labels")
     p.add_argument("--data", type=Path, required=True, help="averaged-stride folder (signals.csv, meta.json)")
     p.add_argument("--out", type=Path, required=True, help="output path without suffix")
-    p.add_argument("--nodes", type=int, default=100, help="collocation nodes per stride")
+    p.add_argument("--nodes", type=bounded(int, *NODES_RANGE), default=100,
+                   help=f"collocation nodes per stride ({NODES_RANGE[0]}–{NODES_RANGE[1]})")
     p.add_argument("--height", type=float, default=1.75, help="assumed body height, m (not in the data)")
     p.add_argument("--mass", type=float, default=70.0, help="assumed body mass, kg (not in the data)")
-    p.add_argument("--effort-weight", type=float, default=0.01, help="weight of the torque effort")
-    p.add_argument("--w-acc", type=float, default=0.001, help="weight of the acceleration regularisation")
-    p.add_argument("--imu-weight", type=float, default=1.0, help="weight of every IMU channel")
+    weights = f"{WEIGHT_RANGE[0]:g}–{WEIGHT_RANGE[1]:g}"
+    p.add_argument("--effort-weight", type=bounded(float, *WEIGHT_RANGE), default=0.01, help=f"weight of the torque effort ({weights})")
+    p.add_argument("--w-acc", type=bounded(float, *WEIGHT_RANGE), default=0.001,
+                   help=f"weight of the acceleration regularisation ({weights})")
+    p.add_argument("--imu-weight", type=bounded(float, *WEIGHT_RANGE), default=1.0, help=f"weight of every IMU channel ({weights})")
     p.add_argument("--scales", choices=("auto", "variance", "std"), default="auto",
                    help="normalisation of the tracking errors: across-trial variance (auto: when variance.csv exists)"
                    " or each channel's std over the cycle")
-    p.add_argument("--speed-guess", type=float, nargs="+", default=None,
+    p.add_argument("--speed-guess", type=bounded(float, 0.0, MAX_SPEED, " m/s"), nargs="+", default=None,
                    help="initial speed(s), m/s; several: multi-start, lowest objective wins (default: from the stride"
                    " duration × 0.85, 1, 1.2: a label-free multi-start)")
     p.add_argument("--fixed-speed", action="store_true", help="fix the speed to the (first) guess instead of optimising it")
@@ -58,9 +67,11 @@ def add_track_imu_parser(sub: Any) -> argparse.ArgumentParser:
 def add_compare_parser(sub: Any) -> argparse.ArgumentParser:
     """Register the ``compare`` sub-command on an ``argparse`` sub-parsers object."""
     p = sub.add_parser(COMPARE, help="self-supervised generator vs SB3 agents vs OCP on the same env and metrics")
-    p.add_argument("--config", type=Path, default=Path("configs/predictive/compare.yaml"))
+    p.add_argument("--config", type=Path, default=shipped_path("configs/predictive/compare.yaml"),
+                   help="ComparisonConfig YAML (default: the project's configs/predictive/compare.yaml)")
     p.add_argument("--out", type=Path, required=True, help="report folder")
-    p.add_argument("--seeds", type=int, default=None, help="use only the first N seeds (quick runs)")
+    p.add_argument("--seeds", type=bounded(int, 1, MAX_SEEDS), default=None,
+                   help=f"use only the first N seeds (quick runs; 1–{MAX_SEEDS})")
     return p
 
 
@@ -74,17 +85,13 @@ def run(args: argparse.Namespace) -> int:
 
 
 def run_compare(args: argparse.Namespace) -> int:
-    """Run ``compare``; returns the exit code (2 for a bad configuration)."""
+    """Run ``compare``; returns the exit code (a bad configuration raises a user error)."""
     from predictive.experiments.controller_comparison import ComparisonConfig, run_comparison
 
-    try:
-        config = ComparisonConfig.from_yaml(args.config)
-        if args.seeds is not None:
-            config.seeds = config.seeds[: max(1, args.seeds)]
-        run_comparison(config, args.out)
-    except (ValueError, FileNotFoundError) as exc:
-        print(f"python -m predictive compare: error: {exc}", file=sys.stderr)
-        return 2
+    config = ComparisonConfig.from_yaml(args.config)
+    if args.seeds is not None:
+        config.seeds = config.seeds[: args.seeds]
+    run_comparison(config, args.out)
     print(f"report: {args.out / 'report.md'}")
     return 0
 
@@ -142,7 +149,7 @@ def run_track_imu(args: argparse.Namespace) -> int:
         f"{comparison.heel_strike_labels_pct:.1f} % (labels)"
     )
     text = f"{header}\n\n{table}\n\n{alignment}\n\n{starts}\n"
-    args.out.with_name(args.out.name + "_table.md").write_text(text)
+    atomic_write_text(args.out.with_name(args.out.name + "_table.md"), text)
     metrics = write_comparison(
         comparison,
         args.out.with_name(args.out.name + "_metrics.json"),

@@ -29,7 +29,6 @@ LQR; retraining the agent).
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from dataclasses import asdict, dataclass, field
@@ -51,6 +50,7 @@ from sspinn.estimator.evaluation import angle_jitter
 from sspinn.model.body import BodyParameters
 from sspinn.model.drawing import draw_stick_figure, save_figure
 from sspinn.model.trajectory import Trajectory
+from sspinn.run_folder import atomic_write_json, atomic_write_text
 from sspinn.yaml_config import load_config
 
 #: Vertical force (BW) above which a foot counts as loaded (heel strike detection).
@@ -396,10 +396,11 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
     import matplotlib.pyplot as plt
 
     summaries = [c.summary() for c in cells]
-    (out / "results.json").write_text(json.dumps(
+    atomic_write_json(  # NaN (a method not run at a speed) → null
+        out / "results.json",
         {"config": _plain(asdict(config)), "summary": summaries, "episodes": {f"{c.method}@{c.speed}": c.episodes for c in cells}},
-        indent=2, default=_json_default,
-    ))
+        default=_json_default, non_finite="null",
+    )
     # learning curves vs wall time
     curves = learning_curves(config)
     fig, axes = plt.subplots(1, len(config.speeds), figsize=(5.5 * len(config.speeds), 4), squeeze=False)
@@ -486,8 +487,7 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
     lines += [f"![cycles {v}](cycles_{v}.png)" for v in config.speeds]
     lines += ["", "![stick figures](stick_figures.png)", "", "Metrics and start states: see `predictive/experiments/controller_comparison.py`."]
     path = out / "report.md"
-    path.write_text("\n".join(lines) + "\n")
-    return path
+    return atomic_write_text(path, "\n".join(lines) + "\n")
 
 
 def _plain(obj: Any) -> Any:

@@ -17,7 +17,6 @@ as a check; ``align="heel_strike"`` instead shifts the solution in time so that 
 
 from __future__ import annotations
 
-import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -33,6 +32,7 @@ from sspinn.estimator.evaluation import compute_metrics
 from sspinn.estimator.inference import GaitEstimate
 from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, JOINTS
 from sspinn.model.drawing import save_figure
+from sspinn.run_folder import atomic_write_json
 
 #: Optimal-control baseline (IMU tracking, Dorschky et al. 2019, J Biomech 95:109278) as quoted in
 #: the SSPINNpose paper for the averaged strides: joint angles RMSD (deg), joint moments RMSD
@@ -278,8 +278,6 @@ def _speed(rec: Recording) -> float:
 
 
 def write_comparison(comparison: LabelComparison, path: str | Path, extra: dict[str, Any] | None = None) -> Path:
-    """Write the comparison (and the paper's figures) as JSON."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps({**comparison.as_dict(), "paper_ocp": PAPER_OCP, **(extra or {})}, indent=2))
-    return path
+    """Write the comparison (and the paper's figures) as JSON, atomically (a metric that could not
+    be computed, NaN, is written as ``null``)."""
+    return atomic_write_json(path, {**comparison.as_dict(), "paper_ocp": PAPER_OCP, **(extra or {})}, non_finite="null")

@@ -51,6 +51,7 @@ import torch
 import yaml
 
 from predictive.ocp.generic_gait import generic_gait, typical_stride_duration
+from predictive.ocp.limits import MAX_REFINE_ITERATIONS, RequestError
 from predictive.ocp.settings import ankle_strength, default_joint_limits
 from predictive.ocp.solution import GaitSolution
 from sspinn.model import dynamics, kinematics
@@ -58,7 +59,7 @@ from sspinn.model.body import BodyParameters
 from sspinn.model.contact import ContactParameters
 from sspinn.model.conventions import GRAVITY, N_TAU
 from sspinn.model.passive import passive_parameters, passive_torque
-from sspinn.run_folder import RunLock, atomic_write_text
+from sspinn.run_folder import RunLock, atomic_path, atomic_write_text
 from sspinn.torch_files import load_torch_file, save_torch_file
 from sspinn.yaml_config import config_from_mapping, load_config
 
@@ -440,7 +441,7 @@ class GeneratorTrainer:
         if not self.history_:
             return
         keys = sorted({k for r in self.history_ for k in r}, key=lambda k: (k not in ("step", "wall_s"), k))
-        with open(self.out / "history.csv", "w", newline="") as fh:
+        with atomic_path(self.out / "history.csv") as tmp, open(tmp, "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=keys)
             w.writeheader()
             w.writerows(self.history_)
@@ -465,14 +466,34 @@ def load_generator(path: str | Path) -> tuple[GaitGenerator, GeneratorConfig]:
     return model.eval(), cfg
 
 
+#: Samples per generated cycle.
+SAMPLES_RANGE = (4, 10_000)
+
+
+def outside_training_range(config: GeneratorConfig, speed: float, height: float, mass: float) -> list[str]:
+    """What of ``speed`` (m/s), ``height`` (m) and ``mass`` (kg) lies outside the ranges the
+    generator of ``config`` was trained on, in words (empty: all inside)."""
+    found = []
+    for name, value, (low, high), unit in (("speed", speed, config.speeds, "m/s"), ("height", height, config.heights, "m"),
+                                           ("mass", mass, config.masses, "kg")):
+        if not (math.isfinite(value) and low <= value <= high):
+            found.append(f"{name} {value:g} {unit} is outside its training range {low:g}–{high:g} {unit}")
+    return found
+
+
 def generate(
     model: GaitGenerator, speed: float, body: BodyParameters | None = None, n: int = 200, refine_iterations: int = 0,
     config: GeneratorConfig | None = None,
     refine_kane_factor: float = 1.0,
+    force: bool = False,
 ) -> GaitSolution:
     """The generated gait cycle for ``speed`` (m/s) and ``body`` (default 1.75 m, 70 kg) at ``n``
     equally spaced samples, as a :class:`GaitSolution` (``status="generated"`` or ``"refined"``;
     torques are the total joint torques from inverse dynamics, as an OCP solution's).
+
+    A speed or body outside the ranges the generator was trained on (``config.speeds``,
+    ``heights``, ``masses``) raises :class:`predictive.ocp.limits.RequestError`: the network
+    extrapolates there, with no physics loss having checked it. ``force=True`` generates anyway.
 
     ``refine_iterations`` > 0: the brief per-gait fine-tune — L-BFGS on this gait's free Fourier
     coefficients (the network's output as the start), minimising the training loss at ``n``
@@ -481,6 +502,13 @@ def generate(
     """
     body = body or BodyParameters.from_anthropometry()
     config = config or GeneratorConfig()
+    outside = outside_training_range(config, speed, body.height, body.mass)
+    if outside and not force:
+        raise RequestError(f"{'; '.join(outside)} of this generator: it would extrapolate (force=True to generate anyway)")
+    if not 0 <= refine_iterations <= MAX_REFINE_ITERATIONS:
+        raise RequestError(f"refine_iterations {refine_iterations} is outside 0–{MAX_REFINE_ITERATIONS}")
+    if not SAMPLES_RANGE[0] <= n <= SAMPLES_RANGE[1]:
+        raise RequestError(f"n {n} samples is outside {SAMPLES_RANGE[0]}–{SAMPLES_RANGE[1]}")
     start = time.perf_counter()
     T = typical_stride_duration(speed)
     f64 = lambda x: torch.tensor([x], dtype=torch.float64)  # noqa: E731
@@ -523,5 +551,5 @@ def generate(
 
 __all__ = [
     "BodyPool", "GaitGenerator", "GaitLosses", "GeneratorConfig", "GeneratorTrainer", "GeneratorWeights",
-    "cycle", "fourier_basis", "generate", "load_generator", "save_generator",
+    "cycle", "fourier_basis", "generate", "load_generator", "outside_training_range", "save_generator",
 ]

@@ -12,8 +12,6 @@ writes ``<out>.npz``/``<out>.json`` (the solution), ``<out>_summary.json`` and `
 from __future__ import annotations
 
 import argparse
-import json
-import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -22,9 +20,18 @@ import numpy as np
 
 from predictive.ocp.collocation import OCPError, solve_predictive
 from predictive.ocp.gait_analysis import DEFAULT_DATA_DIR, compare_with_reference, load_winter, plot_gait
-from predictive.ocp.limits import check_body, check_speed, solution_problems
+from predictive.ocp.limits import (
+    DURATION_RANGE_S,
+    NODES_RANGE,
+    RATE_RANGE_HZ,
+    WEIGHT_RANGE,
+    check_body,
+    check_speed,
+    solution_problems,
+)
 from predictive.ocp.solution import GaitSolution
-from sspinn.errors import UserError
+from sspinn.errors import UserError, bounded
+from sspinn.run_folder import atomic_write_text, json_text
 
 #: Sub-command name.
 COMMAND = "solve"
@@ -38,14 +45,18 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     solve = sub.add_parser(COMMAND, help="solve a predictive gait problem and write the solution + plot")
     solve.add_argument("--speed", type=float, required=True, help="average speed, m/s")
     solve.add_argument("--out", type=Path, required=True, help="output path without suffix")
-    solve.add_argument("--nodes", type=int, default=None, help="collocation nodes (default 50 half / 100 full)")
-    solve.add_argument("--rate-hz", type=float, default=None,
-                       help="put the nodes on a sampling grid of this rate, e.g. 100 (instead of --nodes)")
+    solve.add_argument("--nodes", type=bounded(int, *NODES_RANGE), default=None,
+                       help=f"collocation nodes, {NODES_RANGE[0]}–{NODES_RANGE[1]} (default 50 half / 100 full)")
+    solve.add_argument("--rate-hz", type=bounded(float, *RATE_RANGE_HZ, " Hz"), default=None,
+                       help="put the nodes on a sampling grid of this rate, e.g. 100 (instead of --nodes; "
+                       f"{RATE_RANGE_HZ[0]:g}–{RATE_RANGE_HZ[1]:g} Hz, at most {NODES_RANGE[1]} nodes)")
     solve.add_argument("--cycle", choices=("half", "full"), default="half", help="symmetric half or full cycle")
     solve.add_argument("--effort", choices=("squared", "cubed"), default="squared")
-    solve.add_argument("--duration", type=float, default=None, help="stride duration, s (default: typical)")
+    solve.add_argument("--duration", type=bounded(float, *DURATION_RANGE_S, " s"), default=None,
+                       help=f"stride duration, {DURATION_RANGE_S[0]:g}–{DURATION_RANGE_S[1]:g} s (default: typical)")
     solve.add_argument("--free-duration", action="store_true", help="optimise the stride duration")
-    solve.add_argument("--w-acc", type=float, default=None, help="weight of the acceleration regularisation")
+    solve.add_argument("--w-acc", type=bounded(float, *WEIGHT_RANGE), default=None,
+                       help=f"weight of the acceleration regularisation ({WEIGHT_RANGE[0]:g}–{WEIGHT_RANGE[1]:g})")
     solve.add_argument("--guess", type=Path, default=None, help="previous solution (.npz/.json) as initial guess")
     solve.add_argument("--height", type=float, default=1.75, help="body height, m")
     solve.add_argument("--mass", type=float, default=70.0, help="body mass, kg")
@@ -55,16 +66,14 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 
 def _check_solve_args(args: argparse.Namespace) -> None:
-    """Reject what the model cannot do before anything is built (see predictive.ocp.limits)."""
+    """Reject what the model cannot do before anything is built (see predictive.ocp.limits; the
+    ranges of the numeric options are checked by argparse)."""
     check_speed(args.speed, "--speed")
     check_body(args.height, args.mass)
-    for name, value, low in (("--nodes", args.nodes, 4), ("--rate-hz", args.rate_hz, 1e-9), ("--duration", args.duration, 1e-9)):
-        if value is not None and not (math.isfinite(value) and value >= low):
-            raise UserError(f"{name} {value} must be a finite number ≥ {low:g}")
-    if args.w_acc is not None and not (math.isfinite(args.w_acc) and args.w_acc >= 0):
-        raise UserError(f"--w-acc {args.w_acc} must be a finite number ≥ 0")
-    if args.duration is not None and not 0.2 <= args.duration <= 3.0:
-        raise UserError(f"--duration {args.duration} s is not a human stride duration (0.2–3 s)")
+    if args.nodes is not None and args.rate_hz is not None:
+        raise UserError("give --nodes or --rate-hz, not both")
+    if args.rate_hz is not None and args.free_duration:
+        raise UserError("--rate-hz needs a fixed stride duration (drop --free-duration)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -112,10 +121,11 @@ def run(args: argparse.Namespace) -> int:
             print(f"(no comparison with Winter: {exc})")
         else:
             summary.update({f"winter_{k}": v for k, v in compare_with_reference(sol, reference).items()})
+    summary_path = args.out.with_name(args.out.name + "_summary.json")
+    summary_text = json_text(summary, label=summary_path)  # refuses NaN before anything is written
     npz = sol.save(args.out)
     png = plot_gait(sol, args.out.with_name(args.out.name + ".png"), reference)
-    summary_path = args.out.with_name(args.out.name + "_summary.json")
-    summary_path.write_text(json.dumps(summary, indent=2))
+    atomic_write_text(summary_path, summary_text)
     width = max(len(k) for k in summary)
     for key, value in summary.items():
         text = f"{value:.6g}" if isinstance(value, float) else str(value)

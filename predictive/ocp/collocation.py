@@ -100,7 +100,7 @@ import numpy as np
 
 from predictive.ocp import perturbation
 from predictive.ocp.generic_gait import generic_gait, typical_stride_duration
-from predictive.ocp.limits import check_speed
+from predictive.ocp.limits import NODES_RANGE, check_nodes, check_speed
 from predictive.ocp.settings import (
     ACC_SCALE,
     ProblemSettings,
@@ -195,8 +195,8 @@ class OCPSettings(ProblemSettings):
     def __post_init__(self) -> None:
         if not (math.isfinite(self.speed) and self.speed >= 0):
             raise ValueError(f"speed must be a finite number >= 0 m/s, got {self.speed!r}")
-        if self.n_nodes < 4:
-            raise ValueError(f"n_nodes must be >= 4, got {self.n_nodes}")
+        if not NODES_RANGE[0] <= self.n_nodes <= NODES_RANGE[1]:
+            raise ValueError(f"n_nodes must be in {NODES_RANGE[0]}–{NODES_RANGE[1]}, got {self.n_nodes}")
         if self.effort not in ("squared", "cubed"):
             raise ValueError(f"effort must be 'squared' or 'cubed', got {self.effort!r}")
         if self.gait_cycle not in ("full", "half"):
@@ -658,6 +658,7 @@ def solve_predictive(
             raise ValueError("give n_nodes or rate_hz, not both")
         T = duration if duration is not None else typical_stride_duration(speed)
         n_nodes = max(4, int(round(T * rate_hz / (1 if gait_cycle == "full" else 2))))
+        check_nodes(n_nodes, f"rate_hz {rate_hz:g} Hz over a {T:.3g} s stride ({gait_cycle} cycle)")
         duration = n_nodes * (1 if gait_cycle == "full" else 2) / rate_hz
     if n_nodes is None:
         n_nodes = 100 if gait_cycle == "full" else 50

@@ -7,6 +7,9 @@ otherwise "succeed" with nonsense, e.g. 30 m strides at 50 m/s):
   speed); 0 is quiet standing. The command line asks for a positive speed (> 0).
 * height :data:`HEIGHT_RANGE` (1.0–2.3 m) and mass :data:`MASS_RANGE` (20–250 kg): the range of
   the anthropometric (Winter) scaling the body model is built from; a height of 175 means cm.
+* collocation nodes per solved cycle :data:`NODES_RANGE` (4–1000; also when they follow from a
+  sampling rate, :data:`RATE_RANGE_HZ`), stride duration :data:`DURATION_RANGE_S` and cost
+  weights :data:`WEIGHT_RANGE`: the ranges of the command-line options (:func:`check_nodes`).
 
 A returned solution is checked by :func:`solution_problems`: every array finite, the dynamics
 residual at the solution's own samples (its nodes, with the collocation's own accelerations)
@@ -32,6 +35,17 @@ MAX_SPEED: Final = 10.0
 #: Body heights (m) and masses (kg) of the anthropometric scaling.
 HEIGHT_RANGE: Final = (1.0, 2.3)
 MASS_RANGE: Final = (20.0, 250.0)
+#: Collocation nodes per solved cycle (half or full); the NLP's memory and IPOPT's time grow with
+#: them (100 nodes: a few seconds; 1000 a few minutes), and no gait needs more than 1 kHz sampling.
+NODES_RANGE: Final = (4, 1000)
+#: Sampling rate of the node grid (``rate_hz``), Hz.
+RATE_RANGE_HZ: Final = (1.0, 1000.0)
+#: Stride durations, s (a human stride takes 0.5–1.6 s; shuffling and slow walking stretch it).
+DURATION_RANGE_S: Final = (0.2, 3.0)
+#: Weights of cost terms given on the command line (dimensionless).
+WEIGHT_RANGE: Final = (0.0, 1e6)
+#: Most L-BFGS iterations of the gait generator's per-gait fine-tune (the comparison uses 200).
+MAX_REFINE_ITERATIONS: Final = 5000
 #: Largest Kane residual at the solution's nodes (BW for forces, BW·height for moments); IPOPT's
 #: own solutions are at ~1e-9 (README), so this is loose and only fails broken solutions.
 NODE_RESIDUAL_TOL: Final = 1e-4
@@ -66,6 +80,14 @@ def check_body(height: float, mass: float) -> None:
         if not isinstance(value, (int, float)) or not math.isfinite(value) or not low <= value <= high:
             hint = " (a height in cm? give metres)" if name == "height" and isinstance(value, (int, float)) and value > 100 else ""
             raise RequestError(f"body {name} {value!r} {unit} is outside the anthropometric range {low:g}–{high:g} {unit}{hint}")
+
+
+def check_nodes(n_nodes: int, how: str = "n_nodes") -> int:
+    """``n_nodes`` if within :data:`NODES_RANGE`, else RequestError naming ``how`` it was asked."""
+    low, high = NODES_RANGE
+    if not low <= n_nodes <= high:
+        raise RequestError(f"{how} gives {n_nodes} collocation nodes; the solver takes {low}–{high}")
+    return int(n_nodes)
 
 
 def solution_problems(sol: GaitSolution) -> list[str]:

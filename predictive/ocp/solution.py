@@ -9,6 +9,7 @@ the problem's speed, duration, body and solver statistics.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,7 +22,7 @@ from sspinn.model.body import BodyParameters
 from sspinn.model.contact import ContactParameters
 from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, JOINTS, N_Q
 from sspinn.model.trajectory import FIELDS, Trajectory, TrajectoryError, save_npz
-from sspinn.run_folder import atomic_write_text
+from sspinn.run_folder import atomic_write_json
 
 #: Permutation that swaps the right and left leg in q (and u, q̈).
 MIRROR_Q = np.array([0, 1, 2, 6, 7, 8, 3, 4, 5])
@@ -154,15 +155,17 @@ class GaitSolution(Trajectory):
         return t, smooth.kane_residual(self.body, self.contact_parameters)
 
     def summary(self) -> dict[str, Any]:
-        """Key numbers: status, iterations, times, duration, stride length, residuals, stance."""
+        """Key numbers: status, iterations, times, duration, stride length, residuals, stance. The
+        build time and the objective only where the solution has them (a solver's, not a
+        generated gait's: NaN there, which JSON cannot hold)."""
         res = np.abs(self.node_residual())
         _, res_100 = self.resampled_residual()
+        optional = {"build_time_s": round(self.build_time, 3), "objective": self.objective}
         return {
             "status": self.status,
             "iterations": self.iterations,
             "solve_time_s": round(self.solve_time, 3),
-            "build_time_s": round(self.build_time, 3),
-            "objective": self.objective,
+            **{key: value for key, value in optional.items() if math.isfinite(value)},
             "speed_mps": self.speed,
             "duration_s": self.duration,
             "stride_length_m": self.stride_length,
@@ -213,7 +216,8 @@ class GaitSolution(Trajectory):
                 "gravity": GRAVITY,
             },
         }
-        atomic_write_text(_with_ext(base, ".json"), json.dumps(meta, indent=2, default=_json_default))
+        # NaN (no build time or objective, e.g. a generated gait) is not JSON: written as null
+        atomic_write_json(_with_ext(base, ".json"), meta, default=_json_default, non_finite="null")
         return _with_ext(base, ".npz")
 
     @classmethod
@@ -245,8 +249,10 @@ class GaitSolution(Trajectory):
             "settings",
             "contact",
         )
+        values = {k: meta[k] for k in fields}
+        values.update({k: float("nan") for k in ("build_time", "objective") if values[k] is None})  # null: none
         try:
-            return cls(**arrays, **{k: meta[k] for k in fields}, starts=meta.get("starts", []))
+            return cls(**arrays, **values, starts=meta.get("starts", []))
         except TrajectoryError as exc:  # arrays of the wrong shapes
             raise TrajectoryError(f"{base}: not a readable gait solution: {exc}") from None
 

@@ -47,7 +47,6 @@ velocity), accelerations ``dd_<coordinate>``, torques ``tau_<joint>`` (N·m), GR
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -70,6 +69,8 @@ from sspinn.model import kinematics
 from sspinn.model.body import BodyParameters, IMUPlacement, JointLimits
 from sspinn.model.contact import ContactParameters
 from sspinn.model.conventions import COORDINATES, GRF, IMU_CHANNELS, JOINTS, N_GRF, N_Q, N_TAU, SEGMENTS, imu_columns
+from sspinn.model.trajectory import save_npz
+from sspinn.run_folder import atomic_write_json
 
 #: Lower bounds of the default normalising scales (the data's standard deviation over the cycle),
 #: per signal kind, SI units: a nearly constant signal is not weighted without limit.
@@ -345,16 +346,12 @@ class TrackingResult:
         signals to ``<path>_tracked.npz`` and the residuals and info to ``<path>_tracked.json``;
         returns the solution's npz path."""
         npz = self.solution.save(path)
-        np.savez(
-            npz.with_name(npz.name[: -len(".npz")] + "_tracked.npz"),
-            names=np.array(self.names),
-            target=self.target,
-            simulated=self.simulated,
-            scale=self.scale,
-            weight=self.weight,
-        )
+        tracked = {"names": np.array(self.names), "target": self.target, "simulated": self.simulated,
+                   "scale": self.scale, "weight": self.weight}
+        save_npz(npz.with_name(npz.name[: -len(".npz")] + "_tracked.npz"), tracked,
+                 finite=("target", "simulated", "scale", "weight"), what="tracked signals")
         summary = {"residuals": self.residuals(), "info": self.info}
-        npz.with_name(npz.name[: -len(".npz")] + "_tracked.json").write_text(json.dumps(summary, indent=2, default=str))
+        atomic_write_json(npz.with_name(npz.name[: -len(".npz")] + "_tracked.json"), summary, default=str, non_finite="null")
         return npz
 
 

@@ -14,18 +14,27 @@ import time
 from pathlib import Path
 from typing import Any
 
+from sspinn.errors import bounded
+from sspinn.yaml_config import shipped_path
+
 #: Sub-command name.
 COMMAND = "synth"
+#: Most worker processes (one subject each).
+MAX_WORKERS = 256
+#: Largest seed (numpy's legacy seeding takes 32-bit seeds).
+MAX_SEED = 2**32 - 1
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Register the ``synth`` sub-command on an ``argparse`` sub-parsers object."""
     p = sub.add_parser(COMMAND, help="generate a physically exact synthetic dataset (sspinn format v1)")
-    p.add_argument("--config", type=Path, default=Path("configs/synth/default.yaml"), help="SynthConfig YAML")
+    p.add_argument("--config", type=Path, default=shipped_path("configs/synth/default.yaml"),
+                   help="SynthConfig YAML (default: the project's configs/synth/default.yaml)")
     p.add_argument("--out", type=Path, required=True, help="output dataset folder")
     p.add_argument("--cache-dir", type=Path, default=None, help="cache folder (default: the config's cache_dir)")
-    p.add_argument("--workers", type=int, default=None, help="parallel processes, one subject each")
-    p.add_argument("--seed", type=int, default=None, help="override the config's seed")
+    p.add_argument("--workers", type=bounded(int, 1, MAX_WORKERS), default=None,
+                   help=f"parallel processes, one subject each (1–{MAX_WORKERS})")
+    p.add_argument("--seed", type=bounded(int, 0, MAX_SEED), default=None, help=f"override the config's seed (0–{MAX_SEED})")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     return p
 

@@ -71,6 +71,7 @@ from predictive.synth.gait_library import periodic_library, template_library
 from predictive.synth.recording import cached_recording, fallback_counts, recording_chain, residual_stats
 from predictive.synth.subjects import VirtualSubject, body_deviation, sample_subjects
 from sspinn.data.dataset import SPLITS, Dataset, Recording
+from sspinn.run_folder import atomic_write_json
 
 
 class SynthWarning(UserWarning):
@@ -280,10 +281,10 @@ def generate_dataset(
             "recordings": per_rec,
         }
     )
-    (out / "dataset.json").write_text(
-        json.dumps(
-            {"format": "sspinn-dataset", "version": 1, "splits": dataset.splits, "info": jsonable(info)}, indent=2
-        )
+    atomic_write_json(
+        out / "dataset.json",
+        {"format": "sspinn-dataset", "version": 1, "splits": dataset.splits, "info": jsonable(info)},
+        non_finite="null",
     )
     return Dataset.open(out)
 

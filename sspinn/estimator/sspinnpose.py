@@ -33,10 +33,11 @@ from sspinn.estimator.inference import GaitEstimate, StreamingEstimator, estimat
 from sspinn.estimator.model_store import StoredModel, export_streaming, load_model, save_model
 from sspinn.estimator.network import SSPINNposeNet
 from sspinn.estimator.training import TrainConfig, Trainer, adaptation_config
+from sspinn.yaml_config import shipped_path
 
 #: The repository's named training configurations (``configs/sspinn/<name>.yaml``), found from
 #: the installed package rather than the working directory.
-CONFIG_DIR = Path(__file__).resolve().parents[2] / "configs" / "sspinn"
+CONFIG_DIR = shipped_path("configs/sspinn")
 
 
 class NotFittedError(UserError):

@@ -243,8 +243,10 @@ def add_to_index(folder: Path, rec: Recording, split: str) -> Path:
 
 
 # ---------------------------------------------------------------------------------- command line
-def add_parser(sub: argparse._SubParsersAction, bounded: Any) -> None:
-    """Register ``sspinn import`` (``bounded``: the CLI's range-checked number type)."""
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Register ``sspinn import``."""
+    from sspinn.errors import bounded
+
     p = sub.add_parser("import", help="vendor IMU files (OpenSense .trc, Xsens .txt) + sensor map → calibrated recording")
     p.add_argument("--imu", type=Path, nargs="+", required=True, help="IMU files: one OpenSense _Accel.trc[.gz] or Xsens .txt per sensor")
     p.add_argument("--sensor-map", type=Path, required=True, help="YAML sensor → segment map (configs/sensor_maps/)")

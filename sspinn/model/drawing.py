@@ -10,6 +10,7 @@ import numpy as np
 from sspinn.model import kinematics
 from sspinn.model.body import BodyParameters
 from sspinn.model.conventions import SIDES
+from sspinn.run_folder import atomic_path
 
 _CHAIN = ("hip", "knee_{s}", "ankle_{s}", "heel_{s}", "toe_{s}", "ankle_{s}")
 _COLORS = {"r": "tab:red", "l": "tab:blue"}
@@ -43,12 +44,15 @@ def draw_stick_figure(ax: Any, q: np.ndarray, body: BodyParameters, alpha: float
 
 
 def save_figure(fig: Any, path: str | Path, dpi: int = 100) -> Path:
-    """Lay out ``fig``, write it to ``path`` (parent folders created) and close it; returns the path."""
+    """Lay out ``fig``, write it to ``path`` atomically (parent folders created; the format from
+    the suffix, PNG without one) and close it; returns the path."""
     import matplotlib.pyplot as plt
 
     path = Path(path)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
+    try:
+        fig.tight_layout()
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".").lower() or "png")
+    finally:
+        plt.close(fig)
     return path
