@@ -26,9 +26,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--config", type=Path, default=Path("configs/synth/default.yaml"), help="SynthConfig YAML")
     p.add_argument("--out", type=Path, required=True, help="output dataset folder")
     p.add_argument("--cache-dir", type=Path, default=None, help="cache folder (default: the config's cache_dir)")
-    p.add_argument(
-        "--workers", type=int, default=None, help="subjects generated at a time (1: in this process; default: the config's)"
-    )
+    p.add_argument("--workers", type=int, default=None, help="subjects at a time (1: in this process; default: config)")
     p.add_argument(
         "--backend",
         default=None,

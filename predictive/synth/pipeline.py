@@ -183,7 +183,8 @@ def _subject_job(config: SynthConfig, subject: VirtualSubject, queue: Any) -> tu
         if queue is not None:
             queue.put((stage, seconds))
 
-    output = generate_subject(config, subject, SynthCache(config.cache_dir), _worker_solvers(config.stride), on_progress)
+    solvers = _worker_solvers(config.stride)
+    output = generate_subject(config, subject, SynthCache(config.cache_dir), solvers, on_progress)
     return subject.index, output, reported[0]
 
 
