@@ -4,7 +4,9 @@
 
 Generates the dataset of :mod:`predictive.synth.pipeline` (progress bar on stderr), then prints its
 size, the generation time, the solver statistics and the Kane residual of the written labels.
-A second run with the same configuration reads everything from the cache.
+A second run with the same configuration reads everything from the cache. ``--workers N``
+generates N subjects at a time as joblib tasks (``--backend``, default ``loky``: processes on
+this machine).
 """
 
 from __future__ import annotations
@@ -33,7 +35,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, required=True, help="output dataset folder")
     p.add_argument("--cache-dir", type=Path, default=None, help="cache folder (default: the config's cache_dir)")
     p.add_argument("--workers", type=bounded(int, 1, MAX_WORKERS), default=None,
-                   help=f"parallel processes, one subject each (1–{MAX_WORKERS})")
+                   help=f"subjects at a time (1: in this process; 1–{MAX_WORKERS}; default: the config's)")
+    p.add_argument(
+        "--backend",
+        default=None,
+        help="joblib backend of the workers (default: the config's, loky: processes on this machine; "
+        "dask and ray need their own setup, see predictive.synth.joblib_backend)",
+    )
     p.add_argument("--seed", type=bounded(int, 0, MAX_SEED), default=None, help=f"override the config's seed (0–{MAX_SEED})")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     return p
@@ -44,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     from predictive.synth.config import SynthConfig
     from predictive.synth.pipeline import generate_dataset
 
-    config = SynthConfig.from_yaml(args.config, workers=args.workers, seed=args.seed)
+    config = SynthConfig.from_yaml(args.config, workers=args.workers, seed=args.seed, backend=args.backend)
     t0 = time.perf_counter()
     dataset = generate_dataset(config, args.out, progress=not args.no_progress, cache_dir=args.cache_dir)
     elapsed = time.perf_counter() - t0

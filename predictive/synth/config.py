@@ -105,7 +105,15 @@ class SynthConfig:
         imu_errors: "default" (:class:`~sspinn.data.sensor_noise.IMUErrorModel` defaults), "none" or a
             mapping of IMUErrorModel fields.
         cache_dir: folder of the caches.
-        workers: parallel processes (one subject each); 1: in this process.
+        workers: subjects generated at a time; 1: one after the other in this process, more:
+            tasks of one subject each on the joblib backend ``backend`` (each worker process
+            keeps its compiled stride NLPs for its next subjects).
+        backend: the joblib backend when ``workers > 1``: ``"loky"`` (processes on this
+            machine), any other of joblib's (``"multiprocessing"``, ``"threading"``), or one that
+            the calling code registers (``"dask"`` with a ``dask.distributed`` client, ``"ray"``
+            after ``ray.util.joblib.register_ray()``); see :mod:`predictive.synth.joblib_backend`.
+        backend_options: keyword arguments of that backend (``joblib.parallel_config``), e.g.
+            ``{scheduler_host: "tcp://scheduler:8786"}`` for ``dask``.
     """
 
     name: str = "synth"
@@ -127,6 +135,8 @@ class SynthConfig:
     imu_errors: str | Mapping[str, Any] = "default"
     cache_dir: str = "results/cache/synth"
     workers: int = 1
+    backend: str = "loky"
+    backend_options: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.n_subjects < 1:
@@ -150,6 +160,8 @@ class SynthConfig:
             raise ValueError(f"duration_s must be > 0, got {self.duration_s}")
         if self.workers < 1:
             raise ValueError(f"workers must be >= 1, got {self.workers}")
+        if not self.backend:
+            raise ValueError("backend must name a joblib backend (e.g. loky), got an empty string")
         imu_model(self)  # validates the IMU error settings
 
     # ------------------------------------------------------------------ (de)serialisation
@@ -169,10 +181,11 @@ class SynthConfig:
         return jsonable(dataclasses.asdict(self))
 
     def key(self) -> str:
-        """Hash of everything that determines the dataset's content (not cache_dir, workers)."""
+        """Hash of everything that determines the dataset's content (not where and how it is
+        computed: cache_dir, workers, backend, backend_options)."""
         data = self.to_dict()
-        data.pop("cache_dir")
-        data.pop("workers")
+        for name in ("cache_dir", "workers", "backend", "backend_options"):
+            data.pop(name)
         return stable_hash({"config": data, "code": CODE_VERSION})
 
     def pace(self, subject: int) -> float:

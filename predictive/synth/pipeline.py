@@ -3,7 +3,7 @@
 :func:`generate_dataset` makes virtual subjects walk and run, continuously and with
 stride-to-stride variability and speed changes, and writes recordings whose labels satisfy the
 equations of motion of the sspinn model at every 100 Hz sample. This module runs the pipeline
-(subjects, in parallel processes when ``workers > 1``, then the dataset and its ``dataset.json``);
+(subjects, as joblib tasks when ``workers > 1``, then the dataset and its ``dataset.json``);
 each step lives in its own module of :mod:`predictive.synth`.
 
 Method
@@ -45,29 +45,37 @@ Usage::
     print(dataset.info["kane_residual"])                        # BW and BW·H, max and RMS
 
 or ``python -m predictive synth --config configs/synth/default.yaml --out data/synth_default``.
-With ``workers > 1`` the subjects are generated in spawned processes, so a script calling
-:func:`generate_dataset` needs the usual ``if __name__ == "__main__":`` guard.
+With ``workers > 1`` each subject is a ``joblib`` task on ``config.backend`` (default ``loky``:
+fresh worker processes on this machine, each keeping its compiled stride NLPs for its next
+subjects; other backends and clusters: :mod:`predictive.synth.joblib_backend`); the progress of
+workers on this machine comes through a spawned manager process, so a script calling
+:func:`generate_dataset` needs the usual ``if __name__ == "__main__":`` guard. Every random draw
+of a subject depends on the seed and the subject's index only (:meth:`SynthConfig.rng`), so the
+files do not depend on the backend or the number of workers.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
+import threading
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Final
 
 import numpy as np
 
-from predictive.ocp.stride_nlp import StrideSolverCache
+from predictive.ocp.stride_nlp import StrideSettings, StrideSolverCache
 from predictive.synth.cache import CODE_VERSION, GENERATOR_NAME, CacheStats, SynthCache, jsonable
 from predictive.synth.chain import ChainError, StrideRecord
 from predictive.synth.config import SynthConfig, imu_model
 from predictive.synth.gait_library import periodic_library, template_library
+from predictive.synth.joblib_backend import LOCAL_BACKENDS, ProgressRelay, backend_context, check_backend
 from predictive.synth.recording import cached_recording, fallback_counts, recording_chain, residual_stats
 from predictive.synth.subjects import VirtualSubject, body_deviation, sample_subjects
 from sspinn.data.dataset import SPLITS, Dataset, Recording
@@ -151,25 +159,34 @@ def generate_subject(
     return SubjectOutput(recordings, strides, stats, time.perf_counter() - t0, solvers.build_time - build0, events)
 
 
-def _worker_groups(n_subjects: int, workers: int) -> list[list[int]]:
-    """Subjects per worker in snake order (0, 1, …, w−1, w−1, …, 0, 0, …), which balances the
-    alternating walking and running programs."""
-    groups: list[list[int]] = [[] for _ in range(workers)]
-    for i in range(n_subjects):
-        lap, pos = divmod(i, workers)
-        groups[pos if lap % 2 == 0 else workers - 1 - pos].append(i)
-    return [g for g in groups if g]
+#: The compiled stride NLPs of this worker (process and thread), kept for its next subjects.
+_WORKER_SOLVERS: Final = threading.local()
 
 
-def _group_job(config: SynthConfig, indices: list[int], queue: Any) -> list[SubjectOutput]:
-    """Worker entry point: the subjects ``indices`` with one solver cache; progress → ``queue``."""
-    subjects = sample_subjects(config)
-    cache = SynthCache(config.cache_dir)
-    solvers = StrideSolverCache(config.stride)
-    return [
-        generate_subject(config, subjects[i], cache, solvers, lambda stage, sec: queue.put((stage, sec)))
-        for i in indices
-    ]
+def _worker_solvers(settings: StrideSettings) -> StrideSolverCache:
+    """This worker's :class:`StrideSolverCache` for ``settings``: building the stride NLPs takes
+    seconds, so a worker that generates several subjects builds each NLP once (as the serial
+    path does); one per thread, so that threads never share a CasADi solver."""
+    solvers: StrideSolverCache | None = getattr(_WORKER_SOLVERS, "solvers", None)
+    if solvers is None or solvers.settings != settings:
+        solvers = StrideSolverCache(settings)
+        _WORKER_SOLVERS.solvers = solvers
+    return solvers
+
+
+def _subject_job(config: SynthConfig, subject: VirtualSubject, queue: Any) -> tuple[int, SubjectOutput, float]:
+    """Worker entry point: one subject, progress → ``queue`` (when not None); returns the
+    subject's index, its output and the seconds of data it reported."""
+    reported = [0.0]
+
+    def on_progress(stage: str, seconds: float) -> None:
+        reported[0] += seconds
+        if queue is not None:
+            queue.put((stage, seconds))
+
+    solvers = _worker_solvers(config.stride)
+    output = generate_subject(config, subject, SynthCache(config.cache_dir), solvers, on_progress)
+    return subject.index, output, reported[0]
 
 
 def generate_dataset(
@@ -183,6 +200,8 @@ def generate_dataset(
     statistics and the cache hits.
     """
     t0 = time.perf_counter()
+    if config.workers > 1:
+        check_backend(config.backend)  # before the output folder is touched
     out = Path(out_dir)
     _prepare_out_dir(out)
     if cache_dir is not None:
@@ -199,17 +218,19 @@ def generate_dataset(
     outputs: list[SubjectOutput] = []
     build_time = 0.0
     cache = SynthCache(config.cache_dir)
+    backend = backend_context(config.backend, config.backend_options) if config.workers > 1 else nullcontext()
     try:
-        # the nominal-body templates first (shared by all subjects and workers)
-        on_progress("template gaits", 0.0)
-        template_library(config.all_speeds(), config.stride, cache)
-        if config.workers == 1:
-            solvers = StrideSolverCache(config.stride)
-            outputs = [generate_subject(config, subject, cache, solvers, on_progress) for subject in subjects]
-            build_time = solvers.build_time
-        else:
-            outputs = _generate_parallel(config, on_progress)
-            build_time = sum(o.build_time_s for o in outputs)
+        with backend:  # checked before any work
+            # the nominal-body templates first (shared by all subjects and workers)
+            on_progress("template gaits", 0.0)
+            template_library(config.all_speeds(), config.stride, cache)
+            if config.workers == 1:
+                solvers = StrideSolverCache(config.stride)
+                outputs = [generate_subject(config, subject, cache, solvers, on_progress) for subject in subjects]
+                build_time = solvers.build_time
+            else:
+                outputs = _generate_parallel(config, subjects, on_progress)
+                build_time = sum(o.build_time_s for o in outputs)
     finally:
         if bar is not None:
             bar.close()
@@ -289,26 +310,26 @@ def generate_dataset(
     return Dataset.open(out)
 
 
-def _generate_parallel(config: SynthConfig, on_progress: Callable[[str, float], None]) -> list[SubjectOutput]:
-    """All subjects with ``config.workers`` processes (spawned; one solver cache each)."""
-    import multiprocessing as mp
+def _generate_parallel(
+    config: SynthConfig, subjects: Sequence[VirtualSubject], on_progress: Callable[[str, float], None]
+) -> list[SubjectOutput]:
+    """All subjects, one ``joblib`` task each, ``config.workers`` at a time on the backend
+    entered by the caller (:func:`~predictive.synth.joblib_backend.backend_context`); the
+    outputs in subject order whatever order the tasks finish in."""
+    import joblib
 
-    groups = _worker_groups(config.n_subjects, config.workers)
-    ctx = mp.get_context("spawn")
+    # workers may run elsewhere (another folder, another machine): an absolute cache folder
+    job_config = dataclasses.replace(config, cache_dir=str(Path(config.cache_dir).resolve()))
     results: dict[int, SubjectOutput] = {}
-    with ctx.Manager() as manager, ProcessPoolExecutor(max_workers=len(groups), mp_context=ctx) as pool:
-        queue = manager.Queue()
-        futures = {pool.submit(_group_job, config, g, queue): g for g in groups}
-        pending = set(futures)
-        while pending:
-            done, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
-            while not queue.empty():
-                on_progress(*queue.get())
-            for fut in done:
-                results.update(zip(futures[fut], fut.result()))
-        while not queue.empty():
-            on_progress(*queue.get())
-    return [results[i] for i in range(config.n_subjects)]
+    with contextlib.ExitStack() as stack:
+        local = config.backend in LOCAL_BACKENDS
+        queue = stack.enter_context(ProgressRelay(on_progress)) if local else None
+        parallel = joblib.Parallel(n_jobs=config.workers, return_as="generator_unordered", batch_size=1)
+        for index, output, seconds in parallel(joblib.delayed(_subject_job)(job_config, s, queue) for s in subjects):
+            results[index] = output
+            if not local:
+                on_progress(f"{subjects[index].id}: done", seconds)
+    return [results[s.index] for s in subjects]
 
 
 def _combine_residuals(stats: Sequence[Mapping[str, float]]) -> dict[str, float]:
