@@ -197,14 +197,9 @@ def profile_step(config: NetworkConfig, batch: int, window: int, repeats: int, t
             "compiled": compiled, "first_step_s": first_step}
 
 
-def _busy_loop() -> None:  # pragma: no cover - runs in the neighbour process
-    while True:
-        pass
-
-
 def bench_sharing(config: NetworkConfig, batch: int, window: int, repeats: int, rng: np.random.Generator) -> dict:
     """Demo-size steps/s alone and beside one busy-looping process, for 2, 1 and auto threads."""
-    import multiprocessing as mp
+    import subprocess
 
     from sspinn.estimator.cpu_share import free_cpus
 
@@ -212,17 +207,16 @@ def bench_sharing(config: NetworkConfig, batch: int, window: int, repeats: int, 
     for setting in ("2", "1", "auto"):
         rates[setting] = {}
         for neighbour in (False, True):
-            proc = mp.get_context("spawn").Process(target=_busy_loop, daemon=True) if neighbour else None
+            proc = subprocess.Popen([sys.executable, "-c", "while True: pass"]) if neighbour else None
             if proc is not None:
-                proc.start()
                 time.sleep(1.0)
             try:
                 threads = free_cpus() if setting == "auto" else int(setting)
                 prof = profile_step(config, batch, window, repeats, threads, rng, compiled=False)
             finally:
                 if proc is not None:
-                    proc.terminate()
-                    proc.join()
+                    proc.kill()
+                    proc.wait()
             rates[setting]["beside" if neighbour else "alone"] = prof["samples_per_s"] / (batch * window)
             rates[setting]["threads_beside" if neighbour else "threads_alone"] = threads
     return rates

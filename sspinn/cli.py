@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -18,6 +19,7 @@ from sspinn.data.dataset import Dataset
 from sspinn.data.loading import open_recordings
 from sspinn.errors import ArgumentParser, UserError, bounded, run_cli
 from sspinn.estimator.inference import ImplausibleEstimateError, NonFiniteEstimateError
+from sspinn.run_folder import RunLock
 from sspinn.yaml_config import add_config_flags, flag_overrides, shipped_path
 
 #: Fields of :class:`~sspinn.estimator.training.TrainConfig` that ``train`` and ``finetune`` take as flags.
@@ -63,12 +65,17 @@ def _train(args: argparse.Namespace, command: str) -> int:
 def _check_run_folder(args: argparse.Namespace, command: str) -> None:
     """A finished run is never replaced without ``--overwrite``; adapt and finetune never write
     into the folder of the model they start from."""
+    if int(os.environ.get("RANK", "0")) != 0:  # under torchrun rank 0 owns (and checks) the folder
+        return
     out = args.out
     model = getattr(args, "model", None)
     if model is not None and out.resolve() == Path(model).resolve().parent:
         raise RunFolderError(f"{out}: is the folder of the model {model} that {command} starts from; choose another --out")
     if args.resume or args.auto_resume or getattr(args, "overwrite", False):
         return
+    if out.is_dir():
+        with RunLock(out):  # a run still training there is named first (RunFolderBusyError)
+            pass
     finished = [name for name in ("model.pt", "checkpoint.pt") if (out / name).exists()]
     if finished:
         raise RunFolderError(

@@ -18,6 +18,9 @@ import torch
 
 from tests.conftest import shared_data
 
+#: every test here runs a benchmark end to end (training, compilation, real data): the quick loop skips them
+pytestmark = pytest.mark.slow
+
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
 

@@ -56,6 +56,7 @@ def test_run_cli_passes_the_status_and_extra_user_errors(capsys) -> None:
     ],
     ids=["sspinn", "predictive", "agents"],
 )
+@pytest.mark.slow
 def test_the_three_command_lines_exit_2_with_one_line(tmp_path: Path, argv: list[str]) -> None:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     proc = subprocess.run(argv, cwd=tmp_path, capture_output=True, text=True, env=env, timeout=120)

@@ -33,6 +33,7 @@ def tiny(tmp_path_factory):
     return root, data, cfg
 
 
+@pytest.mark.slow
 def test_train_resume_evaluate_infer_export(tiny):
     root, data, cfg = tiny
     run = root / "run"
@@ -62,6 +63,7 @@ def test_train_resume_evaluate_infer_export(tiny):
     assert main(["finetune", "--config", str(cfg), "--model", str(run / "model.pt"), "--data", str(data), "--out", str(root / "ft")]) == 0
 
 
+@pytest.mark.slow
 def test_adapt_continues_a_model_on_the_unlabeled_test_split(tiny, capsys):
     """``sspinn adapt`` starts from the model's weights, trains on the chosen split (the test
     split by default) with the model's own configuration — the weights it ended with, one run
@@ -318,6 +320,7 @@ def test_weights_after_starts_change_the_losses_from_start_steps_on(tiny):
             TrainConfig.from_yaml(cfg, steps=4, settings=[f"weights_after_starts={bad}"])
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(shutil.which("g++") is None and shutil.which("clang++") is None, reason="inductor needs a C++ compiler")
 def test_compiled_physics_trains_like_the_eager_physics(tiny):
     """``compile: true`` (torch.compile of decoding + losses) gives the eager run's losses and

@@ -83,6 +83,7 @@ def test_tracker_applies_feedforward_on_the_reference_and_feedback_off_it() -> N
         GaitTracker(ref, K[:, :5])
 
 
+@pytest.mark.slow
 def test_lqr_tracks_a_small_ocp_walking_cycle_for_two_seconds() -> None:
     """A coarse predictive OCP gait (fast to solve) replayed closed loop does not fall in 2 s."""
     from predictive.ocp.collocation import solve_predictive

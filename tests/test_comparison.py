@@ -91,6 +91,7 @@ def test_run_comparison_end_to_end_on_tiny_budgets(tmp_path) -> None:
     assert (tmp_path / "report" / "learning_curves.png").exists()
 
 
+@pytest.mark.slow
 def test_bench_predictive_times_a_new_speed(tmp_path, capsys) -> None:
     """benchmarks/bench_predictive.py (new-speed part) runs on a tiny generator and prints ratios."""
     import runpy

@@ -7,6 +7,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 import torch
 import yaml
 
@@ -14,6 +15,7 @@ from sspinn.data.dataset import Dataset
 from sspinn.testing import make_recording
 
 
+@pytest.mark.slow
 def test_torchrun_two_cpu_processes(tmp_path):
     rng = np.random.default_rng(5)
     data = tmp_path / "data"

@@ -119,6 +119,7 @@ def _warnings(printed: str) -> list[str]:
             if line.strip().startswith("WARNING:") and not (CMU_GAIN_WARNING in line and "|specific force|" in line)]
 
 
+@pytest.mark.slow
 def test_xsens_import_recovers_the_sagittal_signals(xsens_trial, tmp_path, capsys) -> None:
     folder, files, smap, truth, _ = xsens_trial
     out = tmp_path / "imported"
@@ -170,6 +171,7 @@ def test_import_errors_are_one_line(xsens_trial, tmp_path, capsys) -> None:
     assert status == 2 and f"sensor '{IDS['foot_r']}': 20 sample(s) missing" in err and "cannot be bridged" in err
 
 
+@pytest.mark.slow
 def test_cmu_excerpt_imports_and_is_read_unchanged(tmp_path, tiny_run, capsys) -> None:
     folder = shared_data("cmu_treadmill_imu_grf") / "Sub01" / "CSBaseline"
     out = tmp_path / "cmu"

@@ -238,6 +238,7 @@ def test_bad_options_are_one_line_errors(tiny_run, tmp_path, capsys):
     assert TrainConfig.from_yaml(cfg, settings=["lr=1e-3"]).lr == 1e-3  # YAML 1.1 reads 1e-3 as a string
 
 
+@pytest.mark.slow
 def test_two_real_training_processes_and_a_real_ctrl_c(tiny_run, tmp_path, capsys):
     """The reported case: a second `sspinn train` into the folder of a running one stops
     with the owner's PID; Ctrl-C (SIGINT) to the first saves a checkpoint at a step boundary,

@@ -20,6 +20,9 @@ from predictive.__main__ import main as cli_main
 from predictive.ocp.gait_analysis import compare_with_reference, load_winter, normalised_cycle, plot_gait
 from predictive.ocp.solution import MIRROR_Q, MIRROR_TAU
 
+#: every test here solves optimal-control problems, generates data or trains: the quick loop skips them
+pytestmark = pytest.mark.slow
+
 #: ../shared/data (optional real recordings; see tests/conftest.py)
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
@@ -148,7 +151,6 @@ def test_normalised_cycle_starts_at_right_heel_strike(slow_walk: GaitSolution) -
     np.testing.assert_allclose(cyc.hip, np.roll(slow_walk.q[:, 3], -start))
 
 
-@pytest.mark.slow
 def test_walking_against_winter_as_documented(tmp_path: Path) -> None:
     """docs/trajectory_optimisation.md: at 1.3 m/s (the default 50 nodes per half cycle) the
     hip is within the 10° target of Winter's walking, the knee and ankle miss it (13.0°, 14.3°),

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import sspinn
 
@@ -39,6 +40,7 @@ def readme_quickstart() -> str:
     return match.group(1)
 
 
+@pytest.mark.slow
 def test_the_readme_quickstart_runs_as_written() -> None:
     code = readme_quickstart()
     assert "sspinn.SSPINNpose.load(" in code and ".predict(" in code

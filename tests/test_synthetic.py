@@ -23,6 +23,9 @@ from sspinn.data.dataset import Dataset, Recording
 from sspinn.model.body import BodyParameters
 from sspinn.model.conventions import N_Q, SEGMENTS
 
+#: every test here solves optimal-control problems, generates data or trains: the quick loop skips them
+pytestmark = pytest.mark.slow
+
 CONFIGS = Path(__file__).resolve().parents[1] / "configs" / "synth"
 
 
@@ -54,7 +57,6 @@ def _true_body(rec: Recording) -> BodyParameters:
 
 
 # ------------------------------------------------------------------------------ the dataset
-@pytest.mark.slow
 def test_labels_satisfy_the_equations_of_motion_after_a_round_trip(generated) -> None:
     config, root, dataset, _ = generated
     reopened = Dataset.open(root / "out")  # what a user reads: the CSV files
@@ -84,7 +86,6 @@ def _sliding_power(rec: Recording) -> float:
     return float(np.abs(lab.grf[:, 0::2] * slide).sum(1).mean() / body.body_weight)
 
 
-@pytest.mark.slow
 def test_the_sliding_power_term_stops_the_feet_skidding(generated, tmp_path: Path) -> None:
     """``stride.w_slip`` penalises the power of friction on sliding contact points: the same tiny
     dataset skids less (the smooth contact model otherwise lets the optimiser brake a foot by

@@ -20,6 +20,9 @@ from sspinn.data.dataset import SAMPLE_RATE_HZ, Labels, Recording
 from sspinn.model.body import IMUPlacement
 from sspinn.model.conventions import COORDINATES, GRF, JOINTS, SEGMENTS
 
+#: every test here solves optimal-control problems, generates data or trains: the quick loop skips them
+pytestmark = pytest.mark.slow
+
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 DORSCHKY = SHARED_DATA / "dorschky_P03_walking"
 
@@ -55,7 +58,6 @@ def _recording_from_solution(sol: GaitSolution, placement: IMUPlacement) -> Reco
     )
 
 
-@pytest.mark.slow
 def test_tracking_own_kinematics_recovers_the_solution(reference: GaitSolution) -> None:
     # Same effort and regularisation as the predictive problem: the reference is an optimum of the
     # tracking problem too, with zero tracking error. A multi-start — from the tracked data (the
@@ -77,7 +79,6 @@ def test_tracking_own_kinematics_recovers_the_solution(reference: GaitSolution) 
     assert max(r["rmse"] for r in result.residuals().values()) < 1e-4
 
 
-@pytest.mark.slow
 def test_imu_tracking_recovers_angles_and_speed(reference: GaitSolution) -> None:
     placement = IMUPlacement.default(1.75)
     rec = _recording_from_solution(reference, placement)
@@ -121,7 +122,6 @@ def test_tracking_inputs_are_validated(reference: GaitSolution) -> None:
         )
 
 
-@pytest.mark.slow
 def test_imu_tracking_of_the_real_averaged_stride(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """The CLI on ../shared/data/dorschky_P03_walking with its default grid (100 nodes; on 40 nodes
     the multi-start's choice depended on the floating-point path: moment correlation 0.63 or 0.37).

@@ -145,10 +145,13 @@ class SSPINNpose:
                init_from: StoredModel | None) -> SSPINNpose:
         with tempfile.TemporaryDirectory(prefix="sspinn-run-") if out is None else contextlib.nullcontext(out) as folder:
             trainer = Trainer(config, folder)
-            trainer.fit(list(recordings), resume=resume, init_from=init_from)
-            stored = load_model(Path(folder) / "model.pt", self.device)
-            if out is None:  # the temporary folder goes: the model lives in memory only
-                stored = StoredModel(stored.network, stored.segments, stored.config, stored.imu_std, stored.trained_on, Path("<memory>"))
+            network = trainer.fit(list(recordings), resume=resume, init_from=init_from)
+        # the trained network as model.pt holds it (every rank under torchrun has it; only rank 0 writes)
+        stored = StoredModel(
+            network=network.to(self.device).eval(), segments=trainer.segments, config=trainer.config.to_dict(),
+            imu_std=trainer.imu_std, trained_on=trainer.trained_on,
+            path=Path(folder) / "model.pt" if out is not None else Path("<memory>"),
+        )
         self._set(stored, steps=trainer.step, stopped_by=trainer.stopped_by)
         return self
 
