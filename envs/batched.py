@@ -164,13 +164,7 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
             self._generator.manual_seed(int(seed))
         target = None
         if options is not None and "target_speed" in options:
-            value = options["target_speed"]
-            if isinstance(value, torch.Tensor):
-                if value.shape not in ((), (self.num_envs,)) or bool((value < 0).any()):
-                    raise ValueError(f"options['target_speed'] tensor must be >= 0 with shape () or ({self.num_envs},)")
-                target = value
-            else:
-                target = task.check_target_speed(value)
+            target = self._check_target(options["target_speed"], "options['target_speed']")
         self.q, self.u, self.target_speed = self._initial_states(self.num_envs, target)
         self.grf = self._contact(self.q, self.u)
         self._x0 = self.q[:, 0].clone()
@@ -180,15 +174,38 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
 
     def set_state(self, q: torch.Tensor, u: torch.Tensor, target_speed: torch.Tensor | float | None = None) -> None:
         """Overwrite the states (N, 9) (and optionally the target speeds, m/s); contact forces are
-        recomputed, the episode counters are not reset."""
+        recomputed, the episode counters are not reset. Non-finite states or target speeds, wrong
+        shapes and speeds outside [0, 12] m/s are a ``ValueError`` naming the rows."""
         q = torch.as_tensor(q, dtype=self.dtype, device=self.device)
         u = torch.as_tensor(u, dtype=self.dtype, device=self.device)
         if q.shape != (self.num_envs, N_Q) or u.shape != (self.num_envs, N_Q):
             raise ValueError(f"q and u must have shape ({self.num_envs}, {N_Q}), got {tuple(q.shape)} and {tuple(u.shape)}")
+        finite = (torch.isfinite(q).all(-1) & torch.isfinite(u).all(-1)).detach()
+        if not bool(finite.all()):
+            rows = torch.nonzero(~finite).flatten().tolist()
+            raise ValueError(f"q and u must be finite; environment(s) {rows[:10]} are not")
+        target = None if target_speed is None else self._check_target(target_speed, "target_speed")
         self.q, self.u = q, u
-        if target_speed is not None:
-            self.target_speed = torch.as_tensor(target_speed, dtype=self.dtype, device=self.device).expand(self.num_envs).clone()
+        if target is not None:
+            self.target_speed = torch.as_tensor(target, dtype=self.dtype, device=self.device).expand(self.num_envs).clone()
         self.grf = self._contact(self.q, self.u)
+
+    def _check_target(self, value: Any, name: str) -> torch.Tensor | float:
+        """A target speed (m/s) for all rows: a number (checked as the single environment checks
+        it) or a tensor of shape () or (N,), finite and in [0, 12] m/s; else ``ValueError``."""
+        if not isinstance(value, torch.Tensor):
+            try:
+                return task.check_target_speed(value)
+            except ValueError as exc:
+                raise ValueError(f"{name}: {exc}") from None
+        if value.shape not in ((), (self.num_envs,)):
+            raise ValueError(f"{name} tensor must have shape () or ({self.num_envs},), got {tuple(value.shape)}")
+        bad = ~(torch.isfinite(value) & (value >= 0) & (value <= 12.0)).reshape(-1)
+        if bool(bad.any()):
+            rows = torch.nonzero(bad).flatten().tolist()
+            raise ValueError(f"{name} must be finite and in [0, 12] m/s; row(s) {rows[:10]} are not "
+                             f"(first: {value.reshape(-1)[rows[0]].item()!r})")
+        return value
 
     # ------------------------------------------------------------------------------------------
     def step(self, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, dict[str, Any]]:

@@ -17,12 +17,13 @@ import dataclasses
 import math
 import operator
 from collections.abc import Collection, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Final
 
 import numpy as np
 
 from envs import task
+from envs.disturbances import Disturbances
 from sspinn.body import BodyParameters
 from sspinn.contact import ContactParameters
 from sspinn.passive import is_real
@@ -97,6 +98,9 @@ class WalkerConfig:
             Default 0.2.
         contact: :class:`~sspinn.contact.ContactParameters` (stiffness, damping, μ, ...; its slip
             velocity is replaced by ``slip_velocity``); None → defaults.
+        disturbances: the disturbance tests of every episode, a
+            :class:`~envs.disturbances.Disturbances` or a mapping of its fields (pushes, observation
+            noise and delay, actuator strength, body mismatch; units there). Default: none.
     """
 
     height: float = _DEFAULT_HEIGHT
@@ -119,6 +123,7 @@ class WalkerConfig:
     method: str = METHOD
     slip_velocity: float = SLIP_VELOCITY
     contact: ContactParameters | None = None
+    disturbances: Disturbances = field(default_factory=Disturbances)
 
     def __post_init__(self) -> None:
         def put(name: str, value: Any) -> None:
@@ -153,6 +158,7 @@ class WalkerConfig:
         passive = task.passive_parameters(self.joint_range, self.joint_limit_stiffness, self.joint_damping)
         target_range = task.target_speed_range(self.target_speed)
         put("max_episode_steps", task.check_int("max_episode_steps", self.max_episode_steps, 1))
+        put("disturbances", Disturbances.resolve(self.disturbances))
         for array in (tau_max, passive):
             array.flags.writeable = False
         # derived quantities: not fields (not compared, not in repr/asdict), read through properties
