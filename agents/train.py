@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium
+import numba
 import numpy as np
 import stable_baselines3
 import torch
@@ -28,6 +29,7 @@ from stable_baselines3.common.noise import NormalActionNoise
 from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv, VecNormalize
 
+import envs
 from agents.checkpoints import (
     CHECKPOINT_DIR,
     CHECKPOINT_PREFIX,
@@ -40,6 +42,8 @@ from agents.checkpoints import (
 )
 from agents.config import ACTIVATIONS, ALGORITHMS, AgentConfig, save_config
 from agents.rollout import run_episode, summarize
+from agents.vec_env import PerEnvVecMonitor, WalkerVecEnv
+from envs.config import WalkerConfig
 from sspinn.run_folder import RunLock
 
 #: Info fields of the environment written to the Monitor CSV of every training episode.
@@ -51,20 +55,40 @@ EVAL_COLUMNS: tuple[str, ...] = (
 )
 
 
+def env_kwargs(config: AgentConfig, **overrides: Any) -> dict[str, Any]:
+    """The environment's constructor arguments: ``env.kwargs`` with ``overrides`` winning."""
+    return {**config.env.kwargs, **overrides}
+
+
 def make_env(config: AgentConfig, render_mode: str | None = None, **overrides: Any) -> gymnasium.Env:
-    """One environment with the configuration's constructor arguments (``overrides`` win)."""
-    return gymnasium.make(config.env.make_id, **{**config.env.kwargs, **overrides}, render_mode=render_mode)
+    """One environment with the configuration's constructor arguments (``overrides`` win).
+
+    ``max_episode_steps`` sets both Gymnasium's ``TimeLimit`` (``gymnasium.make`` takes that
+    keyword for itself) and, for ``sspinn/SagittalWalker-v0``, the environment's own episode length,
+    so that the two agree."""
+    kwargs = env_kwargs(config, **overrides)
+    steps = kwargs.pop("max_episode_steps", None)
+    if steps is not None and config.env.id == envs.ENV_ID:
+        kwargs["config"] = WalkerConfig(max_episode_steps=steps)
+    return gymnasium.make(config.env.make_id, max_episode_steps=steps, **kwargs, render_mode=render_mode)
 
 
 def make_training_envs(config: AgentConfig, run_dir: Path, seed: int, append_monitor: bool = False) -> VecEnv:
-    """``n_envs`` seeded environments (seeds ``seed``, ``seed + 1``, ...) with Monitor CSV logs."""
+    """``n_envs`` seeded environments (seeds ``seed``, ``seed + 1``, ...) with one Monitor CSV log
+    per environment (``<run>/monitor/<i>.monitor.csv``): the native vector environment
+    (``env.vec_env: native``) or SB3's ``DummyVecEnv``/``SubprocVecEnv`` of single environments."""
+    if config.env.vec_env == "native":
+        if config.env.threads is not None:
+            numba.set_num_threads(min(config.env.threads, numba.config.NUMBA_NUM_THREADS))
+        venv: VecEnv = WalkerVecEnv(config.env.n_envs, **env_kwargs(config))
+        venv.seed(seed)
+        return PerEnvVecMonitor(venv, run_dir / "monitor", MONITOR_INFO_KEYS, append=append_monitor)
     vec_cls = SubprocVecEnv if config.env.vec_env == "subproc" else DummyVecEnv
     return make_vec_env(
-        config.env.make_id,
+        lambda: make_env(config),
         n_envs=config.env.n_envs,
         seed=seed,
         vec_env_cls=vec_cls,
-        env_kwargs=dict(config.env.kwargs),
         monitor_dir=str(run_dir / "monitor"),
         monitor_kwargs={"info_keywords": MONITOR_INFO_KEYS, "override_existing": not append_monitor},
     )
