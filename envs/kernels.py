@@ -108,12 +108,10 @@ def normal(key, counter):  # pragma: no cover - compiled
 
 # ---------------------------------------------------------------------------------- observation
 @numba.njit(cache=True)
-def _observe(i, q, u, grf, fenv, ienv, noise_std, history, fpar, obs):  # pragma: no cover - compiled
+def _record(i, q, u, grf, fenv, ienv, history, fpar):  # pragma: no cover - compiled
     """Store walker i's noise-free observation (layout :data:`envs.task.OBSERVATION_NAMES`) in its
-    history at step ``ienv[i, I_STEPS]`` and write the delayed, noisy one into ``obs[i]``."""
-    t = ienv[i, I_STEPS]
-    slot = t % HISTORY
-    h = history[i, slot]
+    history ring at step ``ienv[i, I_STEPS]``."""
+    h = history[i, ienv[i, I_STEPS] % HISTORY]
     bw = fpar[P_BODY_WEIGHT]
     for j in range(N_Q - 1):
         h[j] = q[i, j + 1]
@@ -122,6 +120,12 @@ def _observe(i, q, u, grf, fenv, ienv, noise_std, history, fpar, obs):  # pragma
     for j in range(4):
         h[2 * N_Q - 1 + j] = grf[i, j] / bw
     h[OBS_SIZE - 1] = fenv[i, F_TARGET]
+
+
+@numba.njit(cache=True)
+def _emit(i, ienv, noise_std, history, obs):  # pragma: no cover - compiled
+    """obs[i] ← the recorded observation of ``obs_delay`` steps ago, plus noise drawn for this step."""
+    t = ienv[i, I_STEPS]
     seen = history[i, (t - ienv[i, I_DELAY] + HISTORY) % HISTORY]
     key = np.uint64(ienv[i, I_NOISE_KEY])
     for j in range(OBS_SIZE):
@@ -142,9 +146,10 @@ def _reset_walker(i, q, u, grf, p, c, fenv, ienv, noise_std, history, fpar, obs)
     ienv[i, I_STEPS] = 0
     ienv[i, I_ENDED] = 0
     ienv[i, I_PUSH_ON] = 0
-    _observe(i, q, u, grf, fenv, ienv, noise_std, history, fpar, obs)
+    _record(i, q, u, grf, fenv, ienv, history, fpar)
     for k in range(1, HISTORY):  # the first observation until a delay's worth of steps has passed
         history[i, k, :] = history[i, 0, :]
+    _emit(i, ienv, noise_std, history, obs)
 
 
 @numba.njit(cache=True)
@@ -228,7 +233,8 @@ def _step_walker(i, actions, q, u, grf, tau, p, fenv, ienv, strength, noise_std,
     flags[i, 0] = terminated
     flags[i, 1] = truncated
     flags[i, 2] = not finite
-    _observe(i, q, u, grf, fenv, ienv, noise_std, history, fpar, obs)
+    _record(i, q, u, grf, fenv, ienv, history, fpar)
+    _emit(i, ienv, noise_std, history, obs)
 
 
 @numba.njit(cache=True)
