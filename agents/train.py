@@ -41,9 +41,10 @@ from agents.checkpoints import (
     vecnormalize_path,
 )
 from agents.config import ACTIVATIONS, ALGORITHMS, AgentConfig, save_config
-from agents.rollout import run_episode, summarize
+from agents.rollout import SUMMARY_GAIT_KEYS, run_episode, summarize
 from agents.vec_env import PerEnvVecMonitor, WalkerVecEnv
 from envs.config import WalkerConfig
+from sspinn.gait_metrics import winter_or_none
 from sspinn.run_folder import RunLock
 
 #: Info fields of the environment written to the Monitor CSV of every training episode.
@@ -51,8 +52,10 @@ MONITOR_INFO_KEYS: tuple[str, ...] = ("distance", "cost_of_transport")
 EVAL_COLUMNS: tuple[str, ...] = (
     "timesteps", "wall_s", "mean_return", "mean_distance_m", "min_distance_m", "mean_speed_m_s",
     "mean_abs_speed_error_m_s", "mean_cost_of_transport", "falls", "episodes", "mean_foot_slide_m",
-    "mean_cadence_steps_per_min",
+    "mean_cadence_steps_per_min", *(f"mean_{key}" for key in SUMMARY_GAIT_KEYS),
 )
+#: Evaluations at target speeds below this (m/s) compare the joint angles with Winter's walking.
+WALKING_BELOW_M_S = 2.0
 
 
 def env_kwargs(config: AgentConfig, **overrides: Any) -> dict[str, Any]:
@@ -121,9 +124,11 @@ def algorithm_kwargs(config: AgentConfig, n_actions: int) -> dict[str, Any]:
 
 class WalkerEvalCallback(BaseCallback):
     """Every ``eval_freq`` timesteps: deterministic episodes on fixed seeds at the evaluation
-    target speed; logs distance, speed, speed error, cost of transport and falls (TensorBoard
-    ``eval/*`` and ``evaluations.csv``) and saves the best model (mean return) with its
-    VecNormalize statistics."""
+    target speed; logs distance, speed, speed error, cost of transport, falls and the gait metrics
+    (:func:`sspinn.gait_metrics.gait_metrics`: asymmetries, foot sliding, impact peak, angle RMSD to
+    Winter's walking when ``../shared/data`` exists and the target is a walking speed) to
+    TensorBoard ``eval/*`` and ``evaluations.csv``, and saves the best model (mean return) with
+    its VecNormalize statistics."""
 
     def __init__(self, config: AgentConfig, run_dir: Path, vec_normalize: VecNormalize | None) -> None:
         super().__init__(verbose=config.logging.verbose)
@@ -131,6 +136,7 @@ class WalkerEvalCallback(BaseCallback):
         self.run_dir = run_dir
         self.vec_normalize = vec_normalize
         self.eval_env = make_env(config)
+        self.reference = winter_or_none() if config.env.target_speed < WALKING_BELOW_M_S else None
         self.csv_path = run_dir / "evaluations.csv"
         self.best_return = -math.inf
         self.next_eval = 0
@@ -168,7 +174,7 @@ class WalkerEvalCallback(BaseCallback):
         lg = self.config.logging
         policy = self.current_policy()
         results = [
-            run_episode(policy, self.eval_env, lg.eval_seed + i, self.config.env.target_speed)
+            run_episode(policy, self.eval_env, lg.eval_seed + i, self.config.env.target_speed, reference=self.reference)
             for i in range(lg.eval_episodes)
         ]
         summary = summarize(results)
@@ -179,8 +185,12 @@ class WalkerEvalCallback(BaseCallback):
                 self.logger.record(f"eval/{key}", value)
         self.logger.record("eval/steps_per_s", (self.num_timesteps - self.start_steps) / max(wall, 1e-9))
         new_file = not self.csv_path.is_file()
+        columns = EVAL_COLUMNS
+        if not new_file:  # a resumed run keeps its file's columns
+            with self.csv_path.open() as fh:
+                columns = tuple(next(csv.reader(fh), EVAL_COLUMNS))
         with self.csv_path.open("a", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=EVAL_COLUMNS, extrasaction="ignore")
+            writer = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
             if new_file:
                 writer.writeheader()
             writer.writerow(row)
@@ -192,13 +202,19 @@ class WalkerEvalCallback(BaseCallback):
         print(
             f"[eval] {self.num_timesteps:>10d} steps  {wall:7.0f} s  return {summary['mean_return']:7.1f}  "
             f"distance {summary['mean_distance_m']:5.2f} m (min {summary['min_distance_m']:5.2f})  "
-            f"speed {summary['mean_speed_m_s']:4.2f} m/s  falls {summary['falls']}/{summary['episodes']}",
+            f"speed {summary['mean_speed_m_s']:4.2f} m/s  falls {summary['falls']}/{summary['episodes']}  "
+            f"asym. step time {_fmt(summary['mean_step_time_asymmetry'])} %  slide/step "
+            f"{_fmt(summary['mean_foot_slide_per_step_cm'])} cm  impact {_fmt(summary['mean_peak_impact_bw'])} BW",
             flush=True,
         )
         return row
 
     def _on_training_end(self) -> None:
         self.eval_env.close()
+
+
+def _fmt(value: float | None) -> str:
+    return "n/a" if value is None else f"{value:.1f}"
 
 
 def train(config: AgentConfig, out: str | Path, resume: bool = False) -> BaseAlgorithm:
