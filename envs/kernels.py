@@ -72,6 +72,16 @@ N_OUT: Final[int] = 8
 HISTORY: Final[int] = 51
 OBS_SIZE: Final[int] = task.OBS_SIZE
 
+#: numba's threading layer for :func:`step_parallel`, unless the user chose one
+#: (``NUMBA_THREADING_LAYER``): numba's own ``workqueue``. Its default choice here, GNU OpenMP,
+#: busy-waits at the end of every parallel region; on a 2-core machine shared with other work that
+#: made one vector step of 8 walkers take 10–20 ms instead of 0.8 ms (measured beside other jobs,
+#: ``OMP_WAIT_POLICY=passive`` also fixed it). Set before the first parallel call; the project has
+#: no other parallel numba code.
+PARALLEL_LAYER: Final[str] = "workqueue"
+if numba.config.THREADING_LAYER == "default":
+    numba.config.THREADING_LAYER = PARALLEL_LAYER
+
 _tracking_term = numba.njit(cache=True)(task.tracking_term)
 _step_reward = numba.njit(cache=True)(task.step_reward)
 _fell = numba.njit(cache=True)(task.fell)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numba
 import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
@@ -63,8 +64,11 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
     Args:
         num_envs: number of walkers N (≥ 1).
         autoreset_mode: an :class:`gymnasium.vector.AutoresetMode` or its value string.
-        parallel: step the walkers with ``numba.prange`` (threads: ``numba.set_num_threads`` or
-            ``NUMBA_NUM_THREADS``); False: one after another in one compiled call.
+        parallel: True: step the walkers with ``numba.prange`` (threads: ``numba.set_num_threads``
+            or ``NUMBA_NUM_THREADS``); False: one after another in one compiled call (the same
+            results); None (default): in parallel when numba has more than one thread and there
+            are at least two walkers per thread (a parallel region costs more than it gains for
+            fewer).
         config, **overrides: the :class:`~envs.config.WalkerConfig` and field overrides, as for
             the single environment.
 
@@ -78,7 +82,7 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
         num_envs: int = 8,
         *,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
-        parallel: bool = True,
+        parallel: bool | None = None,
         config: WalkerConfig | None = None,
         **overrides: Any,
     ) -> None:
@@ -90,7 +94,7 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
         self._config = WalkerConfig.resolve(config, **overrides)
         self.autoreset_mode = mode
         self.metadata = {**self.metadata, "autoreset_mode": mode}
-        self.parallel = bool(parallel)
+        self.parallel = None if parallel is None else bool(parallel)
         self.single_action_space = spaces.Box(-1.0, 1.0, (N_TAU,), dtype=np.float32)
         self.single_observation_space = spaces.Box(-np.inf, np.inf, (task.OBS_SIZE,), dtype=np.float32)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -204,7 +208,7 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
         mode = self.autoreset_mode
         resetting = np.flatnonzero(self._autoreset) if mode == AutoresetMode.NEXT_STEP else np.zeros(0, dtype=np.int64)
         active = self._all if len(resetting) == 0 else ~self._autoreset
-        w.step(self._actions, active, self.parallel)
+        w.step(self._actions, active, self._parallel())
         rewards = w.out[:, 0].copy()
         terminated = w.flags[:, 0].copy()
         truncated = w.flags[:, 1].copy()
@@ -228,6 +232,12 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
             _merge(info, self._reset_info(rows))
         self._autoreset = done if mode == AutoresetMode.NEXT_STEP else self._autoreset
         return w.obs.copy(), rewards, terminated, truncated, info
+
+    def _parallel(self) -> bool:
+        if self.parallel is not None:
+            return self.parallel
+        threads = numba.get_num_threads()
+        return threads > 1 and self.num_envs >= 2 * threads
 
     def close_extras(self, **kwargs: Any) -> None:
         """Nothing to release (no processes, no windows)."""

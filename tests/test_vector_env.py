@@ -83,7 +83,7 @@ def test_disturbed_trajectories_match_and_parallel_equals_serial() -> None:
     }
     n, steps, seed = 3, 40, 5
     actions = _actions(steps, n, seed=3)
-    got = _vector_rollout(SagittalWalkerVectorEnv(n, **kwargs), seed, actions)
+    got = _vector_rollout(SagittalWalkerVectorEnv(n, parallel=True, **kwargs), seed, actions)
     serial = _vector_rollout(SagittalWalkerVectorEnv(n, parallel=False, **kwargs), seed, actions)
     expected = _single_rollouts(n, seed, actions, True, **kwargs)
     for key in got:
