@@ -241,7 +241,7 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         self._work = self._work + (tau * (q[:, 3:] - q0[:, 3:])).abs().sum(-1).detach()
         self._steps = self._steps + 1
         terminated = task.unhealthy(q, self.standing_height, self._config) | ~finite
-        total, tracking, alive, effort = task.reward(speed, self.target_speed, a, terminated, self._config)
+        total, tracking, alive, effort = task.reward(speed, self.target_speed, a, terminated, self._config, grf)
         truncated = (self._steps >= self._config.max_episode_steps) & ~terminated
         obs = self.observe()
         distance = (q[:, 0] - self._x0).detach()

@@ -43,7 +43,8 @@ SLIP_VELOCITY: Final[float] = 0.2
 #: Default body height (m) and mass (kg); ``body`` may only be given when these are unchanged.
 _DEFAULT_HEIGHT, _DEFAULT_MASS = 1.75, 70.0
 #: Reward and termination fields: finite numbers.
-_NUMBER_FIELDS = ("tracking_weight", "tracking_width", "alive_bonus", "effort_weight", "min_height_fraction", "max_tilt")
+_NUMBER_FIELDS = ("tracking_weight", "tracking_width", "alive_bonus", "effort_weight", "min_height_fraction", "max_tilt",
+                  "slip_weight", "impact_weight", "impact_threshold")
 
 
 def _read_only(attribute: str, doc: str) -> Any:
@@ -65,9 +66,13 @@ class WalkerConfig:
         r = tracking_weight · exp(−((v − v*) / tracking_width)²)
             + alive_bonus · [not terminated]
             − effort_weight · Σ_j a_j²
+            − slip_weight · Σ_feet v_slip − impact_weight · Σ_feet max(F_y/BW − impact_threshold, 0)²
 
     with v the pelvis (hip joint centre) forward speed averaged over the step (m/s), v* the target
-    speed (m/s) and a ∈ [−1, 1]⁶ the action.
+    speed (m/s), a ∈ [−1, 1]⁶ the action, and the last two (gait shaping, off by default) from the
+    contact forces at the end of the step: v_slip the sliding speed of a foot carrying more than
+    10 % BW implied by the friction law (m/s, :func:`envs.task.foot_slip`), F_y a foot's vertical
+    force (:func:`envs.task.shaping_penalty`).
 
     Attributes:
         height: body height, m (Winter scaling; 0.5–2.5). Default 1.75.
@@ -82,6 +87,11 @@ class WalkerConfig:
         tracking_width: σ of the speed-tracking Gaussian, m/s (> 0). Default 0.25.
         alive_bonus: reward for every step that does not terminate the episode. Default 0.2.
         effort_weight: weight of Σ a² (dimensionless actions, Σ a² ∈ [0, 6]). Default 0.01.
+        slip_weight: weight of the feet's sliding speed, per m/s (≥ 0). Default 0 (off).
+        impact_weight: weight of the squared vertical-force excess over ``impact_threshold``, per
+            BW² (≥ 0). Default 0 (off).
+        impact_threshold: vertical force per foot above which the impact penalty acts, BW (> 0).
+            Default 1.5 (walking's impact peaks are ≈ 1.1–1.3 BW).
         min_height_fraction: the episode terminates when the hip height (pelvis_ty) falls below
             this fraction of the standing hip height (m). In (0, 1); default 0.6.
         max_tilt: |pelvis_tilt| limit, rad (trunk lean); beyond it the episode terminates. Default 1.
@@ -112,6 +122,9 @@ class WalkerConfig:
     tracking_width: float = 0.25
     alive_bonus: float = 0.2
     effort_weight: float = 0.01
+    slip_weight: float = 0.0
+    impact_weight: float = 0.0
+    impact_threshold: float = 1.5
     min_height_fraction: float = 0.6
     max_tilt: float = 1.0
     joint_range: Mapping[str, Sequence[float]] | None = None
@@ -149,6 +162,11 @@ class WalkerConfig:
             raise ValueError(f"min_height_fraction must lie in (0, 1), got {self.min_height_fraction}")
         if self.max_tilt <= 0:
             raise ValueError(f"max_tilt must be > 0 rad, got {self.max_tilt}")
+        for name in ("slip_weight", "impact_weight"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.impact_threshold <= 0:
+            raise ValueError(f"impact_threshold must be > 0 BW, got {self.impact_threshold}")
         if not is_real(self.reset_noise_scale) or not 0 <= self.reset_noise_scale <= 0.1:
             raise ValueError(f"reset_noise_scale must be a number in [0, 0.1] (m, rad), got {self.reset_noise_scale!r}")
         put("reset_noise_scale", float(self.reset_noise_scale))

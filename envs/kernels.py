@@ -57,10 +57,12 @@ N_IENV: Final[int] = 8
 PUSH_NONE, PUSH_AT_TIME, PUSH_MIDSTANCE_R, PUSH_MIDSTANCE_L = range(4)
 #: ``fpar`` columns: control interval (s), physics substep (s), tracking weight, tracking width
 #: (m/s), alive bonus, effort weight, min height fraction, max tilt (rad), contact threshold (BW),
-#: nominal body weight (N, the unit of the observed contact forces).
+#: nominal body weight (N, the unit of the observed contact forces), friction μ, slip velocity
+#: (m/s), slip weight, impact weight, impact threshold (BW) of the shaping penalty.
 (P_CONTROL_DT, P_PHYSICS_DT, P_TRACKING_WEIGHT, P_TRACKING_WIDTH, P_ALIVE_BONUS, P_EFFORT_WEIGHT,
- P_MIN_HEIGHT_FRACTION, P_MAX_TILT, P_CONTACT_THRESHOLD, P_BODY_WEIGHT) = range(10)
-N_FPAR: Final[int] = 10
+ P_MIN_HEIGHT_FRACTION, P_MAX_TILT, P_CONTACT_THRESHOLD, P_BODY_WEIGHT, P_FRICTION, P_SLIP_VELOCITY,
+ P_SLIP_WEIGHT, P_IMPACT_WEIGHT, P_IMPACT_THRESHOLD) = range(15)
+N_FPAR: Final[int] = 15
 #: ``ipar`` columns: substeps, integrator index (:data:`sspinn.simulation.METHODS`), episode length.
 Q_SUBSTEPS, Q_METHOD, Q_MAX_STEPS = range(3)
 N_IPAR: Final[int] = 3
@@ -85,6 +87,8 @@ if numba.config.THREADING_LAYER == "default":
 _tracking_term = numba.njit(cache=True)(task.tracking_term)
 _step_reward = numba.njit(cache=True)(task.step_reward)
 _fell = numba.njit(cache=True)(task.fell)
+_foot_slip = numba.njit(cache=True)(task.foot_slip)
+_shaping_penalty = numba.njit(cache=True)(task.shaping_penalty)
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -224,6 +228,10 @@ def _step_walker(i, actions, q, u, grf, tau, p, fenv, ienv, strength, noise_std,
     tracking = _tracking_term(speed, fenv[i, F_TARGET], fpar[P_TRACKING_WIDTH])
     total, alive = _step_reward(tracking, effort, terminated, fpar[P_TRACKING_WEIGHT], fpar[P_ALIVE_BONUS],
                                 fpar[P_EFFORT_WEIGHT])
+    if fpar[P_SLIP_WEIGHT] != 0.0 or fpar[P_IMPACT_WEIGHT] != 0.0:
+        total -= _shaping_penalty(grf[i, 0], grf[i, 1], grf[i, 2], grf[i, 3], fpar[P_BODY_WEIGHT], fpar[P_FRICTION],
+                                  fpar[P_SLIP_VELOCITY], fpar[P_SLIP_WEIGHT], fpar[P_IMPACT_WEIGHT],
+                                  fpar[P_IMPACT_THRESHOLD])
     truncated = ienv[i, I_STEPS] >= ipar[Q_MAX_STEPS] and not terminated
     ended = ienv[i, I_ENDED]
     if ended != 0:  # stepped after the end: the flags stay as they were, no reward

@@ -89,7 +89,10 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     v is the hip's forward displacement over the step divided by 0.01 s (m/s), v* the target
     speed. Defaults: tracking_weight 1, tracking_width 0.25 m/s, alive_bonus 0.2,
     effort_weight 0.01 (full activation of all six joints costs 0.06 per step). ``info`` holds the
-    three unweighted terms.
+    three unweighted terms. Optional gait shaping (off by default, :class:`envs.config.WalkerConfig`):
+    ``− slip_weight · Σ_feet v_slip − impact_weight · Σ_feet max(F_y/BW − impact_threshold, 0)²``
+    from the contact forces at the end of the step (v_slip: the sliding speed of a loaded foot that
+    the friction law implies, m/s; F_y in BW).
 
     ## Starting state
 
@@ -232,6 +235,9 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     tracking_width         0.25                         σ of the tracking Gaussian, m/s
     alive_bonus            0.2                          reward per non-terminating step
     effort_weight          0.01                         weight of Σ a²
+    slip_weight            0.0                          weight of the loaded feet's sliding speed, per m/s
+    impact_weight          0.0                          weight of max(F_y/BW − impact_threshold, 0)² per foot
+    impact_threshold       1.5                          BW
     min_height_fraction    0.6                          fall threshold, fraction of standing hip height
     max_tilt               1.0                          |pelvis tilt| limit, rad
     joint_range            None                         passive soft-limit ranges {"hip": (lo, hi), ...},

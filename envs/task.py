@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any, Final
 
 import numba
 import numpy as np
-from numba.extending import overload
+from numba.extending import overload, register_jitable
 
 from sspinn.body import BodyParameters, ParameterError
 from sspinn.contact import ContactParameters
@@ -110,6 +110,21 @@ def exp(x: Any) -> Any:
     return np.exp(x)
 
 
+def atanh(x: Any) -> Any:
+    """artanh of a float, NumPy array or torch tensor; compiled code uses ``math.atanh`` (overload below)."""
+    torch = sys.modules.get("torch")
+    if torch is not None and isinstance(x, torch.Tensor):
+        return torch.atanh(x)
+    return np.arctanh(x)
+
+
+@overload(atanh)
+def _atanh_compiled(x):  # type: ignore[no-untyped-def]  # pragma: no cover - numba typing hook
+    if isinstance(x, numba.types.Float):
+        return lambda x: math.atanh(x)
+    return None
+
+
 @overload(exp)
 def _exp_compiled(x):  # type: ignore[no-untyped-def]  # pragma: no cover - numba typing hook (no annotations: numba compares signatures)
     if isinstance(x, numba.types.Float):
@@ -137,6 +152,35 @@ def step_reward(tracking: Any, effort: Any, terminated: Any, tracking_weight: fl
     return tracking_weight * tracking + alive_bonus * alive - effort_weight * effort, alive
 
 
+@register_jitable
+def _positive_part(x: Any) -> Any:
+    """max(x, 0) with arithmetic and ``abs`` only (scalars compiled, arrays and tensors elementwise)."""
+    return 0.5 * (x + abs(x))
+
+
+@register_jitable  # callable from compiled code (shaping_penalty) and from Python with arrays or tensors
+def foot_slip(fx: Any, fy: Any, friction: float, slip_velocity: float, min_load: Any) -> Any:
+    """Sliding speed (m/s) of a foot's contact point implied by the forward-simulation friction law
+    F_x = −μ·tanh(v/v_s)·F_y: |v| = v_s·artanh(|F_x| / (μ·F_y)) (the ratio capped at 0.999), for a
+    foot carrying more than ``min_load`` (N) of vertical force F_y (N), else 0."""
+    ratio = abs(fx) / (friction * abs(fy) + 1e-9)
+    ratio = ratio - _positive_part(ratio - 0.999)
+    return (fy > min_load) * slip_velocity * atanh(ratio)
+
+
+def shaping_penalty(grf_x_r: Any, grf_y_r: Any, grf_x_l: Any, grf_y_l: Any, body_weight: Any, friction: float,
+                    slip_velocity: float, slip_weight: float, impact_weight: float, impact_threshold: float) -> Any:
+    """The optional gait-shaping penalty of one step (subtracted from the reward), from the contact
+    forces (N) at the end of the step: ``slip_weight`` × Σ_feet :func:`foot_slip` (feet above 10 % BW,
+    m/s) + ``impact_weight`` × Σ_feet max(F_y/BW − ``impact_threshold``, 0)² (BW²)."""
+    min_load = 0.1 * body_weight
+    slip = foot_slip(grf_x_r, grf_y_r, friction, slip_velocity, min_load) + foot_slip(
+        grf_x_l, grf_y_l, friction, slip_velocity, min_load)
+    over_r = _positive_part(grf_y_r / body_weight - impact_threshold)
+    over_l = _positive_part(grf_y_l / body_weight - impact_threshold)
+    return slip_weight * slip + impact_weight * (over_r * over_r + over_l * over_l)
+
+
 def unhealthy(q: Any, standing_height: Any, cfg: WalkerConfig) -> Any:
     """:func:`fell` of states q (..., 9): hip below ``cfg.min_height_fraction`` of the standing hip
     height (m) or |pelvis_tilt| > ``cfg.max_tilt`` (rad); NaN coordinates count as unhealthy too (the
@@ -144,9 +188,11 @@ def unhealthy(q: Any, standing_height: Any, cfg: WalkerConfig) -> Any:
     return fell(q[..., 1], q[..., 2], cfg.min_height_fraction * standing_height, cfg.max_tilt)
 
 
-def reward(speed: Any, target_speed: Any, action: Any, terminated: Any, cfg: WalkerConfig) -> tuple[Any, Any, Any, Any]:
-    """(reward, tracking, alive, effort) per step (:func:`tracking_term`, :func:`step_reward`); see
-    :class:`envs.config.WalkerConfig` for the formula.
+def reward(speed: Any, target_speed: Any, action: Any, terminated: Any, cfg: WalkerConfig,
+           grf: Any = None) -> tuple[Any, Any, Any, Any]:
+    """(reward, tracking, alive, effort) per step (:func:`tracking_term`, :func:`step_reward`, minus
+    :func:`shaping_penalty` of the contact forces ``grf`` (..., 4) in N when its weights are set);
+    see :class:`envs.config.WalkerConfig` for the formula.
 
     ``speed`` and ``target_speed`` in m/s (...,), ``action`` (..., 6) in [−1, 1], ``terminated``
     boolean (...,). ``tracking`` ∈ (0, 1] and ``effort`` = Σ a² are the unweighted terms; ``alive`` is
@@ -155,6 +201,13 @@ def reward(speed: Any, target_speed: Any, action: Any, terminated: Any, cfg: Wal
     tracking = tracking_term(speed, target_speed, cfg.tracking_width)
     effort = (action * action).sum(-1)
     total, alive = step_reward(tracking, effort, terminated, cfg.tracking_weight, cfg.alive_bonus, cfg.effort_weight)
+    if cfg.slip_weight or cfg.impact_weight:
+        if grf is None:
+            raise ValueError("reward: the shaping penalty (slip_weight, impact_weight) needs the contact forces grf")
+        contact = cfg.contact_parameters
+        total = total - shaping_penalty(grf[..., 0], grf[..., 1], grf[..., 2], grf[..., 3],
+                                        cfg.body_parameters.body_weight, contact.friction, contact.slip_velocity,
+                                        cfg.slip_weight, cfg.impact_weight, cfg.impact_threshold)
     return total, tracking, alive, effort
 
 
@@ -282,8 +335,10 @@ __all__ = [
     "check_int",
     "check_physics",
     "check_target_speed",
+    "atanh",
     "exp",
     "fell",
+    "foot_slip",
     "make_body",
     "passive_parameters",
     "passive_torque",
@@ -291,6 +346,7 @@ __all__ = [
     "max_torques",
     "observation",
     "reward",
+    "shaping_penalty",
     "standing_height",
     "step_reward",
     "target_speed_range",

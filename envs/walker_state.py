@@ -116,6 +116,10 @@ class WalkerState:
             config.tracking_weight, config.tracking_width, config.alive_bonus, config.effort_weight)
         self.fpar[[k.P_MIN_HEIGHT_FRACTION, k.P_MAX_TILT]] = config.min_height_fraction, config.max_tilt
         self.fpar[[k.P_CONTACT_THRESHOLD, k.P_BODY_WEIGHT]] = CONTACT_THRESHOLD_BW, self.body_weight
+        contact = config.contact_parameters
+        self.fpar[[k.P_FRICTION, k.P_SLIP_VELOCITY]] = contact.friction, contact.slip_velocity
+        self.fpar[[k.P_SLIP_WEIGHT, k.P_IMPACT_WEIGHT, k.P_IMPACT_THRESHOLD]] = (
+            config.slip_weight, config.impact_weight, config.impact_threshold)
         self.ipar = np.array([config.substeps, METHODS.index(config.method), config.max_episode_steps], dtype=np.int64)
 
         self.q = np.zeros((n, N_Q))

@@ -117,3 +117,11 @@ def test_train_through_the_native_vector_env_equals_dummy_vec_env(tmp_path: Path
         assert len(episodes("native", i)) > 3
         # Monitor rounds returns to 6 decimals, VecMonitor sums in float32
         np.testing.assert_allclose(episodes("native", i), episodes("dummy", i), rtol=1e-6)
+
+
+def test_shaped_ppo_config_loads() -> None:
+    from agents.config import load_config
+
+    config = load_config(Path(__file__).resolve().parents[1] / "configs" / "agents" / "ppo_shaped.yaml")
+    assert config.env.vec_env == "native" and config.env.threads == 1
+    assert config.env.kwargs["slip_weight"] > 0 and config.env.kwargs["impact_weight"] > 0

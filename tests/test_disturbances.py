@@ -192,3 +192,38 @@ def test_disturbances_load_from_an_agent_style_mapping() -> None:
     assert config.disturbances.noise_std()[1] == 0.01
     with pytest.raises(ValueError, match="env.kwargs.*obs_delay"):
         WalkerConfig.from_mapping({"disturbances": {"obs_delay": -1}}, prefix="env.kwargs")
+
+
+def test_gait_shaping_penalty_slip_and_impact() -> None:
+    """The optional reward terms: the slip the friction law implies, the impact excess over the
+    threshold, in both NumPy environments and the torch one."""
+    import torch
+
+    from envs import task
+    from envs.batched import BatchedSagittalWalker
+
+    bw, mu, v_s = 700.0, 0.8, 0.2
+    fy = 0.5 * bw
+    fx = -mu * np.tanh(0.1 / v_s) * fy  # the right foot slides at 0.1 m/s
+    assert task.foot_slip(fx, fy, mu, v_s, 0.1 * bw) == pytest.approx(0.1)
+    assert task.foot_slip(fx, 0.05 * bw, mu, v_s, 0.1 * bw) == 0.0  # unloaded
+    penalty = task.shaping_penalty(fx, fy, 0.0, 2.5 * bw, bw, mu, v_s, 2.0, 0.3, 1.5)
+    assert penalty == pytest.approx(2.0 * 0.1 + 0.3 * 1.0**2)
+    weights = {"slip_weight": 2.0, "impact_weight": 0.3, "impact_threshold": 0.4}
+    shaped, plain = SagittalWalkerEnv(**weights), SagittalWalkerEnv()
+    shaped.reset(seed=0)
+    plain.reset(seed=0)
+    action = np.full(6, 0.3)
+    _, r_shaped, *_, info = shaped.step(action)
+    _, r_plain, *_ = plain.step(action)
+    c = shaped.contact
+    expected = task.shaping_penalty(*info["grf"], shaped.body.body_weight, c.friction, c.slip_velocity, 2.0, 0.3, 0.4)
+    assert expected > 0.01 and r_plain - r_shaped == pytest.approx(expected, rel=1e-9)
+    batched = BatchedSagittalWalker(1, dtype=torch.float64, seed=0, auto_reset=False, **weights)
+    batched.reset()
+    q, u = shaped.state
+    shaped.reset(seed=0)
+    batched.set_state(torch.tensor(shaped.state[0])[None], torch.tensor(shaped.state[1])[None],
+                      target_speed=shaped.target_speed)
+    _, r_torch, *_ = batched.step(torch.tensor(action)[None])
+    assert r_torch.item() == pytest.approx(r_shaped, rel=1e-6)
