@@ -203,7 +203,7 @@ class WalkerEvalCallback(BaseCallback):
             f"[eval] {self.num_timesteps:>10d} steps  {wall:7.0f} s  return {summary['mean_return']:7.1f}  "
             f"distance {summary['mean_distance_m']:5.2f} m (min {summary['min_distance_m']:5.2f})  "
             f"speed {summary['mean_speed_m_s']:4.2f} m/s  falls {summary['falls']}/{summary['episodes']}  "
-            f"asym. step time {_fmt(summary['mean_step_time_asymmetry'])} %  slide/step "
+            f"asym. step time {_fmt(summary['mean_step_time_asymmetry'])} % contact {_fmt(summary['mean_contact_asymmetry'])} %  slide/step "
             f"{_fmt(summary['mean_foot_slide_per_step_cm'])} cm  impact {_fmt(summary['mean_peak_impact_bw'])} BW",
             flush=True,
         )

@@ -14,6 +14,9 @@ Definitions (each over the events at or after ``settle_s``; NaN where there are 
   (m): forward distance from the other foot's heel to X's heel at X's heel strike.
 * **stance %** of foot X: contact duration from a heel strike to its toe-off, in % of that
   stride (heel strike to X's next heel strike; strides of 0.3–3 s, :func:`sspinn.gait_events.strides`).
+  Undefined for a foot that never leaves the ground (no strides): the **contact share** — the
+  share of the time from ``settle_s`` to the end in contact, % — is defined for every gait and
+  shows such a dragging foot (100 %).
 * **asymmetry** of a quantity with right/left means R and L: the symmetry index
   SI = 100 · |R − L| / ((R + L) / 2) in % (Robinson, Herzog & Nigg 1987, *J Manipulative Physiol
   Ther* 10:172–176); 0 for a symmetric gait.
@@ -107,11 +110,14 @@ class GaitMetrics:
     in ``_r``/``_l``; NaN where undefined (too few events, no reference).
 
     Attributes:
-        steps_r, steps_l: steps counted per foot.
+        steps_r, steps_l: steps counted per foot (alternating heel strikes).
+        heel_strikes_r, heel_strikes_l: heel strikes per foot.
         step_time_r, step_time_l: mean step time, s.
         step_length_r, step_length_l: mean step length, m.
         stance_percent_r, stance_percent_l: mean stance phase, % of the stride.
-        step_time_asymmetry, step_length_asymmetry, stance_asymmetry: symmetry indices, %.
+        contact_share_r, contact_share_l: share of the analysed time in contact, %.
+        step_time_asymmetry, step_length_asymmetry, stance_asymmetry, contact_asymmetry: symmetry
+            indices, %.
         foot_slide_per_step_cm: mean sliding of the contact point per contact phase, cm.
         foot_slide_m: total sliding over all contact phases, both feet, m.
         peak_impact_bw: mean impact peak (vertical GRF within 0.1 s after heel strike), BW.
@@ -123,15 +129,20 @@ class GaitMetrics:
 
     steps_r: int
     steps_l: int
+    heel_strikes_r: int
+    heel_strikes_l: int
     step_time_r: float
     step_time_l: float
     step_length_r: float
     step_length_l: float
     stance_percent_r: float
     stance_percent_l: float
+    contact_share_r: float
+    contact_share_l: float
     step_time_asymmetry: float
     step_length_asymmetry: float
     stance_asymmetry: float
+    contact_asymmetry: float
     foot_slide_per_step_cm: float
     foot_slide_m: float
     peak_impact_bw: float
@@ -145,7 +156,7 @@ class GaitMetrics:
     @classmethod
     def undefined(cls) -> GaitMetrics:
         """The metrics of a trajectory too short for any: no steps, NaN everywhere else."""
-        values = {f.name: (0 if f.name in ("steps_r", "steps_l") else float("nan")) for f in fields(cls)}
+        values = {f.name: (0 if f.type in (int, "int") else float("nan")) for f in fields(cls)}
         return cls(**values)
 
     def as_dict(self) -> dict[str, Any]:
@@ -207,6 +218,7 @@ def gait_metrics(
 
     # stance %, foot sliding, impact peaks per foot
     stance: list[list[float]] = [[], []]
+    contact_share = [float(100.0 * np.mean(ev.contact[first:])) if first < len(t) else float("nan") for ev in events]
     slide_steps: list[float] = []
     impacts: list[float] = []
     slide_total = 0.0
@@ -246,15 +258,20 @@ def gait_metrics(
     return GaitMetrics(
         steps_r=len(step_time[0]),
         steps_l=len(step_time[1]),
+        heel_strikes_r=int(np.sum(events[0].heel_strikes >= first)),
+        heel_strikes_l=int(np.sum(events[1].heel_strikes >= first)),
         step_time_r=means["time"][0],
         step_time_l=means["time"][1],
         step_length_r=means["length"][0],
         step_length_l=means["length"][1],
         stance_percent_r=means["stance"][0],
         stance_percent_l=means["stance"][1],
+        contact_share_r=contact_share[0],
+        contact_share_l=contact_share[1],
         step_time_asymmetry=symmetry_index(*means["time"]),
         step_length_asymmetry=symmetry_index(*means["length"]),
         stance_asymmetry=symmetry_index(*means["stance"]),
+        contact_asymmetry=symmetry_index(*contact_share),
         foot_slide_per_step_cm=100.0 * _mean(slide_steps),
         foot_slide_m=slide_total,
         peak_impact_bw=_mean(impacts),

@@ -68,6 +68,7 @@ def test_shifted_cycle_gives_the_known_asymmetry() -> None:
     assert m.step_time_l == pytest.approx(0.66) and m.step_time_r == pytest.approx(0.44)
     assert m.step_time_asymmetry == pytest.approx(40.0)
     assert m.stance_percent_l == pytest.approx(70.0) and m.stance_asymmetry == pytest.approx(100 * 10 / 65)
+    assert m.contact_share_l == pytest.approx(70.0, abs=0.5) and m.contact_asymmetry == pytest.approx(100 * 10 / 65, rel=0.03)
     assert m.step_length_asymmetry == pytest.approx(0.0, abs=1e-6)  # cos(0.8π) = cos(1.2π): same hip angles
     # a left leg held 0.1 rad further back: right steps (left at −0.4 rad) are longer than left ones
     m = gait_metrics(_gait(left_hip_offset=-0.1), BODY)
@@ -88,6 +89,18 @@ def test_foot_sliding_impact_peak_and_cost_of_transport() -> None:
     assert m.cost_of_transport == pytest.approx(10.0 * 6 * 4 * 0.3 / (BW * distance))  # hip_r: 1.2 rad of travel per stride
     standing = _gait(speed=0.0)
     assert math.isnan(gait_metrics(standing, BODY).cost_of_transport)
+
+
+def test_a_dragging_foot_shows_in_the_contact_share() -> None:
+    """The left foot never leaves the ground: no left heel strikes or steps, stance % undefined,
+    contact share 100 % against the right foot's 60 %."""
+    walk = _gait()
+    walk.grf[:, 3] = BW
+    m = gait_metrics(walk, BODY)
+    assert m.heel_strikes_l == 0 and m.heel_strikes_r >= 5 and m.steps_l == 0
+    assert math.isnan(m.step_time_asymmetry) and math.isnan(m.stance_asymmetry)
+    assert m.contact_share_l == 100.0 and m.contact_share_r == pytest.approx(60.0, abs=0.5)
+    assert m.contact_asymmetry == pytest.approx(100 * 40 / 80, rel=0.02)
 
 
 def test_settle_time_ignores_the_first_events() -> None:
@@ -141,3 +154,8 @@ def test_contact_point_velocity_is_the_slip_of_the_friction_law() -> None:
         np.testing.assert_allclose(points[ok, row, 2], slip, atol=1e-6)
         checked += int(ok.sum())
     assert checked > 30
+
+
+def test_too_short_a_trajectory_gives_undefined_metrics() -> None:
+    m = gait_metrics(_gait()[:2], BODY)
+    assert m.steps_r == 0 and m.heel_strikes_l == 0 and math.isnan(m.peak_impact_bw) and m.as_dict()["foot_slide_m"] is None
