@@ -14,6 +14,7 @@ from gymnasium.vector.utils import batch_space
 from envs import task
 from envs.config import CONTROL_DT, WalkerConfig, WalkerParameters
 from sspinn.conventions import N_Q, N_TAU
+from sspinn.gait_events import CONTACT_THRESHOLD_BW
 from sspinn.simulation import step_torch
 
 
@@ -128,6 +129,7 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         self._x0 = torch.zeros(n, dtype=dtype, device=self.device)
         self._work = torch.zeros(n, dtype=dtype, device=self.device)
         self._steps = torch.zeros(n, dtype=torch.int64, device=self.device)
+        self._phase = torch.zeros(n, 2, dtype=dtype, device=self.device)  # feet's phase durations, s
 
     # ------------------------------------------------------------------------------------------
     def _uniform(self, shape: tuple[int, ...], low: float, high: float) -> torch.Tensor:
@@ -170,6 +172,7 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         self._x0 = self.q[:, 0].clone()
         self._work = torch.zeros_like(self._x0)
         self._steps = torch.zeros(self.num_envs, dtype=torch.int64, device=self.device)
+        self._phase = torch.zeros(self.num_envs, 2, dtype=self.dtype, device=self.device)
         return self.observe(), {"target_speed": self.target_speed.clone(), "x_position": self._x0.clone()}
 
     def set_state(self, q: torch.Tensor, u: torch.Tensor, target_speed: torch.Tensor | float | None = None) -> None:
@@ -241,7 +244,10 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         self._work = self._work + (tau * (q[:, 3:] - q0[:, 3:])).abs().sum(-1).detach()
         self._steps = self._steps + 1
         terminated = task.unhealthy(q, self.standing_height, self._config) | ~finite
-        total, tracking, alive, effort = task.reward(speed, self.target_speed, a, terminated, self._config, grf)
+        loaded = grf[:, 1::2].detach() > CONTACT_THRESHOLD_BW * self._body_weight
+        self._phase = task.next_phase(self._phase, loaded, CONTROL_DT)
+        total, tracking, alive, effort = task.reward(speed, self.target_speed, a, terminated, self._config, grf,
+                                                     self._phase)
         truncated = (self._steps >= self._config.max_episode_steps) & ~terminated
         obs = self.observe()
         distance = (q[:, 0] - self._x0).detach()
@@ -278,6 +284,7 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         self._x0 = torch.where(done, self.q[:, 0], self._x0)
         self._work = torch.where(done, torch.zeros_like(self._work), self._work)
         self._steps = torch.where(done, torch.zeros_like(self._steps), self._steps)
+        self._phase = torch.where(rows, torch.zeros_like(self._phase), self._phase)
         return self.observe()
 
     def close_extras(self, **kwargs: Any) -> None:

@@ -45,9 +45,11 @@ from sspinn.simulation import advance_forced, contact_into
 # ---------------------------------------------------------------------------------- array layouts
 #: ``fenv`` columns: target speed (m/s), hip x at reset (m), joint work so far (J), standing hip
 #: height of the simulated body (m), its body weight (N), push force (N, + forward), horizontal
-#: contact force of the right and left foot at the previous control step (N).
-F_TARGET, F_X0, F_WORK, F_STANDING, F_BODY_WEIGHT, F_PUSH_FORCE, F_FX_PREV_R, F_FX_PREV_L = range(8)
-N_FENV: Final[int] = 8
+#: contact force of the right and left foot at the previous control step (N), current phase
+#: duration of the right and left foot (s; + in contact, − in the air, :func:`envs.task.next_phase`).
+(F_TARGET, F_X0, F_WORK, F_STANDING, F_BODY_WEIGHT, F_PUSH_FORCE, F_FX_PREV_R, F_FX_PREV_L, F_PHASE_R,
+ F_PHASE_L) = range(10)
+N_FENV: Final[int] = 10
 #: ``ienv`` columns: control steps since reset; ended flags of the episode (1 terminated, 2
 #: truncated); push mode (:data:`PUSH_NONE`, ...); push start step (time mode) or earliest step
 #: (phase modes); push intervals left; push running (0/1); observation delay (steps); noise key.
@@ -58,11 +60,12 @@ PUSH_NONE, PUSH_AT_TIME, PUSH_MIDSTANCE_R, PUSH_MIDSTANCE_L = range(4)
 #: ``fpar`` columns: control interval (s), physics substep (s), tracking weight, tracking width
 #: (m/s), alive bonus, effort weight, min height fraction, max tilt (rad), contact threshold (BW),
 #: nominal body weight (N, the unit of the observed contact forces), friction μ, slip velocity
-#: (m/s), slip weight, impact weight, impact threshold (BW) of the shaping penalty.
+#: (m/s), slip weight, impact weight, impact threshold (BW) of the shaping penalty, phase weight and
+#: longest phase (s) of the phase penalty.
 (P_CONTROL_DT, P_PHYSICS_DT, P_TRACKING_WEIGHT, P_TRACKING_WIDTH, P_ALIVE_BONUS, P_EFFORT_WEIGHT,
  P_MIN_HEIGHT_FRACTION, P_MAX_TILT, P_CONTACT_THRESHOLD, P_BODY_WEIGHT, P_FRICTION, P_SLIP_VELOCITY,
- P_SLIP_WEIGHT, P_IMPACT_WEIGHT, P_IMPACT_THRESHOLD) = range(15)
-N_FPAR: Final[int] = 15
+ P_SLIP_WEIGHT, P_IMPACT_WEIGHT, P_IMPACT_THRESHOLD, P_PHASE_WEIGHT, P_MAX_PHASE) = range(17)
+N_FPAR: Final[int] = 17
 #: ``ipar`` columns: substeps, integrator index (:data:`sspinn.simulation.METHODS`), episode length.
 Q_SUBSTEPS, Q_METHOD, Q_MAX_STEPS = range(3)
 N_IPAR: Final[int] = 3
@@ -89,6 +92,8 @@ _step_reward = numba.njit(cache=True)(task.step_reward)
 _fell = numba.njit(cache=True)(task.fell)
 _foot_slip = numba.njit(cache=True)(task.foot_slip)
 _shaping_penalty = numba.njit(cache=True)(task.shaping_penalty)
+_next_phase = numba.njit(cache=True)(task.next_phase)
+_phase_penalty = numba.njit(cache=True)(task.phase_penalty)
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -160,6 +165,8 @@ def _reset_walker(i, q, u, grf, p, c, fenv, ienv, noise_std, history, fpar, obs)
     ienv[i, I_STEPS] = 0
     ienv[i, I_ENDED] = 0
     ienv[i, I_PUSH_ON] = 0
+    fenv[i, F_PHASE_R] = 0.0
+    fenv[i, F_PHASE_L] = 0.0
     _record(i, q, u, grf, fenv, ienv, history, fpar)
     for k in range(1, HISTORY):  # the first observation until a delay's worth of steps has passed
         history[i, k, :] = history[i, 0, :]
@@ -232,6 +239,11 @@ def _step_walker(i, actions, q, u, grf, tau, p, fenv, ienv, strength, noise_std,
         total -= _shaping_penalty(grf[i, 0], grf[i, 1], grf[i, 2], grf[i, 3], fpar[P_BODY_WEIGHT], fpar[P_FRICTION],
                                   fpar[P_SLIP_VELOCITY], fpar[P_SLIP_WEIGHT], fpar[P_IMPACT_WEIGHT],
                                   fpar[P_IMPACT_THRESHOLD])
+    threshold = fpar[P_CONTACT_THRESHOLD] * fenv[i, F_BODY_WEIGHT]
+    fenv[i, F_PHASE_R] = _next_phase(fenv[i, F_PHASE_R], grf[i, 1] > threshold, fpar[P_CONTROL_DT])
+    fenv[i, F_PHASE_L] = _next_phase(fenv[i, F_PHASE_L], grf[i, 3] > threshold, fpar[P_CONTROL_DT])
+    if fpar[P_PHASE_WEIGHT] != 0.0:
+        total -= _phase_penalty(fenv[i, F_PHASE_R], fenv[i, F_PHASE_L], fpar[P_MAX_PHASE], fpar[P_PHASE_WEIGHT])
     truncated = ienv[i, I_STEPS] >= ipar[Q_MAX_STEPS] and not terminated
     ended = ienv[i, I_ENDED]
     if ended != 0:  # stepped after the end: the flags stay as they were, no reward

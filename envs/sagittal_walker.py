@@ -92,7 +92,8 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     three unweighted terms. Optional gait shaping (off by default, :class:`envs.config.WalkerConfig`):
     ``− slip_weight · Σ_feet v_slip − impact_weight · Σ_feet max(F_y/BW − impact_threshold, 0)²``
     from the contact forces at the end of the step (v_slip: the sliding speed of a loaded foot that
-    the friction law implies, m/s; F_y in BW).
+    the friction law implies, m/s; F_y in BW), and ``− phase_weight`` for each foot whose current
+    contact or air phase has lasted longer than ``max_phase_duration`` s (hopping, dragging).
 
     ## Starting state
 
@@ -238,6 +239,8 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     slip_weight            0.0                          weight of the loaded feet's sliding speed, per m/s
     impact_weight          0.0                          weight of max(F_y/BW − impact_threshold, 0)² per foot
     impact_threshold       1.5                          BW
+    phase_weight           0.0                          per foot in a contact/air phase > max_phase_duration
+    max_phase_duration     1.0                          s
     min_height_fraction    0.6                          fall threshold, fraction of standing hip height
     max_tilt               1.0                          |pelvis tilt| limit, rad
     joint_range            None                         passive soft-limit ranges {"hip": (lo, hi), ...},

@@ -181,6 +181,21 @@ def shaping_penalty(grf_x_r: Any, grf_y_r: Any, grf_x_l: Any, grf_y_l: Any, body
     return slip_weight * slip + impact_weight * (over_r * over_r + over_l * over_l)
 
 
+@register_jitable
+def next_phase(phase: Any, loaded: Any, dt: float) -> Any:
+    """A foot's current phase duration after a control step of ``dt`` s: positive while it is in
+    contact (``loaded``: vertical force above the contact threshold), negative in the air; the count
+    restarts at ±dt when the foot lands or lifts off. Arithmetic only (compiled or elementwise)."""
+    on = loaded * 1.0
+    return on * (_positive_part(phase) + dt) - (1.0 - on) * (_positive_part(-phase) + dt)
+
+
+def phase_penalty(phase_r: Any, phase_l: Any, max_phase: float, weight: float) -> Any:
+    """``weight`` per foot whose current contact or air phase has lasted longer than ``max_phase``
+    s (a foot that never lands — hopping — or never lifts off — dragging)."""
+    return weight * ((abs(phase_r) > max_phase) * 1.0 + (abs(phase_l) > max_phase) * 1.0)
+
+
 def unhealthy(q: Any, standing_height: Any, cfg: WalkerConfig) -> Any:
     """:func:`fell` of states q (..., 9): hip below ``cfg.min_height_fraction`` of the standing hip
     height (m) or |pelvis_tilt| > ``cfg.max_tilt`` (rad); NaN coordinates count as unhealthy too (the
@@ -189,10 +204,11 @@ def unhealthy(q: Any, standing_height: Any, cfg: WalkerConfig) -> Any:
 
 
 def reward(speed: Any, target_speed: Any, action: Any, terminated: Any, cfg: WalkerConfig,
-           grf: Any = None) -> tuple[Any, Any, Any, Any]:
+           grf: Any = None, phase: Any = None) -> tuple[Any, Any, Any, Any]:
     """(reward, tracking, alive, effort) per step (:func:`tracking_term`, :func:`step_reward`, minus
-    :func:`shaping_penalty` of the contact forces ``grf`` (..., 4) in N when its weights are set);
-    see :class:`envs.config.WalkerConfig` for the formula.
+    :func:`shaping_penalty` of the contact forces ``grf`` (..., 4) in N and :func:`phase_penalty` of
+    the feet's phase durations ``phase`` (..., 2) in s when their weights are set); see
+    :class:`envs.config.WalkerConfig` for the formula.
 
     ``speed`` and ``target_speed`` in m/s (...,), ``action`` (..., 6) in [−1, 1], ``terminated``
     boolean (...,). ``tracking`` ∈ (0, 1] and ``effort`` = Σ a² are the unweighted terms; ``alive`` is
@@ -208,6 +224,10 @@ def reward(speed: Any, target_speed: Any, action: Any, terminated: Any, cfg: Wal
         total = total - shaping_penalty(grf[..., 0], grf[..., 1], grf[..., 2], grf[..., 3],
                                         cfg.body_parameters.body_weight, contact.friction, contact.slip_velocity,
                                         cfg.slip_weight, cfg.impact_weight, cfg.impact_threshold)
+    if cfg.phase_weight:
+        if phase is None:
+            raise ValueError("reward: the phase penalty (phase_weight) needs the feet's phase durations")
+        total = total - phase_penalty(phase[..., 0], phase[..., 1], cfg.max_phase_duration, cfg.phase_weight)
     return total, tracking, alive, effort
 
 
@@ -339,6 +359,8 @@ __all__ = [
     "exp",
     "fell",
     "foot_slip",
+    "next_phase",
+    "phase_penalty",
     "make_body",
     "passive_parameters",
     "passive_torque",

@@ -120,6 +120,7 @@ class WalkerState:
         self.fpar[[k.P_FRICTION, k.P_SLIP_VELOCITY]] = contact.friction, contact.slip_velocity
         self.fpar[[k.P_SLIP_WEIGHT, k.P_IMPACT_WEIGHT, k.P_IMPACT_THRESHOLD]] = (
             config.slip_weight, config.impact_weight, config.impact_threshold)
+        self.fpar[[k.P_PHASE_WEIGHT, k.P_MAX_PHASE]] = config.phase_weight, config.max_phase_duration
         self.ipar = np.array([config.substeps, METHODS.index(config.method), config.max_episode_steps], dtype=np.int64)
 
         self.q = np.zeros((n, N_Q))

@@ -227,3 +227,30 @@ def test_gait_shaping_penalty_slip_and_impact() -> None:
                       target_speed=shaped.target_speed)
     _, r_torch, *_ = batched.step(torch.tensor(action)[None])
     assert r_torch.item() == pytest.approx(r_shaped, rel=1e-6)
+
+
+def test_phase_penalty_for_feet_that_neither_land_nor_lift_off() -> None:
+    import torch
+
+    from envs import task
+    from envs.batched import BatchedSagittalWalker
+
+    phase = 0.0
+    for loaded in (True, True, False, False, False, True):
+        phase = task.next_phase(phase, loaded, 0.01)
+    assert phase == pytest.approx(0.01)  # landed again: a new contact phase
+    assert task.next_phase(-0.03, False, 0.01) == pytest.approx(-0.04)
+    weights = {"phase_weight": 0.5, "max_phase_duration": 0.045}
+    penalised, plain = SagittalWalkerEnv(**weights, **NO_FALL), SagittalWalkerEnv(**NO_FALL)
+    batched = BatchedSagittalWalker(1, dtype=torch.float64, auto_reset=False, **weights, **NO_FALL)
+    differences = []
+    for env in (penalised, plain):
+        env.reset(seed=0, options={"reset_noise_scale": 0.0})
+    batched.reset()
+    batched.set_state(torch.tensor(penalised.state[0])[None], torch.tensor(penalised.state[1])[None],
+                      target_speed=penalised.target_speed)
+    for _ in range(8):  # standing: both feet stay in contact
+        r_pen = penalised.step(ZERO)[1]
+        differences.append(plain.step(ZERO)[1] - r_pen)
+        assert batched.step(torch.zeros(1, 6, dtype=torch.float64))[1].item() == pytest.approx(r_pen, rel=1e-6)
+    np.testing.assert_allclose(differences, [0.0] * 4 + [1.0] * 4, atol=1e-12)  # 2 feet × 0.5 from 0.05 s on

@@ -75,7 +75,8 @@ def test_disturbed_trajectories_match_and_parallel_equals_serial() -> None:
     """Noise, delay, a timed push, strength and body changes, gait shaping: the same numbers in both
     environments, and prange over walkers gives the serial result bit for bit."""
     kwargs = {
-        **_KWARGS, "slip_weight": 1.0, "impact_weight": 0.2, "impact_threshold": 1.0,
+        **_KWARGS, "slip_weight": 1.0, "impact_weight": 0.2, "impact_threshold": 1.0, "phase_weight": 0.3,
+        "max_phase_duration": 0.1,
         "disturbances": {
             "obs_noise": {"angle": 0.01, "grf": 0.05}, "obs_delay": 2, "push_force": 10.0, "push_time": 0.05,
             "push_duration": 0.05, "strength_change": -20.0, "mass_change": {"pelvis": 10.0}, "length_change": 3.0,
