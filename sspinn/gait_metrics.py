@@ -25,9 +25,11 @@ Definitions (each over the events at or after ``settle_s``; NaN where there are 
   (cm) and the total over all contact phases (m).
 * **impact peak**: the largest vertical GRF of a foot within 0.1 s after its heel strike (BW), the
   mean over heel strikes; and the largest vertical GRF of the whole trajectory (BW).
-* **angle RMSD** to a reference cycle (Winter's normal walking, :func:`load_winter`): the mean
-  right-leg cycle from right heel strikes, time-normalised (:func:`sspinn.gait_events.normalise_cycles`),
-  against the reference's hip, knee and ankle angles, degrees.
+* **angle RMSD** to a reference cycle (Winter's normal walking, right leg, :func:`load_winter`):
+  each leg's mean cycle from its own heel strikes, time-normalised
+  (:func:`sspinn.gait_events.normalise_cycles`), against the reference's hip, knee and ankle
+  angles (degrees), averaged over the legs that have strides (a normal gait is left/right
+  symmetric up to half a cycle, so both legs compare with the same reference).
 * **cost of transport** (mechanical, dimensionless): Σ_k Σ_j |τ_j[k] · (θ_j[k+1] − θ_j[k])| /
   (m·g·(x_end − x_start)), with ``tau[k]`` the torque held from ``time[k]`` to ``time[k+1]`` (the
   environment's convention; the environment reports the same quantity in ``info``), over the
@@ -124,7 +126,7 @@ class GaitMetrics:
         max_vertical_grf_bw: largest vertical GRF of either foot, BW.
         cost_of_transport: mechanical cost of transport (dimensionless).
         cadence_steps_per_min: 60 / mean step time.
-        rmsd_hip_deg, rmsd_knee_deg, rmsd_ankle_deg: right-leg angle RMSD to the reference, deg.
+        rmsd_hip_deg, rmsd_knee_deg, rmsd_ankle_deg: angle RMSD to the reference, deg (mean over legs).
     """
 
     steps_r: int
@@ -238,14 +240,17 @@ def gait_metrics(
             if len(offs):
                 slide_steps.append(float(np.sum(vx[h : offs[0]]) * dt))
 
-    # angle RMSD of the mean right cycle
-    rmsd = {"hip": float("nan"), "knee": float("nan"), "ankle": float("nan")}
-    right_strides = strides(events[0].heel_strikes[events[0].heel_strikes >= first], rate)
-    if reference is not None and right_strides:
-        for name, column in (("hip", 3), ("knee", 4), ("ankle", 5)):
-            cycle = normalise_cycles(trajectory.q[:, column], right_strides).mean(axis=0)
+    # angle RMSD of each leg's mean cycle, averaged over the legs with strides
+    per_leg: dict[str, list[float]] = {"hip": [], "knee": [], "ankle": []}
+    for f in range(2):
+        leg_strides = strides(events[f].heel_strikes[events[f].heel_strikes >= first], rate)
+        if reference is None or not leg_strides:
+            continue
+        for j, name in enumerate(("hip", "knee", "ankle")):
+            cycle = normalise_cycles(trajectory.q[:, 3 + 3 * f + j], leg_strides).mean(axis=0)
             sim = np.interp(reference.percent, np.linspace(0.0, 100.0, len(cycle)), cycle)
-            rmsd[name] = float(np.degrees(np.sqrt(np.mean((sim - getattr(reference, name)) ** 2))))
+            per_leg[name].append(float(np.degrees(np.sqrt(np.mean((sim - getattr(reference, name)) ** 2)))))
+    rmsd = {name: _mean(values) for name, values in per_leg.items()}
 
     # cost of transport over the whole trajectory
     angles = trajectory.q[:, 3:]

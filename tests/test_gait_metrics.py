@@ -101,6 +101,11 @@ def test_a_dragging_foot_shows_in_the_contact_share() -> None:
     assert math.isnan(m.step_time_asymmetry) and math.isnan(m.stance_asymmetry)
     assert m.contact_share_l == 100.0 and m.contact_share_r == pytest.approx(60.0, abs=0.5)
     assert m.contact_asymmetry == pytest.approx(100 * 40 / 80, rel=0.02)
+    percent = np.arange(50) * 2.0
+    knee = np.full(50, np.radians(5.0))
+    reference = ReferenceGait(percent=percent, hip=0.3 * np.cos(2 * np.pi * percent / 100), knee=knee, ankle=knee * 0,
+                              grf_x=knee * 0, grf_y=knee * 0, speed=1.2, duration=T)
+    assert gait_metrics(walk, BODY, reference=reference).rmsd_knee_deg == pytest.approx(5.0)  # the right leg alone
 
 
 def test_settle_time_ignores_the_first_events() -> None:
