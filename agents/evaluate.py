@@ -9,7 +9,7 @@ angles, torques and ground reaction forces, and an animation rendered by the env
 * ``metrics.json``: per episode (seed, distance in m over the episode — 10 s unless it fell —,
   mean speed and speed error in m/s, mechanical cost of transport, fell yes/no, return, and the
   gait metrics of :func:`sspinn.gait_metrics.gait_metrics`: step time / step length / stance
-  asymmetry in %, foot sliding per step in cm, impact peak in BW, cadence, right-leg angle RMSD to
+  asymmetry in %, foot sliding per step in cm, impact peak in BW, cadence, hip/knee/ankle angle RMSD (mean over legs) to
   Winter's walking in degrees when its data is found and the target is below 2 m/s) and their
   summary (:func:`agents.rollout.summarize`), plus the checkpoint, algorithm and environment arguments;
 * ``traces.png``: time series of the first episode (:func:`plot_traces`);

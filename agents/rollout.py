@@ -13,7 +13,7 @@ evaluate``/``record`` (:mod:`agents.evaluate`), so both report the same numbers:
 * the gait quality of :func:`sspinn.gait_metrics.gait_metrics` (``gait``), computed from the
   episode's 100 Hz samples after the first :data:`GAIT_SETTLE_S` s (gait initiation from standing):
   left/right asymmetry of step time, step length and stance % (symmetry index, %), foot sliding
-  per step (cm; ``foot_slide_m`` the total), impact peak (BW), right-leg angle RMSD to Winter's
+  per step (cm; ``foot_slide_m`` the total), impact peak (BW), hip/knee/ankle angle RMSD to Winter's
   normal walking (deg, mean over the legs with strides, when a reference is given:
   :func:`sspinn.gait_metrics.winter_or_none`),
   cadence (steps/min; human walking at 1.3 m/s: about 110) and the mechanical cost of transport.
