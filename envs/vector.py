@@ -139,7 +139,8 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
 
     @property
     def np_random_seed(self) -> tuple[int | None, ...]:
-        """The seeds of the sub-environments' generators (-1 where made from entropy)."""
+        """The seeds of the sub-environments' generators (None before the first reset; the drawn entropy
+        where reset without a seed)."""
         return tuple(self._rng_seeds)
 
     def _generator(self, i: int) -> np.random.Generator:
