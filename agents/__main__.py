@@ -54,6 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
                            help=f"episodes (seeds seed, seed+1, ...), 1–{MAX_EPISODES}")
             p.add_argument("--out", required=True, help="output folder (metrics.json, traces.png, episode.gif)")
             p.add_argument("--no-video", action="store_true", help="skip the animation")
+            p.add_argument("--data-dir", help="shared data folder with winter_walking (default ../shared/data)")
         else:
             p.add_argument("--out", required=True, help="output file, .gif or .mp4")
         p.add_argument("--fps", type=bounded(int, 1, ENV_RATE_HZ), default=25,
@@ -89,14 +90,21 @@ def _main(argv: list[str]) -> int:
 
         report = evaluate(args.checkpoint, args.out, episodes=args.episodes, seed=args.seed,
                           target_speed=args.target_speed, max_steps=args.max_steps,
-                          video=not args.no_video, fps=args.fps)
+                          video=not args.no_video, fps=args.fps, data_dir=args.data_dir)
         s = report["summary"]
-        cot = s["mean_cost_of_transport"]
+
+        def fmt(key: str, digits: int = 2) -> str:
+            return "n/a" if s[key] is None else f"{s[key]:.{digits}f}"
+
         print(f"{s['episodes']} episodes at {report['target_speed']:.2f} m/s: distance {s['mean_distance_m']:.2f} m "
               f"(min {s['min_distance_m']:.2f}), speed {s['mean_speed_m_s']:.2f} m/s "
-              f"(|error| {s['mean_abs_speed_error_m_s']:.3f}), CoT {'n/a' if cot is None else f'{cot:.2f}'}, "
-              f"falls {s['falls']}, cadence {s['mean_cadence_steps_per_min']:.0f} steps/min, "
-              f"foot slide {s['mean_foot_slide_m']:.2f} m; written to {args.out}")
+              f"(|error| {s['mean_abs_speed_error_m_s']:.3f}), CoT {fmt('mean_cost_of_transport')}, "
+              f"falls {s['falls']}, cadence {fmt('mean_cadence_steps_per_min', 0)} steps/min, "
+              f"foot slide {s['mean_foot_slide_m']:.2f} m ({fmt('mean_foot_slide_per_step_cm', 1)} cm/step), "
+              f"asymmetry step time {fmt('mean_step_time_asymmetry', 1)} % / step length "
+              f"{fmt('mean_step_length_asymmetry', 1)} % / stance {fmt('mean_stance_asymmetry', 1)} %, "
+              f"impact {fmt('mean_peak_impact_bw')} BW, RMSD to Winter hip/knee/ankle {fmt('mean_rmsd_hip_deg', 1)}/"
+              f"{fmt('mean_rmsd_knee_deg', 1)}/{fmt('mean_rmsd_ankle_deg', 1)} deg; written to {args.out}")
     else:
         from agents.evaluate import record
 

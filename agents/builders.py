@@ -17,10 +17,29 @@ import numpy as np
 
 from agents.config import ACTIVATIONS, ALGORITHMS, AgentConfig
 
+#: Evaluations at target speeds below this (m/s) compare the joint angles with Winter's walking.
+WALKING_BELOW_M_S = 2.0
+
+
+def env_kwargs(config: AgentConfig, **overrides: Any) -> dict[str, Any]:
+    """The environment's constructor arguments: ``env.kwargs`` with ``overrides`` winning."""
+    return {**config.env.kwargs, **overrides}
+
 
 def make_env(config: AgentConfig, render_mode: str | None = None, **overrides: Any) -> gymnasium.Env:
-    """One environment with the configuration's constructor arguments (``overrides`` win)."""
-    return gymnasium.make(config.env.make_id, **{**config.env.kwargs, **overrides}, render_mode=render_mode)
+    """One environment with the configuration's constructor arguments (``overrides`` win).
+
+    ``max_episode_steps`` sets both Gymnasium's ``TimeLimit`` (``gymnasium.make`` takes that
+    keyword for itself) and, for ``sspinn/SagittalWalker-v0``, the environment's own episode length,
+    so that the two agree."""
+    import envs
+    from envs.config import WalkerConfig
+
+    kwargs = env_kwargs(config, **overrides)
+    steps = kwargs.pop("max_episode_steps", None)
+    if steps is not None and config.env.id == envs.ENV_ID:
+        kwargs["config"] = WalkerConfig(max_episode_steps=steps)
+    return gymnasium.make(config.env.make_id, max_episode_steps=steps, **kwargs, render_mode=render_mode)
 
 
 def algorithm_class(config: AgentConfig) -> type:

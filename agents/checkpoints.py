@@ -9,7 +9,7 @@ Layout of a run directory ``<out>`` written by :mod:`agents.train`::
     <out>/best_model.zip, best_vecnormalize.pkl  best periodic evaluation (mean return)
     <out>/final_model.zip, final_vecnormalize.pkl  end of training
     <out>/evaluations.csv                      one row per periodic evaluation
-    <out>/monitor/<i>.monitor.csv              training episodes of environment i (SB3 Monitor)
+    <out>/monitor/<i>.monitor.csv              training episodes of environment i (SB3 Monitor / PerEnvVecMonitor)
     <out>/tb/                                  TensorBoard event files
 
 Loading runs no code from the files, for evaluation (:func:`load_agent`) as for ``train

@@ -8,7 +8,7 @@ A configuration file has five sections; every key is optional except ``algo``::
     env:                           # EnvConfig
       id: sspinn/SagittalWalker-v0
       n_envs: 8
-      vec_env: dummy               # dummy (one process) | subproc (one process per env)
+      vec_env: native              # native (one compiled step for all) | dummy | subproc
       kwargs: {target_speed: 1.3}  # SagittalWalkerEnv constructor arguments
     normalize:                     # NormalizeConfig (VecNormalize)
       obs: true
@@ -51,7 +51,7 @@ ENV_RATE_HZ = 100
 #: Algorithms supported by :mod:`agents.train` (lower-case name → SB3 class name).
 ALGORITHMS: dict[str, str] = {"ppo": "PPO", "sac": "SAC", "td3": "TD3"}
 #: Vectorised-environment kinds (see :class:`EnvConfig`).
-VEC_ENVS: tuple[str, ...] = ("dummy", "subproc")
+VEC_ENVS: tuple[str, ...] = ("native", "dummy", "subproc")
 #: Activation functions accepted in ``policy.activation`` (name → ``torch.nn`` class name).
 ACTIVATIONS: dict[str, str] = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU"}
 #: Keys of ``hyperparameters`` that :mod:`agents.train` sets itself.
@@ -68,16 +68,22 @@ class EnvConfig:
         id: Gymnasium id; ``"sspinn/SagittalWalker-v0"`` is made as ``"envs:sspinn/SagittalWalker-v0"``
             so that worker processes import :mod:`envs` (which registers it).
         n_envs: number of parallel environments (≥ 1); with PPO, ``n_steps × n_envs`` steps per update.
-        vec_env: ``"dummy"`` steps the environments one after another in the training process;
-            ``"subproc"`` runs each in its own process (pays only with spare cores and slow envs).
+        vec_env: ``"native"`` (default, ``sspinn/SagittalWalker-v0`` only): the native vector
+            environment, all walkers stepped by one compiled call (:class:`agents.vec_env.WalkerVecEnv`);
+            ``"dummy"``: SB3's ``DummyVecEnv``, single environments stepped one after another in the
+            training process; ``"subproc"``: each in its own process (pays only with spare cores and
+            slow envs). With the same seeds ``native`` and ``dummy`` give the same episodes.
+        threads: numba threads of the native vector environment (``numba.set_num_threads``); None:
+            numba's default (``NUMBA_NUM_THREADS``, else all cores).
         kwargs: constructor arguments of the environment (reward weights, target speed in m/s, ...).
         eval_target_speed: target speed (m/s) of the periodic evaluations and of ``evaluate``'s
             default; None → the ``target_speed`` in ``kwargs`` (must then be a single number).
     """
 
     id: str = "sspinn/SagittalWalker-v0"
-    n_envs: int = option(8, ge=1, le=256)
-    vec_env: str = option("dummy", choices=VEC_ENVS)
+    n_envs: int = option(8, ge=1, le=4096)
+    vec_env: str = option("native", choices=VEC_ENVS)
+    threads: int | None = option(None, ge=1)
     kwargs: dict[str, Any] = field(default_factory=dict)
     eval_target_speed: float | None = option(None, ge=0, le=12, unit="m/s")
 
@@ -234,6 +240,8 @@ def validate(config: AgentConfig, source: str = "config") -> None:
     the environment arguments, the hyperparameters and the combinations of fields."""
     c, e, p = config, config.env, config.policy
     _check(bool(e.id), source, "env.id", "a Gymnasium id", e.id)
+    _check(e.vec_env != "native" or e.id == "sspinn/SagittalWalker-v0", source, "env.vec_env",
+           "dummy or subproc for an environment other than sspinn/SagittalWalker-v0", e.vec_env)
     if e.id == "sspinn/SagittalWalker-v0":
         from envs.config import WalkerConfig
         from envs.sagittal_walker import SagittalWalkerEnv

@@ -7,7 +7,10 @@ angles, torques and ground reaction forces, and an animation rendered by the env
 ``evaluate`` writes into ``--out``:
 
 * ``metrics.json``: per episode (seed, distance in m over the episode — 10 s unless it fell —,
-  mean speed and speed error in m/s, mechanical cost of transport, fell yes/no, return) and their
+  mean speed and speed error in m/s, mechanical cost of transport, fell yes/no, return, and the
+  gait metrics of :func:`sspinn.data.gait_metrics.gait_metrics`: step time / step length / stance
+  asymmetry in %, foot sliding per step in cm, impact peak in BW, cadence, hip/knee/ankle angle RMSD (mean over legs) to
+  Winter's walking in degrees when its data is found and the target is below 2 m/s) and their
   summary (:func:`agents.rollout.summarize`), plus the checkpoint, algorithm and environment arguments;
 * ``traces.png``: time series of the first episode (:func:`plot_traces`);
 * ``episode.gif``: the first episode through the environment's ``rgb_array`` mode.
@@ -20,10 +23,11 @@ from typing import Any
 
 import numpy as np
 
-from agents.builders import make_env
+from agents.builders import WALKING_BELOW_M_S, make_env
 from agents.checkpoints import load_agent
 from agents.config import ENV_RATE_HZ, AgentConfig
 from agents.rollout import EpisodeResult, run_episode, summarize
+from sspinn.data.gait_metrics import winter_or_none
 from sspinn.errors import UserError
 from sspinn.model.drawing import save_figure
 from sspinn.run_folder import atomic_path, atomic_write_json
@@ -42,10 +46,12 @@ def evaluate(
     max_steps: int | None = None,
     video: bool = True,
     fps: int = 25,
+    data_dir: str | Path | None = None,
 ) -> dict[str, Any]:
     """Run ``episodes`` deterministic episodes (seeds ``seed``, ``seed + 1``, ...) at
     ``target_speed`` m/s (default: the run's evaluation target), write the report, plot and
-    animation into ``out`` and return the report."""
+    animation into ``out`` and return the report. ``data_dir``: the shared data folder holding
+    ``winter_walking`` (default ``../shared/data`` beside the repository; absent: no angle RMSD)."""
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
     agent = load_agent(checkpoint)
@@ -56,9 +62,11 @@ def evaluate(
     if video:
         check_animation_size(config, max_steps, fps, "lower --fps or --max-steps, or use --no-video")
     env = make_env(config, render_mode="rgb_array" if video else None, **overrides)
+    reference = winter_or_none(data_dir) if target < WALKING_BELOW_M_S else None
     try:
         results = [
-            run_episode(agent, env, seed + i, target, record_traces=(i == 0), frame_every=frame_every if i == 0 else 0)
+            run_episode(agent, env, seed + i, target, record_traces=(i == 0), frame_every=frame_every if i == 0 else 0,
+                        reference=reference)
             for i in range(episodes)
         ]
     finally:
@@ -70,6 +78,7 @@ def evaluate(
         "algo": config.algo,
         "target_speed": target,
         "env_kwargs": {**config.env.kwargs, **overrides},
+        "gait_reference": "Winter's normal walking (right leg)" if reference is not None else None,
         "episodes": [r.metrics() for r in results],
         "summary": summarize(results),
     }

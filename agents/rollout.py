@@ -10,13 +10,13 @@ evaluate``/``record`` (:mod:`agents.evaluate`), so both report the same numbers:
   the hip did not move forward;
 * ``fell``: the episode terminated (hip too low, trunk tilted, or a physics failure) instead of
   being truncated at ``max_episode_steps``;
-* ``foot_slide`` (m): how far the loaded feet slid over the ground, summed over both feet — a check
-  that the policy walks rather than skates on the regularised friction. The environment's friction
-  law F_x = −μ·tanh(v/v_s)·F_y gives the sliding speed of a foot from its ground reaction force,
-  |v| = v_s·artanh(|F_x| / (μ·F_y)); it is integrated while the foot carries more than 0.1 body weight;
-* ``cadence`` (steps/min): foot touchdowns per minute, both feet — a foot touches down when its
-  vertical force rises above 0.2 body weight after having fallen below 0.05 body weight (human
-  walking at 1.3 m/s: about 110 steps/min; vibrating or shuffling feet give far more or none).
+* the gait quality of :func:`sspinn.data.gait_metrics.gait_metrics` (``gait``), computed from the
+  episode's 100 Hz samples after the first :data:`GAIT_SETTLE_S` s (gait initiation from standing):
+  left/right asymmetry of step time, step length and stance % (symmetry index, %), foot sliding
+  per step (cm; ``foot_slide_m`` the total), impact peak (BW), hip/knee/ankle angle RMSD to Winter's
+  normal walking (deg, mean over the legs with strides, when a reference is given:
+  :func:`sspinn.data.gait_metrics.winter_or_none`),
+  cadence (steps/min; human walking at 1.3 m/s: about 110) and the mechanical cost of transport.
 """
 
 from __future__ import annotations
@@ -29,8 +29,14 @@ from typing import Any
 import gymnasium
 import numpy as np
 
+from sspinn.data.gait_metrics import GaitMetrics, ReferenceGait, gait_metrics
+from sspinn.model.dynamics import contact_forces
+from sspinn.model.trajectory import Trajectory
+
 #: A policy: observation (22,) float32 → action (6,) in [−1, 1].
 PolicyFn = Callable[[np.ndarray], np.ndarray]
+#: Gait events before this time (s after reset) are left out of the gait metrics: gait initiation.
+GAIT_SETTLE_S = 1.0
 
 
 @dataclass
@@ -47,19 +53,24 @@ class EpisodeResult:
     cost_of_transport: float
     fell: bool
     episode_return: float
-    foot_slide: float
-    touchdowns: int
+    gait: GaitMetrics
     traces: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     frames: list[np.ndarray] = field(default_factory=list, repr=False)
 
     @property
+    def foot_slide(self) -> float:
+        """Total sliding of the feet's contact points, m (:attr:`gait`)."""
+        return self.gait.foot_slide_m
+
+    @property
     def cadence(self) -> float:
-        """Foot touchdowns per minute (both feet)."""
-        return 60.0 * self.touchdowns / self.duration if self.duration > 0 else 0.0
+        """Steps per minute (:attr:`gait`; NaN without steps)."""
+        return self.gait.cadence_steps_per_min
 
     def metrics(self) -> dict[str, Any]:
-        """JSON-friendly metrics (no traces or frames; inf CoT → None)."""
+        """JSON-friendly metrics (no traces or frames; inf/NaN → None), the gait metrics included."""
         cot = self.cost_of_transport
+        gait = self.gait.as_dict()
         return {
             "seed": self.seed,
             "target_speed": self.target_speed,
@@ -71,8 +82,9 @@ class EpisodeResult:
             "cost_of_transport": cot if math.isfinite(cot) else None,
             "fell": self.fell,
             "return": self.episode_return,
-            "foot_slide_m": self.foot_slide,
-            "cadence_steps_per_min": self.cadence,
+            "foot_slide_m": gait["foot_slide_m"],
+            "cadence_steps_per_min": gait["cadence_steps_per_min"],
+            **{k: v for k, v in gait.items() if k not in ("foot_slide_m", "cadence_steps_per_min", "cost_of_transport")},
         }
 
 
@@ -84,6 +96,7 @@ def run_episode(
     record_traces: bool = False,
     frame_every: int = 0,
     reset_options: dict[str, Any] | None = None,
+    reference: ReferenceGait | None = None,
 ) -> EpisodeResult:
     """Run one episode of ``policy`` in ``env`` from ``reset(seed=seed)`` until it ends.
 
@@ -97,6 +110,7 @@ def run_episode(
             ``speed``, and the full state ``q``, ``u`` after each step).
         frame_every: keep every ``frame_every``-th rendered frame (0: none).
         reset_options: further ``reset`` options (e.g. ``{"initial_state": (q, u)}``).
+        reference: reference cycle for the gait metrics' angle RMSD (e.g. Winter's walking).
     """
     options = dict(reset_options or {})
     if target_speed is not None:
@@ -113,11 +127,8 @@ def run_episode(
     frames: list[np.ndarray] = []
     if frame_every:
         frames.append(env.render())
-    mu, v_s = float(unwrapped.contact.friction), float(unwrapped.contact.slip_velocity)
-    body_weight = float(unwrapped.body.body_weight)
-    slide = 0.0
-    airborne = [False, False]  # per foot: unloaded since its last touchdown
-    touchdowns = 0
+    q0, u0 = unwrapped.state
+    samples_q, samples_u, samples_grf, samples_tau = [q0], [u0], [], []
     total = 0.0
     steps = 0
     terminated = truncated = False
@@ -125,16 +136,12 @@ def run_episode(
         obs, reward, terminated, truncated, info = env.step(policy(obs))
         total += float(reward)
         steps += 1
-        grf = np.asarray(info["grf"])
-        slide += dt * foot_slide_speed(grf, mu, v_s, body_weight)
-        for foot, fy in enumerate((grf[1], grf[3])):
-            if fy < 0.05 * body_weight:
-                airborne[foot] = True
-            elif fy > 0.2 * body_weight and airborne[foot]:
-                airborne[foot] = False
-                touchdowns += 1
+        q, u = unwrapped.state
+        samples_q.append(q)
+        samples_u.append(u)
+        samples_grf.append(np.asarray(info["grf"]))
+        samples_tau.append(np.asarray(info["torques"]))
         if record_traces:
-            q, u = unwrapped.state
             angles.append(q[3:])
             states.append(np.concatenate([q, u]))
             torques.append(np.asarray(info["torques"]))
@@ -156,6 +163,8 @@ def run_episode(
             "q": np.asarray(states)[:, :9],
             "u": np.asarray(states)[:, 9:],
         }
+    gait = gait_metrics(_trajectory(unwrapped, samples_q, samples_u, samples_grf, samples_tau), unwrapped.body,
+                        reference=reference, settle_s=GAIT_SETTLE_S)
     return EpisodeResult(
         seed=seed,
         target_speed=target,
@@ -167,27 +176,44 @@ def run_episode(
         cost_of_transport=float(info["cost_of_transport"]),
         fell=bool(terminated),
         episode_return=total,
-        foot_slide=slide,
-        touchdowns=touchdowns,
+        gait=gait,
         traces=traces,
         frames=frames,
     )
 
 
-def foot_slide_speed(grf: np.ndarray, mu: float, slip_velocity: float, body_weight: float,
-                     min_load: float = 0.1) -> float:
-    """Sum over both feet of the sliding speed (m/s) implied by the friction law, for feet loaded
-    with more than ``min_load`` body weights; ``grf`` is (Fx_r, Fy_r, Fx_l, Fy_l) in N."""
-    speed = 0.0
-    for fx, fy in ((grf[0], grf[1]), (grf[2], grf[3])):
-        if fy > min_load * body_weight:
-            speed += slip_velocity * math.atanh(min(abs(fx) / (mu * fy), 1.0 - 1e-9))
-    return speed
+def _trajectory(env: Any, q: list[np.ndarray], u: list[np.ndarray], grf: list[np.ndarray],
+                tau: list[np.ndarray]) -> Trajectory:
+    """The episode as a :class:`~sspinn.model.trajectory.Trajectory` at the 100 Hz samples (reset state
+    first): the environment's contact forces after each step (the contact model's at the reset
+    state), contact fractions of the contact model, ``tau[k]`` the actuator torque held from sample
+    k to k + 1 (zero at the last sample)."""
+    q_arr, u_arr = np.asarray(q), np.asarray(u)
+    forces, w = contact_forces(q_arr, u_arr, env.body, env.contact)
+    forces = np.asarray(forces)
+    forces[1:] = np.asarray(grf).reshape(-1, 4)
+    torques = np.vstack([np.asarray(tau).reshape(-1, 6), np.zeros((1, 6))])
+    time = env.dt * np.arange(len(q_arr))
+    return Trajectory(time=time, q=q_arr, u=u_arr, qdd=np.zeros_like(q_arr), tau=torques, grf=forces, w=np.asarray(w))
+
+
+#: Gait metrics averaged by :func:`summarize` (``mean_<name>``; over the episodes where defined).
+SUMMARY_GAIT_KEYS: tuple[str, ...] = (
+    "step_time_asymmetry", "step_length_asymmetry", "stance_asymmetry", "contact_asymmetry", "foot_slide_per_step_cm",
+    "peak_impact_bw",
+    "max_vertical_grf_bw", "rmsd_hip_deg", "rmsd_knee_deg", "rmsd_ankle_deg",
+)
+
+
+def _finite_mean(values: list[float]) -> float | None:
+    finite = [v for v in values if v is not None and math.isfinite(v)]
+    return float(np.mean(finite)) if finite else None
 
 
 def summarize(results: list[EpisodeResult]) -> dict[str, Any]:
-    """Means over episodes (CoT over the episodes where it is finite) and fall counts."""
+    """Means over episodes (CoT and gait metrics over the episodes where they are finite) and fall counts."""
     cots = [r.cost_of_transport for r in results if math.isfinite(r.cost_of_transport)]
+    gait = {f"mean_{key}": _finite_mean([getattr(r.gait, key) for r in results]) for key in SUMMARY_GAIT_KEYS}
     return {
         "episodes": len(results),
         "mean_distance_m": float(np.mean([r.distance for r in results])),
@@ -199,5 +225,6 @@ def summarize(results: list[EpisodeResult]) -> dict[str, Any]:
         "mean_return": float(np.mean([r.episode_return for r in results])),
         "mean_steps": float(np.mean([r.steps for r in results])),
         "mean_foot_slide_m": float(np.mean([r.foot_slide for r in results])),
-        "mean_cadence_steps_per_min": float(np.mean([r.cadence for r in results])),
+        "mean_cadence_steps_per_min": _finite_mean([r.cadence for r in results]),
+        **gait,
     }

@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numba
 import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
@@ -25,7 +26,7 @@ from stable_baselines3.common.logger import configure as configure_logger
 from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv, VecNormalize
 
-from agents.builders import algorithm_class, algorithm_kwargs, make_env, policy_kwargs
+from agents.builders import WALKING_BELOW_M_S, algorithm_class, algorithm_kwargs, env_kwargs, make_env, policy_kwargs
 from agents.checkpoints import (
     CHECKPOINT_DIR,
     CHECKPOINT_PREFIX,
@@ -41,7 +42,9 @@ from agents.checkpoints import (
     vecnormalize_path,
 )
 from agents.config import AgentConfig, save_config
-from agents.rollout import run_episode, summarize
+from agents.rollout import SUMMARY_GAIT_KEYS, run_episode, summarize
+from agents.vec_env import PerEnvVecMonitor, WalkerVecEnv
+from sspinn.data.gait_metrics import winter_or_none
 from sspinn.run_folder import RunLock, atomic_write_text
 
 #: Info fields of the environment written to the Monitor CSV of every training episode.
@@ -49,19 +52,26 @@ MONITOR_INFO_KEYS: tuple[str, ...] = ("distance", "cost_of_transport")
 EVAL_COLUMNS: tuple[str, ...] = (
     "timesteps", "wall_s", "mean_return", "mean_distance_m", "min_distance_m", "mean_speed_m_s",
     "mean_abs_speed_error_m_s", "mean_cost_of_transport", "falls", "episodes", "mean_foot_slide_m",
-    "mean_cadence_steps_per_min",
+    "mean_cadence_steps_per_min", *(f"mean_{key}" for key in SUMMARY_GAIT_KEYS),
 )
 
 
 def make_training_envs(config: AgentConfig, run_dir: Path, seed: int, append_monitor: bool = False) -> VecEnv:
-    """``n_envs`` seeded environments (seeds ``seed``, ``seed + 1``, ...) with Monitor CSV logs."""
+    """``n_envs`` seeded environments (seeds ``seed``, ``seed + 1``, ...) with one Monitor CSV log
+    per environment (``<run>/monitor/<i>.monitor.csv``): the native vector environment
+    (``env.vec_env: native``) or SB3's ``DummyVecEnv``/``SubprocVecEnv`` of single environments."""
+    if config.env.vec_env == "native":
+        if config.env.threads is not None:
+            numba.set_num_threads(min(config.env.threads, numba.config.NUMBA_NUM_THREADS))
+        venv: VecEnv = WalkerVecEnv(config.env.n_envs, **env_kwargs(config))
+        venv.seed(seed)
+        return PerEnvVecMonitor(venv, run_dir / "monitor", MONITOR_INFO_KEYS, append=append_monitor)
     vec_cls = SubprocVecEnv if config.env.vec_env == "subproc" else DummyVecEnv
     return make_vec_env(
-        config.env.make_id,
+        lambda: make_env(config),
         n_envs=config.env.n_envs,
         seed=seed,
         vec_env_cls=vec_cls,
-        env_kwargs=dict(config.env.kwargs),
         monitor_dir=str(run_dir / "monitor"),
         monitor_kwargs={"info_keywords": MONITOR_INFO_KEYS, "override_existing": not append_monitor},
     )
@@ -91,9 +101,11 @@ class PeriodicCheckpoint(BaseCallback):
 
 class WalkerEvalCallback(BaseCallback):
     """Every ``eval_freq`` timesteps: deterministic episodes on fixed seeds at the evaluation
-    target speed; logs distance, speed, speed error, cost of transport and falls (TensorBoard
-    ``eval/*`` and ``evaluations.csv``) and saves the best model (mean return) with its
-    VecNormalize statistics."""
+    target speed; logs distance, speed, speed error, cost of transport, falls and the gait metrics
+    (:func:`sspinn.data.gait_metrics.gait_metrics`: asymmetries, foot sliding, impact peak, angle RMSD to
+    Winter's walking when ``../shared/data`` exists and the target is a walking speed) to
+    TensorBoard ``eval/*`` and ``evaluations.csv``, and saves the best model (mean return) with
+    its VecNormalize statistics."""
 
     def __init__(self, config: AgentConfig, run_dir: Path, vec_normalize: VecNormalize | None) -> None:
         super().__init__(verbose=config.logging.verbose)
@@ -101,6 +113,7 @@ class WalkerEvalCallback(BaseCallback):
         self.run_dir = run_dir
         self.vec_normalize = vec_normalize
         self.eval_env = make_env(config)
+        self.reference = winter_or_none() if config.env.target_speed < WALKING_BELOW_M_S else None
         self.csv_path = run_dir / "evaluations.csv"
         self.best_return = -math.inf
         self.next_eval = 0
@@ -138,7 +151,7 @@ class WalkerEvalCallback(BaseCallback):
         lg = self.config.logging
         policy = self.current_policy()
         results = [
-            run_episode(policy, self.eval_env, lg.eval_seed + i, self.config.env.target_speed)
+            run_episode(policy, self.eval_env, lg.eval_seed + i, self.config.env.target_speed, reference=self.reference)
             for i in range(lg.eval_episodes)
         ]
         summary = summarize(results)
@@ -148,12 +161,15 @@ class WalkerEvalCallback(BaseCallback):
             if value is not None:
                 self.logger.record(f"eval/{key}", value)
         self.logger.record("eval/steps_per_s", (self.num_timesteps - self.start_steps) / max(wall, 1e-9))
+        columns = EVAL_COLUMNS
+        previous = self.csv_path.read_text() if self.csv_path.is_file() else ""
+        if previous:  # a resumed run keeps its file's columns
+            columns = tuple(next(csv.reader(io.StringIO(previous)), EVAL_COLUMNS))
         buffer = io.StringIO()
-        writer = csv.DictWriter(buffer, fieldnames=EVAL_COLUMNS, extrasaction="ignore", lineterminator="\n")
-        if not self.csv_path.is_file():
+        writer = csv.DictWriter(buffer, fieldnames=columns, extrasaction="ignore", lineterminator="\n")
+        if not previous:
             writer.writeheader()
         writer.writerow(row)
-        previous = self.csv_path.read_text() if self.csv_path.is_file() else ""
         atomic_write_text(self.csv_path, previous + buffer.getvalue())
         if summary["mean_return"] > self.best_return:
             self.best_return = summary["mean_return"]
@@ -161,13 +177,19 @@ class WalkerEvalCallback(BaseCallback):
         print(
             f"[eval] {self.num_timesteps:>10d} steps  {wall:7.0f} s  return {summary['mean_return']:7.1f}  "
             f"distance {summary['mean_distance_m']:5.2f} m (min {summary['min_distance_m']:5.2f})  "
-            f"speed {summary['mean_speed_m_s']:4.2f} m/s  falls {summary['falls']}/{summary['episodes']}",
+            f"speed {summary['mean_speed_m_s']:4.2f} m/s  falls {summary['falls']}/{summary['episodes']}  "
+            f"asym. step time {_fmt(summary['mean_step_time_asymmetry'])} % contact {_fmt(summary['mean_contact_asymmetry'])} %  slide/step "
+            f"{_fmt(summary['mean_foot_slide_per_step_cm'])} cm  impact {_fmt(summary['mean_peak_impact_bw'])} BW",
             flush=True,
         )
         return row
 
     def _on_training_end(self) -> None:
         self.eval_env.close()
+
+
+def _fmt(value: float | None) -> str:
+    return "n/a" if value is None else f"{value:.1f}"
 
 
 def train(config: AgentConfig, out: str | Path, resume: bool = False) -> BaseAlgorithm:

@@ -1,25 +1,38 @@
 """Speed of the SagittalWalker environments, next to Gymnasium's MuJoCo ``Walker2d-v5`` measured in the same run.
 
-Run ``python benchmarks/bench_env.py`` (about a minute on 2 CPU cores), ``--quick`` for a smoke run,
+Run ``python benchmarks/bench_env.py`` (a few minutes on 2 CPU cores), ``--quick`` for a smoke run,
 ``--step-study`` to also repeat the physics step-size study quoted in the docstring of
 :class:`envs.sagittal_walker.SagittalWalkerEnv` (a few more minutes), ``--json PATH`` to save the results.
+``--threads K`` sets numba's threads (default: all cores, ``NUMBA_NUM_THREADS``).
 
 What is measured:
 
-1. **Single environment**, random actions (uniform in the action box, drawn beforehand), no rendering,
-   ``reset()`` whenever an episode ends: steps/s of ``SagittalWalkerEnv`` and of ``Walker2d-v5``
-   (``gymnasium.make``, i.e. with Gymnasium's default wrappers, and the unwrapped environment). Both are
-   timed in alternating rounds (median of the rounds), so machine load affects them alike. The baseline
-   needs ``pip install "gymnasium[mujoco]"`` (the ``bench`` extra); without it the script says so and
-   reports no ratio. Target: ours ≥ Walker2d-v5.
+1. **Environment steps/s**, random actions (uniform in the action box, drawn beforehand), no
+   rendering, resets whenever an episode ends, all timed in the same alternating rounds (median of
+   the rounds, so that machine load affects them alike) and printed as ratios to the single
+   environment (unwrapped ``SagittalWalkerEnv``): the single environment (also through
+   ``gymnasium.make``), the native vector environment :class:`envs.vector.SagittalWalkerVectorEnv`
+   at N = 1, 8, 64, 512 (one compiled call per step, ``numba.prange`` over the walkers), SB3's
+   ``DummyVecEnv`` of 8 single environments (as ``python -m agents train`` with ``env.vec_env:
+   dummy`` builds it: ``gymnasium.make`` wrappers and a Monitor each) and Gymnasium's MuJoCo
+   ``Walker2d-v5``. The last needs ``pip install "gymnasium[mujoco]"`` (the ``bench`` extra);
+   without it the script says so. Targets: single ≥ Walker2d-v5; vector env ≥ 2.5× the single
+   environment at N ≥ 64 (2 cores).
 2. **Physics only**, one control interval (50 substeps) from a standing state: the allocation-free
    in-place stepper :func:`sspinn.model.simulation.advance` (the environment's call) and
    :func:`sspinn.model.simulation.step` (the same stepper on copies of the state; the difference is the
-   wrapper's overhead).
-3. **Batched torch environment** (:class:`envs.batched.BatchedSagittalWalker`) at batch 4,096,
+   wrapper's overhead); and the **roofline**: the compiled physics alone of 512 walkers in one
+   ``prange`` call on all cores (:func:`envs.kernels.physics_parallel`) — model evaluations/s, and
+   that rate ÷ substeps, the most environment steps/s the vector environment could reach.
+3. **PPO end-to-end** (``--ppo-steps``, default 16,384): ``stable_baselines3.PPO`` with the
+   network and hyperparameters of ``configs/agents/ppo.yaml`` (8 environments, VecNormalize,
+   1 torch thread) learning a fixed number of steps through the native vector environment and
+   through ``DummyVecEnv``: environment steps/s of the whole loop (stepping, policy, updates).
+   Target: native ≥ 2× DummyVecEnv.
+4. **Batched torch environment** (:class:`envs.batched.BatchedSagittalWalker`) at batch 4,096,
    float32, random actions, CPU (CUDA too when available): environment steps/s = batch × steps / time,
    and the ratio to the single environment. Target: ≥ 100× the single environment.
-4. ``--step-study``: PD-controlled landings (forward speed 1.3 m/s, three sink speeds → three peak
+5. ``--step-study``: PD-controlled landings (forward speed 1.3 m/s, three sink speeds → three peak
    loads) integrated with semi-implicit Euler at several substeps and slip velocities v_s; the error of
    the 100 Hz ground reaction forces against RK4 at 10 µs shows where the stiff friction starts to
    chatter. Plus random-action episodes of the environment: episode length, peak joint speed, peak
@@ -40,13 +53,16 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numba
 import numpy as np
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from envs import kernels  # noqa: E402
 from envs.batched import BatchedSagittalWalker  # noqa: E402
 from envs.sagittal_walker import SagittalWalkerEnv  # noqa: E402
+from envs.vector import SagittalWalkerVectorEnv  # noqa: E402
 from sspinn.model import kinematics, simulation  # noqa: E402
 from sspinn.model.body import BodyParameters  # noqa: E402
 from sspinn.model.contact import ContactParameters  # noqa: E402
@@ -54,6 +70,10 @@ from sspinn.model.simulation import METHODS, advance  # noqa: E402
 
 TARGET_SINGLE_RATIO = 1.0
 TARGET_BATCH_RATIO = 100.0
+TARGET_VECTOR_RATIO = 2.5  # at N >= 64
+TARGET_PPO_RATIO = 2.0
+VECTOR_SIZES = (1, 8, 64, 512)
+SINGLE = "SagittalWalker-v0 (unwrapped)"
 
 
 def _run_steps(env: Any, actions: np.ndarray) -> float:
@@ -67,43 +87,162 @@ def _run_steps(env: Any, actions: np.ndarray) -> float:
     return time.perf_counter() - t0
 
 
-def bench_single(n_steps: int, rounds: int) -> dict[str, Any]:
+class _Single:
+    """Steps of one Gymnasium environment (resets on episode end)."""
+
+    def __init__(self, env: Any, n_steps: int, seed: int = 0) -> None:
+        self.env = env
+        self.actions = np.random.default_rng(seed).uniform(-1, 1, (n_steps, *env.action_space.shape)).astype(np.float32)
+        env.reset(seed=seed)
+
+    def __call__(self) -> int:
+        env = self.env
+        for a in self.actions:
+            _, _, terminated, truncated, _ = env.step(a)
+            if terminated or truncated:
+                env.reset()
+        return len(self.actions)
+
+
+class _Vector:
+    """Steps of a Gymnasium vector environment (auto-reset) or an SB3 VecEnv."""
+
+    def __init__(self, env: Any, n: int, n_steps: int, sb3: bool = False, seed: int = 0, threads: int | None = None) -> None:
+        self.env, self.n, self.sb3, self.threads = env, n, sb3, threads
+        self.actions = np.random.default_rng(seed).uniform(-1, 1, (max(n_steps // n, 10), n, 6)).astype(np.float32)
+        if sb3:
+            env.seed(seed)
+            env.reset()
+        else:
+            env.reset(seed=seed)
+
+    def __call__(self) -> int:
+        threads = numba.get_num_threads()
+        if self.threads is not None:
+            numba.set_num_threads(self.threads)
+        try:
+            for a in self.actions:
+                self.env.step(a)
+        finally:
+            numba.set_num_threads(threads)
+        return self.actions.shape[0] * self.n
+
+
+def _episode_length(runner: Any, steps: int = 2000) -> float | None:
+    """Mean episode length under random actions (context for the reset share of the timing)."""
+    if not isinstance(runner, _Single):
+        return None
+    env = runner.env
+    env.reset(seed=1)
+    n, count = 0, 0
+    for a in runner.actions[:steps]:
+        _, _, te, tr, _ = env.step(a)
+        n += 1
+        if te or tr:
+            count += 1
+            env.reset()
+    return n / max(count, 1)
+
+
+def bench_steps(n_steps: int, rounds: int) -> dict[str, Any]:
+    """Environment steps/s of every candidate in alternating rounds (module docstring, item 1)."""
     import gymnasium
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import DummyVecEnv
 
     import envs
+    from agents.config import config_from_dict
+    from agents.train import make_env
 
-    candidates: dict[str, Any] = {
-        "SagittalWalker-v0 (gymnasium.make)": gymnasium.make(envs.ENV_ID),
-        "SagittalWalker-v0 (unwrapped)": SagittalWalkerEnv(),
+    runners: dict[str, Any] = {
+        SINGLE: _Single(SagittalWalkerEnv(), n_steps),
+        "SagittalWalker-v0 (gymnasium.make)": _Single(gymnasium.make(envs.ENV_ID), n_steps),
     }
+    for n in VECTOR_SIZES:
+        runners[f"vector env, N = {n}"] = _Vector(SagittalWalkerVectorEnv(n), n, max(n_steps, 4 * n))
+    big = VECTOR_SIZES[-1]
+    runners[f"vector env, N = {big}, 1 thread"] = _Vector(SagittalWalkerVectorEnv(big), big, max(n_steps, 4 * big), threads=1)
+    dummy_config = config_from_dict({"algo": "ppo", "env": {"n_envs": 8, "vec_env": "dummy"}})
+    dummy = make_vec_env(lambda: make_env(dummy_config), n_envs=8, vec_env_cls=DummyVecEnv)
+    runners["SB3 DummyVecEnv, 8 single envs"] = _Vector(dummy, 8, n_steps, sb3=True)
     baseline_error = None
     try:
-        candidates["Walker2d-v5 (gymnasium.make)"] = gymnasium.make("Walker2d-v5")
-        candidates["Walker2d-v5 (unwrapped)"] = gymnasium.make("Walker2d-v5").unwrapped
+        runners["Walker2d-v5 (gymnasium.make)"] = _Single(gymnasium.make("Walker2d-v5"), n_steps)
+        runners["Walker2d-v5 (unwrapped)"] = _Single(gymnasium.make("Walker2d-v5").unwrapped, n_steps)
     except Exception as exc:  # mujoco missing or broken
         baseline_error = f"{type(exc).__name__}: {exc}"
-    rng = np.random.default_rng(0)
-    actions = {name: rng.uniform(-1, 1, (n_steps,) + env.action_space.shape).astype(np.float32) for name, env in candidates.items()}
-    for name, env in candidates.items():  # warm-up
-        _run_steps(env, actions[name][: min(200, n_steps)])
-    times: dict[str, list[float]] = {name: [] for name in candidates}
+    for runner in runners.values():  # warm-up (numba compilation is cached on disk)
+        runner()
+    times: dict[str, list[float]] = {name: [] for name in runners}
+    done: dict[str, int] = {}
     for _ in range(rounds):
-        for name, env in candidates.items():
-            times[name].append(_run_steps(env, actions[name]))
-    rates = {name: n_steps / statistics.median(t) for name, t in times.items()}
-    # mean episode length under random actions (context for the reset share of the timing)
-    lengths = {}
-    for name, env in candidates.items():
-        env.reset(seed=1)
-        n, count = 0, 0
-        for a in actions[name][:2000]:
-            _, _, te, tr, _ = env.step(a)
-            n += 1
-            if te or tr:
-                count += 1
-                env.reset()
-        lengths[name] = n / max(count, 1)
-    return {"rates": rates, "episode_length": lengths, "baseline_error": baseline_error, "n_steps": n_steps, "rounds": rounds}
+        for name, runner in runners.items():
+            t0 = time.perf_counter()
+            done[name] = runner()
+            times[name].append(time.perf_counter() - t0)
+    rates = {name: done[name] / statistics.median(t) for name, t in times.items()}
+    lengths = {name: _episode_length(r) for name, r in runners.items()}
+    return {"rates": rates, "episode_length": lengths, "baseline_error": baseline_error, "n_steps": n_steps,
+            "rounds": rounds}
+
+
+def bench_roofline(n: int, repeats: int) -> dict[str, float]:
+    """Model evaluations/s of the compiled physics of ``n`` walkers in one parallel call."""
+    env = SagittalWalkerEnv()
+    env.reset(seed=0)
+    q0, u0 = env.state
+    q, u = np.tile(q0, (n, 1)), np.tile(u0, (n, 1))
+    tau, grf = np.zeros((n, 6)), np.zeros((n, 4))
+    p = np.tile(env.body_vector, (n, 1))
+    method = METHODS.index(env.method)
+    args = (env.passive_parameters, p, env.contact_vector, env.physics_dt, env.substeps, method, grf)
+    kernels.physics_parallel(q.copy(), u.copy(), tau, *args)  # compile / load
+    best = float("inf")
+    for _ in range(repeats):
+        qq, uu = q.copy(), u.copy()
+        t0 = time.perf_counter()
+        kernels.physics_parallel(qq, uu, tau, *args)
+        best = min(best, time.perf_counter() - t0)
+    evals = n * env.substeps / best
+    return {"walkers": n, "evaluations_per_s": evals, "env_steps_per_s": evals / env.substeps, "threads": numba.get_num_threads()}
+
+
+def bench_ppo(total_steps: int, env_only: dict[str, float]) -> dict[str, Any]:
+    """Environment steps/s of PPO learning ``total_steps`` through the native vector env and
+    DummyVecEnv, and the share of each run spent stepping environments, estimated from the
+    env-only rates ``env_only`` ({"native": steps/s, "dummy": steps/s} at the same number of
+    environments): the ratio native/Dummy cannot exceed T_dummy / (T_dummy − t_env,dummy) — what
+    is left if stepping cost nothing (Amdahl)."""
+    import tempfile
+
+    from agents.config import load_config
+    from agents.train import train
+
+    base = load_config(Path(__file__).resolve().parents[1] / "configs" / "agents" / "ppo.yaml")
+    out: dict[str, Any] = {"total_steps": total_steps, "n_envs": base.env.n_envs}
+
+    def config(kind: str, steps: int) -> Any:
+        return base.with_overrides(
+            total_timesteps=steps,
+            env={**base.to_dict()["env"], "vec_env": kind},
+            logging={**base.to_dict()["logging"], "eval_freq": 0, "tensorboard": False, "checkpoint_freq": 10**9},
+        )
+
+    with tempfile.TemporaryDirectory() as tmp:  # warm-up: one short run of each (imports, torch, numba cache)
+        for kind in ("native", "dummy"):
+            train(config(kind, 1), Path(tmp) / kind)
+    for kind in ("native", "dummy"):
+        with tempfile.TemporaryDirectory() as tmp:
+            t0 = time.perf_counter()
+            model = train(config(kind, total_steps), Path(tmp) / "run")
+            seconds = time.perf_counter() - t0
+        env_seconds = model.num_timesteps / env_only[kind]
+        out[kind] = {"env_steps_per_s": model.num_timesteps / seconds, "seconds": seconds, "steps": model.num_timesteps,
+                     "env_share": min(env_seconds / seconds, 1.0)}
+    out["ratio"] = out["native"]["env_steps_per_s"] / out["dummy"]["env_steps_per_s"]
+    rest = out["dummy"]["seconds"] * (1.0 - out["dummy"]["env_share"])
+    out["ratio_bound"] = out["dummy"]["seconds"] / rest if rest > 0 else float("inf")
+    return out
 
 
 def bench_physics(repeats: int) -> dict[str, float]:
@@ -231,35 +370,67 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--quick", action="store_true", help="smoke run: few steps, small batch")
     parser.add_argument("--step-study", action="store_true", help="also run the physics step-size study")
     parser.add_argument("--json", type=Path, help="save the results as JSON")
+    parser.add_argument("--threads", type=int, help="numba threads (default: all cores / NUMBA_NUM_THREADS)")
+    parser.add_argument("--ppo-steps", type=int, help="PPO steps per environment kind (0: skip; default 16,384, "
+                        "--quick 1,024)")
     args = parser.parse_args(argv)
+    if args.threads is not None:
+        numba.set_num_threads(args.threads)
+    if args.ppo_steps is None:
+        args.ppo_steps = 1024 if args.quick else 16_384
     torch_threads = torch.get_num_threads()
     print(f"# bench_env — {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
           f"Python {platform.python_version()}, torch {torch.__version__} ({torch_threads} threads), numpy {np.__version__}")
 
-    n_steps, rounds = (500, 2) if args.quick else (4000, 5)
-    single = bench_single(n_steps, rounds)
+    n_steps, rounds = (400, 2) if args.quick else (4000, 5)
+    single = bench_steps(n_steps, rounds)
     rates = single["rates"]
-    ours = rates["SagittalWalker-v0 (gymnasium.make)"]
-    print(f"\n## Single environment, random actions, no rendering ({n_steps} steps × {rounds} alternating rounds, median)\n")
-    print("| environment | steps/s | mean episode length (steps) |\n|---|---:|---:|")
+    ours = rates[SINGLE]
+    print(f"\n## Environment steps/s, random actions, no rendering (≈{n_steps} steps per candidate × {rounds} "
+          f"alternating rounds, median; numba threads: {numba.get_num_threads()})\n")
+    print("| environment | env steps/s | ratio to the single env | mean episode length (steps) |\n|---|---:|---:|---:|")
     for name, rate in rates.items():
-        print(f"| {name} | {rate:,.0f} | {single['episode_length'][name]:.1f} |")
+        length = single["episode_length"][name]
+        print(f"| {name} | {rate:,.0f} | {rate / ours:.2f}× | {'' if length is None else f'{length:.1f}'} |")
+    single["ratios"] = {name: rate / ours for name, rate in rates.items()}
+    vector_ok = all(single["ratios"][f"vector env, N = {n}"] >= TARGET_VECTOR_RATIO for n in VECTOR_SIZES if n >= 64)
+    print(f"\nvector env ≥ {TARGET_VECTOR_RATIO}× the single env at N ≥ 64: {'met' if vector_ok else 'NOT met'}")
     baseline = rates.get("Walker2d-v5 (gymnasium.make)")
     if baseline is None:
-        print(f"\nWalker2d-v5 baseline unavailable ({single['baseline_error']}); install the bench extra: "
+        print(f"Walker2d-v5 baseline unavailable ({single['baseline_error']}); install the bench extra: "
               'pip install "gymnasium[mujoco]"')
         ratio_single = None
     else:
-        ratio_single = ours / baseline
+        ratio_single = rates["SagittalWalker-v0 (gymnasium.make)"] / baseline
         verdict = "met" if ratio_single >= TARGET_SINGLE_RATIO else "NOT met"
-        print(f"\nratio SagittalWalker / Walker2d-v5 (both via gymnasium.make): {ratio_single:.2f}× "
+        print(f"ratio SagittalWalker / Walker2d-v5 (both via gymnasium.make): {ratio_single:.2f}× "
               f"(target ≥ {TARGET_SINGLE_RATIO:.0f}×: {verdict})")
 
     physics = bench_physics(100 if args.quick else 400)
+    roofline = bench_roofline(64 if args.quick else 512, 3 if args.quick else 10)
     print("\n## Physics of one control interval (50 substeps of 0.2 ms, semi-implicit Euler)\n")
     print("| stepper | µs per control step (min of 9 alternating rounds) |\n|---|---:|")
     for name, us in physics.items():
         print(f"| {name} | {us:.1f} |")
+    best_vector = max(rates[f"vector env, N = {n}"] for n in VECTOR_SIZES)
+    print(f"\nroofline: the physics alone of {roofline['walkers']} walkers in one prange call "
+          f"({roofline['threads']} threads): {roofline['evaluations_per_s']:,.0f} model evaluations/s = "
+          f"{roofline['env_steps_per_s']:,.0f} env steps/s at {SagittalWalkerEnv().substeps} substeps; the best vector "
+          f"env rate above is {best_vector / roofline['env_steps_per_s']:.0%} of it")
+
+    ppo = None
+    if args.ppo_steps > 0:
+        env_only = {"native": rates["vector env, N = 8"], "dummy": rates["SB3 DummyVecEnv, 8 single envs"]}
+        ppo = bench_ppo(args.ppo_steps, env_only)
+        verdict = "met" if ppo["ratio"] >= TARGET_PPO_RATIO else "NOT met"
+        print(f"\n## PPO end-to-end, configs/agents/ppo.yaml ({ppo['n_envs']} envs), {ppo['native']['steps']:,} steps "
+              "(whole rollouts of n_steps × n_envs), after a warm-up run of each\n")
+        print("| environments | env steps/s | s | share stepping envs (est.) |\n|---|---:|---:|---:|")
+        for kind in ("native", "dummy"):
+            print(f"| {kind} | {ppo[kind]['env_steps_per_s']:,.0f} | {ppo[kind]['seconds']:.1f} | "
+                  f"{ppo[kind]['env_share']:.0%} |")
+        print(f"\nnative / DummyVecEnv: {ppo['ratio']:.2f}× (target ≥ {TARGET_PPO_RATIO:.0f}×: {verdict}); "
+              f"bound if stepping cost nothing: {ppo['ratio_bound']:.2f}×")
 
     batch, steps = (256, 2) if args.quick else (4096, 3)
     devices = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])
@@ -281,7 +452,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
               f"≥ {TARGET_BATCH_RATIO:.0f}×: {verdict} |")
 
     results: dict[str, Any] = {"single": single, "ratio_single_to_walker2d": ratio_single, "physics_us": physics,
-                               "batched": batched, "batch": batch, "torch_threads": torch_threads}
+                               "roofline": roofline, "ppo": ppo, "batched": batched, "batch": batch,
+                               "torch_threads": torch_threads}
     if args.step_study:
         study = step_study(args.quick)
         results["step_study"] = study

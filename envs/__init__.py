@@ -12,8 +12,14 @@ imports the module named before the colon). Gymnasium ≥ 1.0 removed the automa
 discovery through the ``gymnasium.envs`` entry-point group that Gym 0.22–0.26 had, so an entry
 point in ``pyproject.toml`` would not be read; one of these two forms is needed.
 
-The batched torch version is :class:`envs.batched.BatchedSagittalWalker` (imported lazily, so that
-``import envs`` does not import torch).
+The registration declares ``max_episode_steps=1000``, the environment's own episode length
+(``gymnasium.make`` adds a ``TimeLimit`` at the same step), and the native vector environment
+:class:`envs.vector.SagittalWalkerVectorEnv` as its vector entry point::
+
+    vec = gymnasium.make_vec("sspinn/SagittalWalker-v0", num_envs=64, vectorization_mode="vector_entry_point")
+
+The batched torch version (differentiable, CPU or GPU) is :class:`envs.batched.BatchedSagittalWalker`
+(imported lazily, so that ``import envs`` does not import torch).
 """
 
 from __future__ import annotations
@@ -23,12 +29,20 @@ from typing import Any
 from gymnasium.envs.registration import register, registry
 
 ENV_ID = "sspinn/SagittalWalker-v0"
+#: Episode length of the registration, control steps: ``WalkerConfig().max_episode_steps`` (not
+#: imported here, so that ``import envs`` stays light; ``tests/test_vector_env.py`` checks it).
+MAX_EPISODE_STEPS = 1000
 
 
 def register_envs() -> None:
     """Register the environments with Gymnasium (idempotent)."""
     if ENV_ID not in registry:
-        register(id=ENV_ID, entry_point="envs.sagittal_walker:SagittalWalkerEnv")
+        register(
+            id=ENV_ID,
+            entry_point="envs.sagittal_walker:SagittalWalkerEnv",
+            vector_entry_point="envs.vector:SagittalWalkerVectorEnv",
+            max_episode_steps=MAX_EPISODE_STEPS,
+        )
 
 
 register_envs()
@@ -39,6 +53,10 @@ def __getattr__(name: str) -> Any:
         from envs.sagittal_walker import SagittalWalkerEnv
 
         return SagittalWalkerEnv
+    if name == "SagittalWalkerVectorEnv":
+        from envs.vector import SagittalWalkerVectorEnv
+
+        return SagittalWalkerVectorEnv
     if name == "BatchedSagittalWalker":
         from envs.batched import BatchedSagittalWalker
 
@@ -46,4 +64,4 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module 'envs' has no attribute {name!r}")
 
 
-__all__ = ["ENV_ID", "BatchedSagittalWalker", "SagittalWalkerEnv", "register_envs"]
+__all__ = ["ENV_ID", "MAX_EPISODE_STEPS", "BatchedSagittalWalker", "SagittalWalkerEnv", "SagittalWalkerVectorEnv", "register_envs"]

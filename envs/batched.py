@@ -13,6 +13,7 @@ from gymnasium.vector.utils import batch_space
 
 from envs import task
 from envs.config import CONTROL_DT, WalkerConfig, WalkerParameters
+from sspinn.data.gait_events import CONTACT_THRESHOLD_BW
 from sspinn.model.conventions import N_Q, N_TAU
 from sspinn.model.simulation import step_torch
 
@@ -128,6 +129,7 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         self._x0 = torch.zeros(n, dtype=dtype, device=self.device)
         self._work = torch.zeros(n, dtype=dtype, device=self.device)
         self._steps = torch.zeros(n, dtype=torch.int64, device=self.device)
+        self._phase = torch.zeros(n, 2, dtype=dtype, device=self.device)  # feet's phase durations, s
 
     # ------------------------------------------------------------------------------------------
     def _uniform(self, shape: tuple[int, ...], low: float, high: float) -> torch.Tensor:
@@ -164,31 +166,49 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
             self._generator.manual_seed(int(seed))
         target = None
         if options is not None and "target_speed" in options:
-            value = options["target_speed"]
-            if isinstance(value, torch.Tensor):
-                if value.shape not in ((), (self.num_envs,)) or bool((value < 0).any()):
-                    raise ValueError(f"options['target_speed'] tensor must be >= 0 with shape () or ({self.num_envs},)")
-                target = value
-            else:
-                target = task.check_target_speed(value)
+            target = self._check_target(options["target_speed"], "options['target_speed']")
         self.q, self.u, self.target_speed = self._initial_states(self.num_envs, target)
         self.grf = self._contact(self.q, self.u)
         self._x0 = self.q[:, 0].clone()
         self._work = torch.zeros_like(self._x0)
         self._steps = torch.zeros(self.num_envs, dtype=torch.int64, device=self.device)
+        self._phase = torch.zeros(self.num_envs, 2, dtype=self.dtype, device=self.device)
         return self.observe(), {"target_speed": self.target_speed.clone(), "x_position": self._x0.clone()}
 
     def set_state(self, q: torch.Tensor, u: torch.Tensor, target_speed: torch.Tensor | float | None = None) -> None:
         """Overwrite the states (N, 9) (and optionally the target speeds, m/s); contact forces are
-        recomputed, the episode counters are not reset."""
+        recomputed, the episode counters are not reset. Non-finite states or target speeds, wrong
+        shapes and speeds outside [0, 12] m/s are a ``ValueError`` naming the rows."""
         q = torch.as_tensor(q, dtype=self.dtype, device=self.device)
         u = torch.as_tensor(u, dtype=self.dtype, device=self.device)
         if q.shape != (self.num_envs, N_Q) or u.shape != (self.num_envs, N_Q):
             raise ValueError(f"q and u must have shape ({self.num_envs}, {N_Q}), got {tuple(q.shape)} and {tuple(u.shape)}")
+        finite = (torch.isfinite(q).all(-1) & torch.isfinite(u).all(-1)).detach()
+        if not bool(finite.all()):
+            rows = torch.nonzero(~finite).flatten().tolist()
+            raise ValueError(f"q and u must be finite; environment(s) {rows[:10]} are not")
+        target = None if target_speed is None else self._check_target(target_speed, "target_speed")
         self.q, self.u = q, u
-        if target_speed is not None:
-            self.target_speed = torch.as_tensor(target_speed, dtype=self.dtype, device=self.device).expand(self.num_envs).clone()
+        if target is not None:
+            self.target_speed = torch.as_tensor(target, dtype=self.dtype, device=self.device).expand(self.num_envs).clone()
         self.grf = self._contact(self.q, self.u)
+
+    def _check_target(self, value: Any, name: str) -> torch.Tensor | float:
+        """A target speed (m/s) for all rows: a number (checked as the single environment checks
+        it) or a tensor of shape () or (N,), finite and in [0, 12] m/s; else ``ValueError``."""
+        if not isinstance(value, torch.Tensor):
+            try:
+                return task.check_target_speed(value)
+            except ValueError as exc:
+                raise ValueError(f"{name}: {exc}") from None
+        if value.shape not in ((), (self.num_envs,)):
+            raise ValueError(f"{name} tensor must have shape () or ({self.num_envs},), got {tuple(value.shape)}")
+        bad = ~(torch.isfinite(value) & (value >= 0) & (value <= 12.0)).reshape(-1)
+        if bool(bad.any()):
+            rows = torch.nonzero(bad).flatten().tolist()
+            raise ValueError(f"{name} must be finite and in [0, 12] m/s; row(s) {rows[:10]} are not "
+                             f"(first: {value.reshape(-1)[rows[0]].item()!r})")
+        return value
 
     # ------------------------------------------------------------------------------------------
     def step(self, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, dict[str, Any]]:
@@ -224,7 +244,10 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         self._work = self._work + (tau * (q[:, 3:] - q0[:, 3:])).abs().sum(-1).detach()
         self._steps = self._steps + 1
         terminated = task.unhealthy(q, self.standing_height, self._config) | ~finite
-        total, tracking, alive, effort = task.reward(speed, self.target_speed, a, terminated, self._config)
+        loaded = grf[:, 1::2].detach() > CONTACT_THRESHOLD_BW * self._body_weight
+        self._phase = task.next_phase(self._phase, loaded, CONTROL_DT)
+        total, tracking, alive, effort = task.reward(speed, self.target_speed, a, terminated, self._config, grf,
+                                                     self._phase)
         truncated = (self._steps >= self._config.max_episode_steps) & ~terminated
         obs = self.observe()
         distance = (q[:, 0] - self._x0).detach()
@@ -261,6 +284,7 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         self._x0 = torch.where(done, self.q[:, 0], self._x0)
         self._work = torch.where(done, torch.zeros_like(self._work), self._work)
         self._steps = torch.where(done, torch.zeros_like(self._steps), self._steps)
+        self._phase = torch.where(rows, torch.zeros_like(self._phase), self._phase)
         return self.observe()
 
     def close_extras(self, **kwargs: Any) -> None:

@@ -17,12 +17,13 @@ import dataclasses
 import math
 import operator
 from collections.abc import Collection, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Final
 
 import numpy as np
 
 from envs import task
+from envs.disturbances import Disturbances
 from sspinn.model.body import BodyParameters
 from sspinn.model.contact import ContactParameters
 from sspinn.model.passive import is_real
@@ -42,7 +43,8 @@ SLIP_VELOCITY: Final[float] = 0.2
 #: Default body height (m) and mass (kg); ``body`` may only be given when these are unchanged.
 _DEFAULT_HEIGHT, _DEFAULT_MASS = 1.75, 70.0
 #: Reward and termination fields: finite numbers.
-_NUMBER_FIELDS = ("tracking_weight", "tracking_width", "alive_bonus", "effort_weight", "min_height_fraction", "max_tilt")
+_NUMBER_FIELDS = ("tracking_weight", "tracking_width", "alive_bonus", "effort_weight", "min_height_fraction", "max_tilt",
+                  "slip_weight", "impact_weight", "impact_threshold", "phase_weight", "max_phase_duration")
 
 
 def _read_only(attribute: str, doc: str) -> Any:
@@ -64,9 +66,15 @@ class WalkerConfig:
         r = tracking_weight · exp(−((v − v*) / tracking_width)²)
             + alive_bonus · [not terminated]
             − effort_weight · Σ_j a_j²
+            − slip_weight · Σ_feet v_slip − impact_weight · Σ_feet max(F_y/BW − impact_threshold, 0)²
+            − phase_weight · Σ_feet [current contact or air phase longer than max_phase_duration]
 
     with v the pelvis (hip joint centre) forward speed averaged over the step (m/s), v* the target
-    speed (m/s) and a ∈ [−1, 1]⁶ the action.
+    speed (m/s), a ∈ [−1, 1]⁶ the action, and the last two (gait shaping, off by default) from the
+    contact forces at the end of the step: v_slip the sliding speed of a foot carrying more than
+    10 % BW implied by the friction law (m/s, :func:`envs.task.foot_slip`), F_y a foot's vertical
+    force (:func:`envs.task.shaping_penalty`); a foot is in contact while its vertical force exceeds
+    5 % BW (:data:`sspinn.data.gait_events.CONTACT_THRESHOLD_BW`), :func:`envs.task.next_phase`.
 
     Attributes:
         height: body height, m (Winter scaling; 0.5–2.5). Default 1.75.
@@ -81,6 +89,15 @@ class WalkerConfig:
         tracking_width: σ of the speed-tracking Gaussian, m/s (> 0). Default 0.25.
         alive_bonus: reward for every step that does not terminate the episode. Default 0.2.
         effort_weight: weight of Σ a² (dimensionless actions, Σ a² ∈ [0, 6]). Default 0.01.
+        slip_weight: weight of the feet's sliding speed, per m/s (≥ 0). Default 0 (off).
+        impact_weight: weight of the squared vertical-force excess over ``impact_threshold``, per
+            BW² (≥ 0). Default 0 (off).
+        impact_threshold: vertical force per foot above which the impact penalty acts, BW (> 0).
+            Default 1.5 (walking's impact peaks are ≈ 1.1–1.3 BW).
+        phase_weight: penalty per step and foot whose current contact or air phase has lasted more
+            than ``max_phase_duration`` (≥ 0): against hopping on one leg or dragging a foot.
+            Default 0 (off).
+        max_phase_duration: s (> 0). Default 1.0 (walking at 1.3 m/s: stance ≈ 0.7 s, swing ≈ 0.45 s).
         min_height_fraction: the episode terminates when the hip height (pelvis_ty) falls below
             this fraction of the standing hip height (m). In (0, 1); default 0.6.
         max_tilt: |pelvis_tilt| limit, rad (trunk lean); beyond it the episode terminates. Default 1.
@@ -97,6 +114,9 @@ class WalkerConfig:
             Default 0.2.
         contact: :class:`~sspinn.model.contact.ContactParameters` (stiffness, damping, μ, ...; its slip
             velocity is replaced by ``slip_velocity``); None → defaults.
+        disturbances: the disturbance tests of every episode, a
+            :class:`~envs.disturbances.Disturbances` or a mapping of its fields (pushes, observation
+            noise and delay, actuator strength, body mismatch; units there). Default: none.
     """
 
     height: float = _DEFAULT_HEIGHT
@@ -108,6 +128,11 @@ class WalkerConfig:
     tracking_width: float = 0.25
     alive_bonus: float = 0.2
     effort_weight: float = 0.01
+    slip_weight: float = 0.0
+    impact_weight: float = 0.0
+    impact_threshold: float = 1.5
+    phase_weight: float = 0.0
+    max_phase_duration: float = 1.0
     min_height_fraction: float = 0.6
     max_tilt: float = 1.0
     joint_range: Mapping[str, Sequence[float]] | None = None
@@ -119,6 +144,7 @@ class WalkerConfig:
     method: str = METHOD
     slip_velocity: float = SLIP_VELOCITY
     contact: ContactParameters | None = None
+    disturbances: Disturbances = field(default_factory=Disturbances)
 
     def __post_init__(self) -> None:
         def put(name: str, value: Any) -> None:
@@ -144,6 +170,13 @@ class WalkerConfig:
             raise ValueError(f"min_height_fraction must lie in (0, 1), got {self.min_height_fraction}")
         if self.max_tilt <= 0:
             raise ValueError(f"max_tilt must be > 0 rad, got {self.max_tilt}")
+        for name in ("slip_weight", "impact_weight", "phase_weight"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.impact_threshold <= 0:
+            raise ValueError(f"impact_threshold must be > 0 BW, got {self.impact_threshold}")
+        if self.max_phase_duration <= 0:
+            raise ValueError(f"max_phase_duration must be > 0 s, got {self.max_phase_duration}")
         if not is_real(self.reset_noise_scale) or not 0 <= self.reset_noise_scale <= 0.1:
             raise ValueError(f"reset_noise_scale must be a number in [0, 0.1] (m, rad), got {self.reset_noise_scale!r}")
         put("reset_noise_scale", float(self.reset_noise_scale))
@@ -153,6 +186,7 @@ class WalkerConfig:
         passive = task.passive_parameters(self.joint_range, self.joint_limit_stiffness, self.joint_damping)
         target_range = task.target_speed_range(self.target_speed)
         put("max_episode_steps", task.check_int("max_episode_steps", self.max_episode_steps, 1))
+        put("disturbances", Disturbances.resolve(self.disturbances))
         for array in (tau_max, passive):
             array.flags.writeable = False
         # derived quantities: not fields (not compared, not in repr/asdict), read through properties

@@ -10,8 +10,9 @@ from gymnasium import spaces
 
 from envs import task
 from envs.config import CONTROL_DT, WalkerConfig, WalkerParameters
+from envs.walker_state import WalkerState, episode_setup
 from sspinn.model.conventions import N_Q, N_TAU
-from sspinn.model.simulation import METHODS, advance, contact_into
+from sspinn.model.simulation import METHODS, advance
 
 
 class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
@@ -88,7 +89,11 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     v is the hip's forward displacement over the step divided by 0.01 s (m/s), v* the target
     speed. Defaults: tracking_weight 1, tracking_width 0.25 m/s, alive_bonus 0.2,
     effort_weight 0.01 (full activation of all six joints costs 0.06 per step). ``info`` holds the
-    three unweighted terms.
+    three unweighted terms. Optional gait shaping (off by default, :class:`envs.config.WalkerConfig`):
+    ``− slip_weight · Σ_feet v_slip − impact_weight · Σ_feet max(F_y/BW − impact_threshold, 0)²``
+    from the contact forces at the end of the step (v_slip: the sliding speed of a loaded foot that
+    the friction law implies, m/s; F_y in BW), and ``− phase_weight`` for each foot whose current
+    contact or air phase has lasted longer than ``max_phase_duration`` s (hopping, dragging).
 
     ## Starting state
 
@@ -102,7 +107,32 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     ``reset(options={"target_speed": v})``. ``reset(options={"initial_state": (q, u)})`` starts
     from another state instead of standing (q, u: 9 coordinates and speeds in SI units; pelvis_tx
     is set to 0 and the same noise is added) — e.g. on a gait cycle, for controllers that track one
-    (:mod:`predictive.generator.closed_loop`).
+    (:mod:`predictive.generator.closed_loop`). ``reset(options={"reset_noise_scale": s})`` changes
+    the noise half-width for that episode; ``reset(options={"disturbances": {...}})`` its
+    disturbances (below). Other option keys are a ``ValueError``. The random draws of a reset are
+    listed in :mod:`envs.walker_state`.
+
+    ## Disturbances
+
+    The same disturbance tests for every controller, as the ``disturbances`` field of the
+    configuration (every episode) or the ``disturbances`` reset option (that episode; the given
+    fields replace the configuration's). Fields and units (:class:`envs.disturbances.Disturbances`):
+
+    * ``push_force`` (% body weight, + forward), ``push_duration`` (s, whole control steps),
+      ``push_time`` (s after reset) or ``push_phase`` (``"midstance_r"``/``"midstance_l"``: the first
+      mid-stance of that foot — single support and its horizontal contact force turning from braking
+      to propulsive — at or after ``push_after`` s): a horizontal force on the pelvis at the hip
+      joint centre, once per episode. ``info["push_force"]`` is the force (N) applied during the step.
+    * ``obs_noise``: {"height": m, "angle": rad, "linear_velocity": m/s, "angular_velocity": rad/s,
+      "grf": BW} standard deviations of Gaussian observation noise; ``obs_delay``: control steps by
+      which the observation lags the state.
+    * ``strength_change``: % change of the actuator torques (one number or six).
+    * ``mass_change``, ``length_change``: % change of the simulated body's segment masses and
+      lengths (one number, or per segment / segment type). The announced model (``body``,
+      ``body_vector``, ``tau_max``, ``step_state``) stays nominal: a controller does not know.
+
+    ``SagittalWalkerEnv(disturbances={"push_force": 15, "push_duration": 0.1, "push_phase":
+    "midstance_r"})`` pushes forward with 15 % BW for 0.1 s at the first right mid-stance after 1 s.
 
     ## Passive joint moments
 
@@ -121,11 +151,17 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     * Termination (``terminated``): the hip falls below ``min_height_fraction`` (0.6) of the
       standing hip height (≈0.56 m for the default body), |pelvis_tilt| exceeds ``max_tilt``
       (1.0 rad), or the state becomes non-finite (never observed with the default physics).
-    * Truncation (``truncated``): after ``max_episode_steps`` steps (default 1000 = 10 s). The
-      environment truncates by itself; it is registered without a ``TimeLimit`` wrapper.
+    * Truncation (``truncated``): after ``max_episode_steps`` steps (default 1000 = 10 s), unless
+      that step terminates. The environment truncates by itself (also when made without
+      ``gymnasium.make``); it is registered with ``max_episode_steps=1000``, so ``gymnasium.make``
+      adds Gymnasium's ``TimeLimit`` wrapper at the same step. ``gymnasium.make(ID,
+      max_episode_steps=K)`` only sets that wrapper's limit: for an episode longer than 1000 steps
+      also give the environment's own, ``config=WalkerConfig(max_episode_steps=K)`` (as
+      :func:`agents.train.make_env` does).
     * After the episode ended, call ``reset()``. As Gymnasium's own environments do (e.g.
       CartPole), a ``step()`` after ``terminated`` or ``truncated`` warns (once per episode),
-      still advances the physics, keeps ``terminated``/``truncated`` true and gives reward 0.
+      still advances the physics, returns the same (``terminated``, ``truncated``) pair as the
+      step that ended the episode and gives reward 0.
     * An action with NaN or inf is a ``ValueError`` naming the action (it would otherwise turn
       into a NaN reward and poison returns); finite actions outside [−1, 1] are clipped.
 
@@ -170,8 +206,9 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     reset), ``cost_of_transport`` (mechanical, dimensionless: Σ over steps and joints of
     |τ_j·Δθ_j| — the joint work of each constant-torque interval — divided by m·g·distance; +inf
     while the hip has not moved at least 1 cm forward), ``grf`` (4, N: Fx_r, Fy_r, Fx_l, Fy_l),
-    ``torques`` (6, N·m, actuators only), ``reward_tracking``, ``reward_alive``, ``reward_effort`` (unweighted terms) and
-    ``physics_failure`` (True only if the state became non-finite; the previous state is then kept).
+    ``torques`` (6, N·m, actuators only), ``reward_tracking``, ``reward_alive``, ``reward_effort`` (unweighted terms),
+    ``physics_failure`` (True only if the state became non-finite; the previous state is then kept)
+    and ``push_force`` (N, the push applied during the step, 0 without).
     ``reset`` returns ``target_speed`` and ``x_position``.
 
     ## Arguments
@@ -199,6 +236,11 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     tracking_width         0.25                         σ of the tracking Gaussian, m/s
     alive_bonus            0.2                          reward per non-terminating step
     effort_weight          0.01                         weight of Σ a²
+    slip_weight            0.0                          weight of the loaded feet's sliding speed, per m/s
+    impact_weight          0.0                          weight of max(F_y/BW − impact_threshold, 0)² per foot
+    impact_threshold       1.5                          BW
+    phase_weight           0.0                          per foot in a contact/air phase > max_phase_duration
+    max_phase_duration     1.0                          s
     min_height_fraction    0.6                          fall threshold, fraction of standing hip height
     max_tilt               1.0                          |pelvis tilt| limit, rad
     joint_range            None                         passive soft-limit ranges {"hip": (lo, hi), ...},
@@ -211,6 +253,7 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     method                 "semi_implicit_euler"        integrator ("semi_implicit_euler" or "rk4")
     slip_velocity          0.2                          friction regularisation v_s, m/s
     contact                None                         ContactParameters (stiffness, damping, μ...)
+    disturbances           none                         Disturbances or a mapping of its fields (above)
     render_mode            None                         None, "rgb_array" or "human"
     width, height_px       600, 400                     rendered image size, px
     ====================== ============================ ===============================================
@@ -262,27 +305,20 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
         self.render_mode = render_mode
         self.width = task.check_int("width", width, 16)
         self.height_px = task.check_int("height_px", height_px, 16)
-        # packed parameters of the compiled stepper (float64 copies; see _advance)
+        # packed parameters of the nominal model (float64 copies; step_state)
         self._p = self.body_vector
         self._c = self.contact_vector
         self._tau_max = self.tau_max
         self._passive = self.passive_parameters
         self._method_index = METHODS.index(self.method)
-        self._body_weight = self.body.body_weight
 
         self.action_space = spaces.Box(-1.0, 1.0, (N_TAU,), dtype=np.float32)
         self.observation_space = spaces.Box(-np.inf, np.inf, (task.OBS_SIZE,), dtype=np.float32)
 
-        # state (float64, updated in place by the compiled stepper)
-        self._q = np.zeros(N_Q)
-        self._u = np.zeros(N_Q)
-        self._grf = np.zeros(4)
-        self._tau = np.zeros(N_TAU)
-        self._target = np.zeros(())
-        self._x0 = 0.0
-        self._work = 0.0
-        self._steps = 0
-        self._ended = (False, False)  # (terminated, truncated) of the last step, until reset
+        # the walker (one row of the engine shared with the vector environment)
+        self._walker = WalkerState(self._config, 1)
+        self._active = np.ones(1, dtype=bool)
+        self._actions = np.zeros((1, N_TAU))
         self._warned_after_end = False
         self._renderer: Any = None
 
@@ -290,24 +326,24 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     @property
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """Copies of the coordinates q (9,) and speeds u (9,) (SI, :mod:`sspinn.model.conventions`)."""
-        return self._q.copy(), self._u.copy()
+        return self._walker.q[0].copy(), self._walker.u[0].copy()
 
     def set_state(self, q: np.ndarray, u: np.ndarray) -> None:
         """Overwrite the state (e.g. to replay or compare); ground forces are recomputed."""
         q, u = _state_copies(q, u)
-        self._q[:] = q
-        self._u[:] = u
-        contact_into(self._q, self._u, self._p, self._c, True, self._grf)
+        self._walker.set_state(0, q, u)
 
     @property
     def target_speed(self) -> float:
         """Target speed of the current episode, m/s."""
-        return float(self._target)
+        return float(self._walker.target(0))
 
     def step_state(self, q: np.ndarray, u: np.ndarray, action: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Advance the state (q, u) by one control interval under ``action`` exactly as :meth:`step`
         does (same checks and clipping of the action, torques, passive moments, integrator and
         substeps), without touching the environment's own state, episode or random generator.
+        This is the announced (nominal) model: disturbances (push, strength change, body mismatch)
+        are not in it, so with them it differs from :meth:`step` by design.
 
         Args:
             q, u: coordinates (9,) and speeds (9,), SI units (:mod:`sspinn.model.conventions`), finite.
@@ -333,83 +369,37 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
         return np.minimum(np.maximum(a, -1.0), 1.0)
 
     def _advance(self, q: np.ndarray, u: np.ndarray, tau: np.ndarray, grf: np.ndarray) -> bool:
-        """The compiled physics of one control interval, in place on q, u and grf; True if finite."""
+        """The compiled physics of the nominal model for one control interval, in place on q, u
+        and grf; True if finite."""
         return advance(
             q, u, tau, self._passive, self._p, self._c, self.physics_dt, self.substeps, self._method_index, True, grf
         )
 
-    def _obs(self) -> np.ndarray:
-        return task.observation(self._q, self._u, self._grf, self._target, self._body_weight).astype(np.float32)
-
     # ------------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
-        low, high = self._config.target_range
-        if options is not None and "target_speed" in options:
-            self._target = np.asarray(task.check_target_speed(options["target_speed"]))
-        else:
-            self._target = np.asarray(low if low == high else self.np_random.uniform(low, high))
-        noise = self._config.reset_noise_scale
-        q, u = np.zeros(N_Q), np.zeros(N_Q)
-        q[1] = self.standing_height
-        if options is not None and "initial_state" in options:
-            q, u = _initial_state(options["initial_state"])
-        q[0] = 0.0
-        q[1:] += self.np_random.uniform(-noise, noise, N_Q - 1)
-        u = u + self.np_random.uniform(-noise, noise, N_Q)
-        self.set_state(q, u)
-        self._tau[:] = 0.0
-        self._x0 = float(self._q[0])
-        self._work = 0.0
-        self._steps = 0
-        self._ended = (False, False)
+        setup = episode_setup(self._config, options, 1)
+        self._walker.reset_rows(np.zeros(1, dtype=np.int64), [self.np_random], setup)
         self._warned_after_end = False
         if self.render_mode == "human":
             self.render()
-        return self._obs(), {"target_speed": float(self._target), "x_position": self._x0}
+        return self._walker.obs[0].copy(), {"target_speed": self.target_speed, "x_position": float(self._walker.q[0, 0])}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        a = self._action(action)
-        ended_before = self._ended
-        if (ended_before[0] or ended_before[1]) and not self._warned_after_end:
+        self._actions[0] = self._action(action)
+        if self._walker.ended(0) and not self._warned_after_end:
             gymnasium.logger.warn(
                 "step() called after the episode ended (terminated or truncated); call reset() first: "
-                "terminated/truncated stay true and the reward is 0 until then"
+                "terminated/truncated stay as they were and the reward is 0 until then"
             )
             self._warned_after_end = True
-        np.multiply(a, self._tau_max, out=self._tau)
-        q_before = self._q.copy()
-        u_before = self._u.copy()
-        finite = self._advance(self._q, self._u, self._tau, self._grf)
-        if not finite:  # keep the last finite state; the episode ends
-            self.set_state(q_before, u_before)
-        self._work += float(np.abs(self._tau * (self._q[3:] - q_before[3:])).sum())
-        self._steps += 1
-        speed = (self._q[0] - q_before[0]) / CONTROL_DT
-        terminated = bool(task.unhealthy(self._q, self.standing_height, self._config)) or not finite
-        total, tracking, alive, effort = task.reward(speed, self._target, a, terminated, self._config)
-        truncated = self._steps >= self._config.max_episode_steps and not terminated
-        if ended_before[0] or ended_before[1]:  # sticky, as in Gymnasium's environments
-            terminated, truncated = ended_before[0] or terminated, ended_before[1] and not terminated
-            total = tracking = alive = effort = 0.0
-        self._ended = (terminated, truncated)
-        distance = float(self._q[0]) - self._x0
-        info = {
-            "speed": float(speed),
-            "target_speed": float(self._target),
-            "x_position": float(self._q[0]),
-            "distance": distance,
-            "cost_of_transport": self._work / (self._body_weight * distance) if distance > 0.01 else float("inf"),
-            "grf": self._grf.copy(),
-            "torques": self._tau.copy(),
-            "reward_tracking": float(tracking),
-            "reward_alive": float(alive),
-            "reward_effort": float(effort),
-            "physics_failure": not finite,
-        }
+        self._walker.step(self._actions, self._active, parallel=False)
+        terminated, truncated = (bool(f) for f in self._walker.flags[0, :2])
+        reward = float(self._walker.out[0, 0])
+        info = self._walker.info(0)
         if self.render_mode == "human":
             self.render()
-        return self._obs(), float(total), terminated, truncated, info
+        return self._walker.obs[0].copy(), reward, terminated, truncated, info
 
     # ------------------------------------------------------------------------------------------
     def render(self) -> np.ndarray | None:
@@ -427,11 +417,13 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
                 self.body, self.contact, width=self.width, height=self.height_px, mode=self.render_mode,
                 fps=self.metadata["render_fps"],
             )
+        w = self._walker
+        q, u = w.q[0], w.u[0]
         text = (
-            f"t = {self._steps * CONTROL_DT:5.2f} s   v = {self._u[0]:5.2f} m/s   "
-            f"target = {float(self._target):4.2f} m/s   x = {self._q[0]:5.2f} m"
+            f"t = {int(w.steps(0)) * CONTROL_DT:5.2f} s   v = {u[0]:5.2f} m/s   "
+            f"target = {self.target_speed:4.2f} m/s   x = {q[0]:5.2f} m"
         )
-        return self._renderer.draw(self._q, self._u, self._grf, text)
+        return self._renderer.draw(q, u, w.grf[0], text)
 
     def close(self) -> None:
         if self._renderer is not None:
@@ -445,15 +437,4 @@ def _state_copies(q: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
     u = np.array(u, dtype=np.float64)
     if q.shape != (N_Q,) or u.shape != (N_Q,) or not (np.isfinite(q).all() and np.isfinite(u).all()):
         raise ValueError(f"q and u must be finite arrays of shape ({N_Q},), got {q.shape} and {u.shape}")
-    return q, u
-
-
-def _initial_state(value: Any) -> tuple[np.ndarray, np.ndarray]:
-    """(q, u) copies from ``options["initial_state"]``, with a clear error for bad values."""
-    try:
-        q, u = (np.array(v, dtype=np.float64) for v in value)
-    except (TypeError, ValueError):
-        raise ValueError("options['initial_state'] must be a pair (q, u) of 9 numbers each (m, rad, m/s, rad/s)") from None
-    if q.shape != (N_Q,) or u.shape != (N_Q,) or not (np.isfinite(q).all() and np.isfinite(u).all()):
-        raise ValueError(f"options['initial_state'] must be finite (q, u) of shape ({N_Q},) each, got {q.shape} and {u.shape}")
     return q, u

@@ -1,11 +1,13 @@
 """The walking task, written once for both environments: observation, reward, termination,
 actuator strength, initial state and argument checking.
 
-Every function here is *array-generic*: it takes NumPy arrays (one state, shape ``(9,)``; the
-single environment) or torch tensors (a batch, shape ``(N, 9)``; the batched environment) and uses
-only operations that exist under the same name in both namespaces (``concatenate``, ``exp``,
-``abs``, ``isfinite``, ``.sum(-1)``, ``.any(-1)``, ...). :class:`~envs.sagittal_walker.SagittalWalkerEnv`
-and :class:`~envs.batched.BatchedSagittalWalker` call these functions; neither has its own copy.
+The reward and termination formulas are written once, as the *scalar* functions
+:func:`tracking_term`, :func:`step_reward` and :func:`fell`: plain arithmetic (and :func:`exp`) that
+numba compiles for the compiled step of the NumPy environments (:mod:`envs.kernels`, used by
+:class:`~envs.sagittal_walker.SagittalWalkerEnv` and :class:`~envs.vector.SagittalWalkerVectorEnv`)
+and that torch evaluates elementwise on tensors for :class:`~envs.batched.BatchedSagittalWalker`
+(through the array-generic :func:`reward` and :func:`unhealthy`, which take NumPy arrays or torch
+tensors of any batch shape). No environment has its own copy.
 The reward weights and termination thresholds they read are fields of
 :class:`envs.config.WalkerConfig`, the one configuration of both environments, which validates its
 arguments with the checking functions below.
@@ -27,7 +29,9 @@ from collections.abc import Mapping, Sequence
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, Final
 
+import numba
 import numpy as np
+from numba.extending import overload, register_jitable
 
 from sspinn.model.body import BodyParameters, ParameterError
 from sspinn.model.contact import ContactParameters
@@ -61,6 +65,12 @@ OBSERVATION_UNITS: Final[tuple[str, ...]] = (
     "m", "rad", *("rad",) * N_TAU, "m/s", "m/s", *("rad/s",) * (N_Q - 2), *("BW",) * N_GRF, "m/s",
 )
 OBS_SIZE: Final[int] = len(OBSERVATION_NAMES)
+#: Channel class of each observation entry: the groups that share one observation-noise standard
+#: deviation (:class:`envs.disturbances.Disturbances`); ``"command"`` (the target speed) is never noisy.
+OBSERVATION_CLASSES: Final[tuple[str, ...]] = (
+    "height", *("angle",) * (N_TAU + 1), *("linear_velocity",) * 2, *("angular_velocity",) * (N_Q - 2),
+    *("grf",) * N_GRF, "command",
+)
 #: Index of each observation entry by name.
 OBS_INDEX: Final[dict[str, int]] = {name: i for i, name in enumerate(OBSERVATION_NAMES)}
 
@@ -92,27 +102,132 @@ def observation(q: Any, u: Any, grf: Any, target_speed: Any, body_weight: float)
     return xp.concatenate([q[..., 1:], u, grf / body_weight, target_speed[..., None]], axis=-1)
 
 
-def unhealthy(q: Any, standing_height: float, cfg: WalkerConfig) -> Any:
-    """True where the episode must terminate: hip below ``cfg.min_height_fraction`` of the standing
-    hip height (m) or |pelvis_tilt| > ``cfg.max_tilt`` (rad). Written as negated ``>=``/``<=`` tests
-    so that NaN coordinates count as unhealthy too (the environments also check that the whole state
-    is finite, which the physics step reports)."""
-    xp = _xp(q)
-    return ~(q[..., 1] >= cfg.min_height_fraction * standing_height) | ~(xp.abs(q[..., 2]) <= cfg.max_tilt)
+def exp(x: Any) -> Any:
+    """e**x of a float, NumPy array or torch tensor; compiled code uses ``math.exp`` (overload below)."""
+    torch = sys.modules.get("torch")
+    if torch is not None and isinstance(x, torch.Tensor):
+        return torch.exp(x)
+    return np.exp(x)
 
 
-def reward(speed: Any, target_speed: Any, action: Any, terminated: Any, cfg: WalkerConfig) -> tuple[Any, Any, Any, Any]:
-    """(reward, tracking, alive, effort) per step; see :class:`envs.config.WalkerConfig` for the formula.
+def atanh(x: Any) -> Any:
+    """artanh of a float, NumPy array or torch tensor; compiled code uses ``math.atanh`` (overload below)."""
+    torch = sys.modules.get("torch")
+    if torch is not None and isinstance(x, torch.Tensor):
+        return torch.atanh(x)
+    return np.arctanh(x)
+
+
+@overload(atanh)
+def _atanh_compiled(x):  # type: ignore[no-untyped-def]  # pragma: no cover - numba typing hook
+    if isinstance(x, numba.types.Float):
+        return lambda x: math.atanh(x)
+    return None
+
+
+@overload(exp)
+def _exp_compiled(x):  # type: ignore[no-untyped-def]  # pragma: no cover - numba typing hook (no annotations: numba compares signatures)
+    if isinstance(x, numba.types.Float):
+        return lambda x: math.exp(x)
+    return None
+
+
+def fell(height: Any, tilt: Any, min_height: Any, max_tilt: float) -> Any:
+    """True where the episode must terminate: hip height (m) below ``min_height`` (m), |pelvis tilt|
+    (rad) above ``max_tilt`` (rad), or either of them NaN (``x != x``). Scalars (compiled) or
+    arrays/tensors (elementwise)."""
+    return (height < min_height) | (abs(tilt) > max_tilt) | (height != height) | (tilt != tilt)
+
+
+def tracking_term(speed: Any, target_speed: Any, width: float) -> Any:
+    """Unweighted speed-tracking reward exp(−((v − v*) / width)²) ∈ (0, 1]; speeds and width in m/s."""
+    return exp(-(((speed - target_speed) / width) ** 2))
+
+
+def step_reward(tracking: Any, effort: Any, terminated: Any, tracking_weight: float, alive_bonus: float,
+                effort_weight: float) -> tuple[Any, Any]:
+    """(reward, alive) of one step from the unweighted tracking term, the effort Σ a² and the
+    termination flag; ``alive`` is 1.0, or 0.0 when the step terminates the episode."""
+    alive = 1.0 - terminated * 1.0
+    return tracking_weight * tracking + alive_bonus * alive - effort_weight * effort, alive
+
+
+@register_jitable
+def _positive_part(x: Any) -> Any:
+    """max(x, 0) with arithmetic and ``abs`` only (scalars compiled, arrays and tensors elementwise)."""
+    return 0.5 * (x + abs(x))
+
+
+@register_jitable  # callable from compiled code (shaping_penalty) and from Python with arrays or tensors
+def foot_slip(fx: Any, fy: Any, friction: float, slip_velocity: float, min_load: Any) -> Any:
+    """Sliding speed (m/s) of a foot's contact point implied by the forward-simulation friction law
+    F_x = −μ·tanh(v/v_s)·F_y: |v| = v_s·artanh(|F_x| / (μ·F_y)) (the ratio capped at 0.999), for a
+    foot carrying more than ``min_load`` (N) of vertical force F_y (N), else 0."""
+    ratio = abs(fx) / (friction * abs(fy) + 1e-9)
+    ratio = ratio - _positive_part(ratio - 0.999)
+    return (fy > min_load) * slip_velocity * atanh(ratio)
+
+
+def shaping_penalty(grf_x_r: Any, grf_y_r: Any, grf_x_l: Any, grf_y_l: Any, body_weight: Any, friction: float,
+                    slip_velocity: float, slip_weight: float, impact_weight: float, impact_threshold: float) -> Any:
+    """The optional gait-shaping penalty of one step (subtracted from the reward), from the contact
+    forces (N) at the end of the step: ``slip_weight`` × Σ_feet :func:`foot_slip` (feet above 10 % BW,
+    m/s) + ``impact_weight`` × Σ_feet max(F_y/BW − ``impact_threshold``, 0)² (BW²)."""
+    min_load = 0.1 * body_weight
+    slip = foot_slip(grf_x_r, grf_y_r, friction, slip_velocity, min_load) + foot_slip(
+        grf_x_l, grf_y_l, friction, slip_velocity, min_load)
+    over_r = _positive_part(grf_y_r / body_weight - impact_threshold)
+    over_l = _positive_part(grf_y_l / body_weight - impact_threshold)
+    return slip_weight * slip + impact_weight * (over_r * over_r + over_l * over_l)
+
+
+@register_jitable
+def next_phase(phase: Any, loaded: Any, dt: float) -> Any:
+    """A foot's current phase duration after a control step of ``dt`` s: positive while it is in
+    contact (``loaded``: vertical force above the contact threshold), negative in the air; the count
+    restarts at ±dt when the foot lands or lifts off. Arithmetic only (compiled or elementwise)."""
+    on = loaded * 1.0
+    return on * (_positive_part(phase) + dt) - (1.0 - on) * (_positive_part(-phase) + dt)
+
+
+def phase_penalty(phase_r: Any, phase_l: Any, max_phase: float, weight: float) -> Any:
+    """``weight`` per foot whose current contact or air phase has lasted longer than ``max_phase``
+    s (a foot that never lands — hopping — or never lifts off — dragging)."""
+    return weight * ((abs(phase_r) > max_phase) * 1.0 + (abs(phase_l) > max_phase) * 1.0)
+
+
+def unhealthy(q: Any, standing_height: Any, cfg: WalkerConfig) -> Any:
+    """:func:`fell` of states q (..., 9): hip below ``cfg.min_height_fraction`` of the standing hip
+    height (m) or |pelvis_tilt| > ``cfg.max_tilt`` (rad); NaN coordinates count as unhealthy too (the
+    environments also check that the whole state is finite, which the physics step reports)."""
+    return fell(q[..., 1], q[..., 2], cfg.min_height_fraction * standing_height, cfg.max_tilt)
+
+
+def reward(speed: Any, target_speed: Any, action: Any, terminated: Any, cfg: WalkerConfig,
+           grf: Any = None, phase: Any = None) -> tuple[Any, Any, Any, Any]:
+    """(reward, tracking, alive, effort) per step (:func:`tracking_term`, :func:`step_reward`, minus
+    :func:`shaping_penalty` of the contact forces ``grf`` (..., 4) in N and :func:`phase_penalty` of
+    the feet's phase durations ``phase`` (..., 2) in s when their weights are set); see
+    :class:`envs.config.WalkerConfig` for the formula.
 
     ``speed`` and ``target_speed`` in m/s (...,), ``action`` (..., 6) in [−1, 1], ``terminated``
     boolean (...,). ``tracking`` ∈ (0, 1] and ``effort`` = Σ a² are the unweighted terms; ``alive`` is
     1 or 0.
     """
-    xp = _xp(action)
-    tracking = xp.exp(-(((speed - target_speed) / cfg.tracking_width) ** 2))
+    tracking = tracking_term(speed, target_speed, cfg.tracking_width)
     effort = (action * action).sum(-1)
-    alive = 1.0 - terminated * 1.0
-    total = cfg.tracking_weight * tracking + cfg.alive_bonus * alive - cfg.effort_weight * effort
+    total, alive = step_reward(tracking, effort, terminated, cfg.tracking_weight, cfg.alive_bonus, cfg.effort_weight)
+    if cfg.slip_weight or cfg.impact_weight:
+        if grf is None:
+            raise ValueError("reward: the shaping penalty (slip_weight, impact_weight) needs the contact forces grf")
+        contact = cfg.contact_parameters
+        total = total - shaping_penalty(grf[..., 0], grf[..., 1], grf[..., 2], grf[..., 3],
+                                        cfg.body_parameters.body_weight, contact.friction, contact.slip_velocity,
+                                        cfg.slip_weight, cfg.impact_weight, cfg.impact_threshold)
+    if cfg.phase_weight:
+        if phase is None:
+            raise ValueError("reward: the phase penalty (phase_weight) needs the feet's phase durations")
+        total = total - phase_penalty(phase[..., 0], phase[..., 1], cfg.max_phase_duration, cfg.phase_weight)
     return total, tracking, alive, effort
 
 
@@ -231,6 +346,7 @@ __all__ = [
     "DEFAULT_JOINT_RANGE",
     "DEFAULT_LIMIT_STIFFNESS",
     "DEFAULT_MAX_TORQUE",
+    "OBSERVATION_CLASSES",
     "OBSERVATION_NAMES",
     "OBSERVATION_UNITS",
     "OBS_INDEX",
@@ -239,6 +355,12 @@ __all__ = [
     "check_int",
     "check_physics",
     "check_target_speed",
+    "atanh",
+    "exp",
+    "fell",
+    "foot_slip",
+    "next_phase",
+    "phase_penalty",
     "make_body",
     "passive_parameters",
     "passive_torque",
@@ -246,7 +368,10 @@ __all__ = [
     "max_torques",
     "observation",
     "reward",
+    "shaping_penalty",
     "standing_height",
+    "step_reward",
     "target_speed_range",
+    "tracking_term",
     "unhealthy",
 ]

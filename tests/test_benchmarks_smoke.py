@@ -48,10 +48,13 @@ def test_bench_dynamics(tmp_path: Path, capsys: pytest.CaptureFixture[str], torc
 def test_bench_env(tmp_path: Path, capsys: pytest.CaptureFixture[str], torch_threads) -> None:
     _, results = run_quick("bench_env", tmp_path / "bench.json")
     out = capsys.readouterr().out
-    for text in ("Single environment", "SagittalWalker-v0 (gymnasium.make)", "Walker2d-v5", "Batched torch environment",
-                 "≥ 100×", "sspinn.model.simulation.advance"):
+    for text in ("Environment steps/s", "SagittalWalker-v0 (gymnasium.make)", "vector env, N = 512", "DummyVecEnv",
+                 "Walker2d-v5", "roofline", "PPO end-to-end", "Batched torch environment", "≥ 100×",
+                 "sspinn.model.simulation.advance"):
         assert text in out
     assert results["single"]["rates"]["SagittalWalker-v0 (gymnasium.make)"] > 0
+    assert results["single"]["rates"]["vector env, N = 64"] > 0 and results["roofline"]["evaluations_per_s"] > 0
+    assert results["ppo"]["native"]["steps"] == results["ppo"]["dummy"]["steps"] > 0
     assert all(r["env_steps_per_s"] > 0 for r in results["batched"].values())
     assert json.loads((tmp_path / "bench.json").read_text())["batch"] == results["batch"]
 

@@ -1,4 +1,4 @@
-"""Non-finite actions and steps after the end of an episode follow Gymnasium's
+"""Non-finite actions, states and target speeds, and steps after the end of an episode, follow Gymnasium's
 conventions (a clear error; a warning, sticky flags and zero reward)."""
 
 from __future__ import annotations
@@ -69,3 +69,29 @@ def test_step_after_truncation_stays_truncated() -> None:
     with pytest.warns(UserWarning, match="after the episode ended"):
         _, reward, terminated, truncated, _ = env.step(np.zeros(6))
     assert truncated and not terminated and reward == 0.0
+
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), -1.0, 40.0])
+def test_batched_env_checks_target_speeds_like_the_single_env(bad: float) -> None:
+    env = BatchedSagittalWalker(3, device="cpu", dtype=torch.float64)
+    with pytest.raises(ValueError, match="target_speed"):
+        env.reset(options={"target_speed": bad})
+    with pytest.raises(ValueError, match=r"target_speed.*row\(s\) \[1\]"):
+        env.reset(options={"target_speed": torch.tensor([1.0, bad, 1.2], dtype=torch.float64)})
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="target_speed"):
+        env.set_state(env.q, env.u, target_speed=bad)
+
+
+def test_batched_env_rejects_non_finite_states_naming_the_rows() -> None:
+    env = BatchedSagittalWalker(3, device="cpu", dtype=torch.float64)
+    env.reset(seed=0)
+    q = env.q.clone()
+    q[2, 5] = float("nan")
+    with pytest.raises(ValueError, match=r"q and u must be finite; environment\(s\) \[2\]"):
+        env.set_state(q, env.u)
+    u = env.u.clone()
+    u[0, 0] = float("inf")
+    with pytest.raises(ValueError, match=r"environment\(s\) \[0\]"):
+        env.set_state(env.q, u)
+    assert torch.isfinite(env.q).all()  # nothing was changed

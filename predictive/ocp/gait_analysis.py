@@ -2,60 +2,25 @@
 
 Winter's data (``../shared/data/winter_walking``: 50 samples per stride from right heel strike,
 angles in rad with the sspinn signs, GRF in body weights) is optional: functions that need it
-take its folder and raise :class:`FileNotFoundError` with a clear message if it is absent.
+take its folder and raise :class:`FileNotFoundError` with a clear message if it is absent. The
+reference type and its loader are :class:`sspinn.data.gait_metrics.ReferenceGait` and
+:func:`sspinn.data.gait_metrics.load_winter` (re-exported here).
 """
 
 from __future__ import annotations
 
-import json
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from predictive.ocp.solution import CONTACT_THRESHOLD_BW, GaitSolution
-from sspinn.model.drawing import save_figure
 
-#: Default location of the shared real data, relative to the repository root.
-DEFAULT_DATA_DIR = Path(__file__).resolve().parents[2].parent / "shared" / "data"
+# the reference gait and its loader live with the gait metrics (usable by envs and agents too)
+from sspinn.data.gait_metrics import DEFAULT_DATA_DIR, ReferenceGait, load_winter  # noqa: F401 (re-exported)
+from sspinn.model.drawing import save_figure
 
 #: Compared signals: name → (sspinn column in q (rad) or grf (BW), Winter column).
 _ANGLES = {"hip": (3, "hip_flexion_r_angle"), "knee": (4, "knee_angle_r_angle"), "ankle": (5, "ankle_angle_r_angle")}
-
-
-@dataclass(frozen=True)
-class ReferenceGait:
-    """A normalised gait cycle starting at right heel strike (``n`` samples over 0 … 100 %)."""
-
-    percent: np.ndarray  # (n,) % of the cycle
-    hip: np.ndarray  # (n,) rad
-    knee: np.ndarray  # (n,) rad
-    ankle: np.ndarray  # (n,) rad
-    grf_x: np.ndarray  # (n,) BW, right foot
-    grf_y: np.ndarray  # (n,) BW, right foot
-    speed: float  # m/s
-    duration: float  # s
-
-
-def load_winter(data_dir: str | Path | None = None) -> ReferenceGait:
-    """Winter's averaged normal walking (right leg), from ``<data_dir>/winter_walking``."""
-    folder = Path(data_dir if data_dir is not None else DEFAULT_DATA_DIR) / "winter_walking"
-    csv, meta_path = folder / "signals.csv", folder / "meta.json"
-    if not csv.exists():
-        raise FileNotFoundError(f"Winter walking data not found at {csv} (../shared/data is optional)")
-    data = np.genfromtxt(csv, delimiter=",", names=True)
-    meta = json.loads(meta_path.read_text())
-    n = len(data)
-    return ReferenceGait(
-        percent=np.arange(n) * 100.0 / n,
-        hip=data["hip_flexion_r_angle"],
-        knee=data["knee_angle_r_angle"],
-        ankle=data["ankle_angle_r_angle"],
-        grf_x=data["grf_x_r"],
-        grf_y=data["grf_y_r"],
-        speed=float(meta["speed_mps"]["mean"]),
-        duration=float(meta["stride_duration_s"]["mean"]),
-    )
 
 
 def normalised_cycle(sol: GaitSolution, n: int = 100, threshold_bw: float = CONTACT_THRESHOLD_BW) -> ReferenceGait:

@@ -41,6 +41,8 @@ _SEMI_IMPLICIT_EULER = METHODS.index("semi_implicit_euler")
 
 #: Passive parameters of the bare model (no passive joint moments), see :mod:`sspinn.model.passive`.
 _NO_PASSIVE = np.zeros(N_PASSIVE)
+#: No external generalized force (the ``force`` argument of :func:`advance_forced`).
+_NO_FORCE = np.zeros(N_Q)
 
 _passive_torque = numba.njit(cache=True)(passive_torque)
 
@@ -56,9 +58,10 @@ def _contact_into(q, u, p, c, with_contact, grf, w) -> None:  # pragma: no cover
 
 
 @numba.njit(cache=True)
-def _accel_into(q, u, tau, p, c, with_contact, M, f, inv, grf, w, out) -> None:  # pragma: no cover - compiled
-    """out ← q̈(q, u, τ) = M⁻¹ f. M (9, 9), f (9,), inv (9,), w (2,) are scratch; grf (4,) receives
-    the ground reaction forces used (N, zeros without contact).
+def _accel_into(q, u, tau, force, p, c, with_contact, M, f, inv, grf, w, out) -> None:  # pragma: no cover - compiled
+    """out ← q̈(q, u, τ) = M⁻¹ (f + force), ``force`` (9,) an external generalized force.
+    M (9, 9), f (9,), inv (9,), w (2,) are scratch; grf (4,) receives the ground reaction forces
+    used (N, zeros without contact).
 
     M x = f is solved with an in-place Cholesky factorisation (M = L Lᵀ, the lower triangle of M
     overwritten by L) instead of numba's ``np.linalg.solve``, whose LAPACK call allocates and checks
@@ -69,6 +72,8 @@ def _accel_into(q, u, tau, p, c, with_contact, M, f, inv, grf, w, out) -> None: 
     _contact_into(q, u, p, c, with_contact, grf, w)
     kernels.mass_matrix_forcing(q, u, tau, grf, w, p, M, f)
     n = 9
+    for i in range(n):
+        f[i] += force[i]
     for j in range(n):
         s = M[j, j]
         for k in range(j):
@@ -97,13 +102,23 @@ def accel(q: np.ndarray, u: np.ndarray, tau: np.ndarray, p: np.ndarray, c: np.nd
     """q̈ (9,) for one state under joint torques tau (6,, N·m) and (optionally) ground contact; one
     model evaluation of :func:`advance` (no passive joint moments)."""
     out = np.empty(9)
-    _accel_into(q, u, tau, p, c, with_contact, np.empty((9, 9)), np.empty(9), np.empty(9), np.empty(4), np.empty(2), out)
+    _accel_into(
+        q, u, tau, _NO_FORCE, p, c, with_contact, np.empty((9, 9)), np.empty(9), np.empty(9), np.empty(4), np.empty(2), out
+    )
     return out
 
 
 @numba.njit(cache=True)
 def advance(q, u, tau, passive, p, c, dt, substeps, method, with_contact, grf) -> bool:  # pragma: no cover - compiled
-    """Advance (q, u) **in place** by ``substeps`` steps of ``dt`` seconds under constant torques.
+    """Advance (q, u) **in place** by ``substeps`` steps of ``dt`` seconds under constant torques:
+    :func:`advance_forced` without an external force (see there for the arguments)."""
+    return advance_forced(q, u, tau, _NO_FORCE, passive, p, c, dt, substeps, method, with_contact, grf)
+
+
+@numba.njit(cache=True)
+def advance_forced(q, u, tau, force, passive, p, c, dt, substeps, method, with_contact, grf) -> bool:  # pragma: no cover - compiled
+    """Advance (q, u) **in place** by ``substeps`` steps of ``dt`` seconds under constant torques
+    and a constant external generalized force.
 
     The single-state stepper of sspinn: every scratch array (mass matrix, forcing, Runge–Kutta
     stages) is allocated once per call, and the whole control interval is one compiled call.
@@ -111,6 +126,11 @@ def advance(q, u, tau, passive, p, c, dt, substeps, method, with_contact, grf) -
     Args:
         q, u: float64 (9,) coordinates (m, rad) and speeds (m/s, rad/s), overwritten.
         tau: float64 (6,) actuator joint torques, N·m, held constant.
+        force: float64 (9,) external generalized force, held constant, added to the right-hand side
+            of the equations of motion. Entries 0 and 1 are the horizontal and vertical force (N) on
+            the hip joint centre — the origin of the HAT segment, whose global position is
+            (pelvis_tx, pelvis_ty), so its partial velocities are the unit vectors of those two
+            coordinates — and entries 2–8 torques (N·m) on the other coordinates. Zeros: none.
         passive: float64 (14,) passive joint parameters (:func:`sspinn.model.passive.passive_parameters`;
             all zeros = bare model). The passive moments (:func:`sspinn.model.passive.passive_torque`) are
             evaluated at the start of every substep and added to ``tau`` for that substep — for
@@ -150,24 +170,24 @@ def advance(q, u, tau, passive, p, c, dt, substeps, method, with_contact, grf) -
         for j in range(6):
             t[j] = tau[j] + _passive_torque(q[3 + j], u[3 + j], passive[j], passive[6 + j], k, b)
         if method == _SEMI_IMPLICIT_EULER:
-            _accel_into(q, u, t, p, c, with_contact, M, f, inv, grf, w, a1)
+            _accel_into(q, u, t, force, p, c, with_contact, M, f, inv, grf, w, a1)
             for i in range(9):
                 u[i] = u[i] + dt * a1[i]
                 q[i] = q[i] + dt * u[i]
         else:  # _RK4
-            _accel_into(q, u, t, p, c, with_contact, M, f, inv, grf, w, a1)
+            _accel_into(q, u, t, force, p, c, with_contact, M, f, inv, grf, w, a1)
             for i in range(9):
                 us2[i] = u[i] + 0.5 * dt * a1[i]
                 qs[i] = q[i] + 0.5 * dt * u[i]
-            _accel_into(qs, us2, t, p, c, with_contact, M, f, inv, grf, w, a2)
+            _accel_into(qs, us2, t, force, p, c, with_contact, M, f, inv, grf, w, a2)
             for i in range(9):
                 us3[i] = u[i] + 0.5 * dt * a2[i]
                 qs[i] = q[i] + 0.5 * dt * us2[i]
-            _accel_into(qs, us3, t, p, c, with_contact, M, f, inv, grf, w, a3)
+            _accel_into(qs, us3, t, force, p, c, with_contact, M, f, inv, grf, w, a3)
             for i in range(9):
                 us4[i] = u[i] + dt * a3[i]
                 qs[i] = q[i] + dt * us3[i]
-            _accel_into(qs, us4, t, p, c, with_contact, M, f, inv, grf, w, a4)
+            _accel_into(qs, us4, t, force, p, c, with_contact, M, f, inv, grf, w, a4)
             for i in range(9):
                 q[i] = q[i] + dt / 6.0 * (u[i] + 2.0 * us2[i] + 2.0 * us3[i] + us4[i])
                 u[i] = u[i] + dt / 6.0 * (a1[i] + 2.0 * a2[i] + 2.0 * a3[i] + a4[i])

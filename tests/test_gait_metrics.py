@@ -1,0 +1,166 @@
+"""Gait metrics on synthetic gaits with known answers: symmetric and shifted cycles, a sliding
+foot, impact peaks, cost of transport, angle RMSD."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sspinn.data.gait_metrics import ReferenceGait, gait_metrics, load_winter, symmetry_index
+from sspinn.model import kinematics
+from sspinn.model.body import BodyParameters
+from sspinn.model.trajectory import Trajectory
+
+BODY = BodyParameters.from_anthropometry(1.75, 70.0)
+BW = BODY.body_weight
+T, DT = 1.1, 0.01  # stride duration (110 samples), sample interval (s)
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+
+
+def _gait(offset: float = 0.5, stance: tuple[float, float] = (0.6, 0.6), speed: float = 1.2, hip_amplitude: float = 0.3,
+          strides: int = 6, hip_torque: float = 0.0, left_hip_offset: float = 0.0) -> Trajectory:
+    """A walk of ``strides`` cycles: the left foot's cycle lags the right one by ``offset`` of a
+    stride; each foot carries 1 BW plus a 0.5 BW impact bump 30 ms after its heel strike during
+    its stance fraction; the hips swing ±``hip_amplitude`` rad (flexed at heel strike), the left
+    one about ``left_hip_offset`` rad."""
+    n = int(round(strides * T / DT)) + 1
+    t = np.arange(n) * DT
+    q, u = np.zeros((n, 9)), np.zeros((n, 9))
+    grf = np.zeros((n, 4))
+    q[:, 0], u[:, 0], q[:, 1] = speed * t, speed, 0.9
+    for f, lag in enumerate((0.0, offset)):
+        phase = np.round((t / T - lag) * 110) / 110 % 1.0  # on the sample grid
+        since = phase * T
+        grf[:, 2 * f + 1] = np.where(phase < stance[f] - 1e-9, BW * (1.0 + 0.5 * np.exp(-(((since - 0.03) / 0.01) ** 2))), 0.0)
+        q[:, 3 + 3 * f] = hip_amplitude * np.cos(2 * np.pi * phase) + (left_hip_offset if f else 0.0)
+        u[:, 3 + 3 * f] = -hip_amplitude * 2 * np.pi / T * np.sin(2 * np.pi * phase)
+    tau = np.zeros((n, 6))
+    tau[:, 0] = hip_torque
+    return Trajectory(time=t, q=q, u=u, qdd=np.zeros((n, 9)), tau=tau, grf=grf, w=np.full((n, 2), 0.5))
+
+
+def _heel_distance(hip_r: float, hip_l: float) -> float:
+    """Forward distance of the right heel ahead of the left one (m) in a pose with only hip angles."""
+    q = np.zeros(9)
+    q[1], q[3], q[6] = 0.9, hip_r, hip_l
+    points = np.asarray(kinematics.point_kinematics(q, np.zeros(9), np.zeros(9), np.full(2, 0.5), BODY))
+    return float(points[kinematics.point_index("heel_r"), 0] - points[kinematics.point_index("heel_l"), 0])
+
+
+def test_symmetric_cycle_has_no_asymmetry() -> None:
+    m = gait_metrics(_gait(), BODY)
+    assert m.steps_r >= 5 and m.steps_l >= 5
+    assert m.step_time_r == pytest.approx(T / 2) and m.step_time_l == pytest.approx(T / 2)
+    assert m.step_time_asymmetry == pytest.approx(0.0, abs=1e-9)
+    assert m.step_length_asymmetry == pytest.approx(0.0, abs=1e-6)
+    assert m.stance_percent_r == pytest.approx(60.0) and m.stance_asymmetry == pytest.approx(0.0, abs=1e-9)
+    assert m.step_length_r == pytest.approx(_heel_distance(0.3, -0.3)) and m.step_length_l == pytest.approx(m.step_length_r)
+    assert m.cadence_steps_per_min == pytest.approx(60 / (T / 2))
+
+
+def test_shifted_cycle_gives_the_known_asymmetry() -> None:
+    """Left heel strike at 60 % of the right stride instead of 50 %: left steps 0.66 s, right steps
+    0.44 s, SI = 100 · 0.22 / 0.55 = 40 %; left stance 70 % against 60 %: SI = 100 · 10 / 65."""
+    m = gait_metrics(_gait(offset=0.6, stance=(0.6, 0.7)), BODY)
+    assert m.step_time_l == pytest.approx(0.66) and m.step_time_r == pytest.approx(0.44)
+    assert m.step_time_asymmetry == pytest.approx(40.0)
+    assert m.stance_percent_l == pytest.approx(70.0) and m.stance_asymmetry == pytest.approx(100 * 10 / 65)
+    assert m.contact_share_l == pytest.approx(70.0, abs=0.5) and m.contact_asymmetry == pytest.approx(100 * 10 / 65, rel=0.03)
+    assert m.step_length_asymmetry == pytest.approx(0.0, abs=1e-6)  # cos(0.8π) = cos(1.2π): same hip angles
+    # a left leg held 0.1 rad further back: right steps (left at −0.4 rad) are longer than left ones
+    m = gait_metrics(_gait(left_hip_offset=-0.1), BODY)
+    right, left = _heel_distance(0.3, -0.4), -_heel_distance(-0.3, 0.2)
+    assert m.step_length_r == pytest.approx(right) and m.step_length_l == pytest.approx(left)
+    assert m.step_length_asymmetry == pytest.approx(100 * abs(right - left) / ((right + left) / 2))
+    assert symmetry_index(1.0, 1.0) == 0.0 and math.isnan(symmetry_index(float("nan"), 1.0))
+
+
+def test_foot_sliding_impact_peak_and_cost_of_transport() -> None:
+    """Legs still while the hip moves at 0.1 m/s: each contact point slides 0.1 m/s × 0.66 s."""
+    m = gait_metrics(_gait(speed=0.1, hip_amplitude=0.0, stance=(0.6, 0.6)), BODY)
+    assert m.foot_slide_per_step_cm == pytest.approx(0.1 * 0.66 * 100, rel=1e-6)
+    assert m.peak_impact_bw == pytest.approx(1.5) and m.max_vertical_grf_bw == pytest.approx(1.5)
+    walk = _gait(hip_torque=10.0)
+    m = gait_metrics(walk, BODY)
+    distance = walk.q[-1, 0] - walk.q[0, 0]
+    assert m.cost_of_transport == pytest.approx(10.0 * 6 * 4 * 0.3 / (BW * distance))  # hip_r: 1.2 rad of travel per stride
+    standing = _gait(speed=0.0)
+    assert math.isnan(gait_metrics(standing, BODY).cost_of_transport)
+
+
+def test_a_dragging_foot_shows_in_the_contact_share() -> None:
+    """The left foot never leaves the ground: no left heel strikes or steps, stance % undefined,
+    contact share 100 % against the right foot's 60 %."""
+    walk = _gait()
+    walk.grf[:, 3] = BW
+    m = gait_metrics(walk, BODY)
+    assert m.heel_strikes_l == 0 and m.heel_strikes_r >= 5 and m.steps_l == 0
+    assert math.isnan(m.step_time_asymmetry) and math.isnan(m.stance_asymmetry)
+    assert m.contact_share_l == 100.0 and m.contact_share_r == pytest.approx(60.0, abs=0.5)
+    assert m.contact_asymmetry == pytest.approx(100 * 40 / 80, rel=0.02)
+    percent = np.arange(50) * 2.0
+    knee = np.full(50, np.radians(5.0))
+    reference = ReferenceGait(percent=percent, hip=0.3 * np.cos(2 * np.pi * percent / 100), knee=knee, ankle=knee * 0,
+                              grf_x=knee * 0, grf_y=knee * 0, speed=1.2, duration=T)
+    assert gait_metrics(walk, BODY, reference=reference).rmsd_knee_deg == pytest.approx(5.0)  # the right leg alone
+
+
+def test_settle_time_ignores_the_first_events() -> None:
+    assert gait_metrics(_gait(), BODY, settle_s=3.0).steps_r < gait_metrics(_gait(), BODY).steps_r
+
+
+def test_angle_rmsd_to_a_reference_cycle() -> None:
+    percent = np.arange(50) * 2.0
+    phase = percent / 100
+    reference = ReferenceGait(percent=percent, hip=0.3 * np.cos(2 * np.pi * phase), knee=np.zeros(50),
+                              ankle=np.zeros(50), grf_x=np.zeros(50), grf_y=np.zeros(50), speed=1.2, duration=T)
+    m = gait_metrics(_gait(), BODY, reference=reference)
+    assert m.rmsd_hip_deg < 0.2 and m.rmsd_knee_deg == pytest.approx(0.0, abs=1e-9)
+    shifted = ReferenceGait(**{**reference.__dict__, "knee": np.full(50, np.radians(5.0))})
+    assert gait_metrics(_gait(), BODY, reference=shifted).rmsd_knee_deg == pytest.approx(5.0)
+    assert math.isnan(gait_metrics(_gait(), BODY).rmsd_hip_deg)
+    assert gait_metrics(_gait(), BODY).as_dict()["rmsd_hip_deg"] is None
+
+
+def test_winter_reference_when_the_shared_data_exists() -> None:
+    if not (SHARED / "winter_walking").is_dir():
+        pytest.skip("../shared/data/winter_walking is not available")
+    winter = load_winter(SHARED)
+    assert len(winter.percent) == 50 and winter.speed == pytest.approx(1.325)
+    assert np.degrees(winter.hip.max()) == pytest.approx(20, abs=8) and np.degrees(winter.knee.min()) < -55
+    with pytest.raises(FileNotFoundError, match="optional"):
+        load_winter(SHARED / "nowhere")
+
+
+def test_contact_point_velocity_is_the_slip_of_the_friction_law() -> None:
+    """The sliding speed the metric integrates (the contact point's v_x from the kinematics) is the
+    one the environment's friction law F_x = −μ·tanh(v/v_s)·F_y acts on."""
+    from envs.sagittal_walker import SagittalWalkerEnv
+    from sspinn.model.dynamics import contact_forces
+
+    env = SagittalWalkerEnv(min_height_fraction=0.01, max_tilt=3.0)
+    env.reset(seed=2)
+    states = []
+    for a in np.random.default_rng(0).uniform(-0.4, 0.4, (60, 6)):
+        env.step(a)
+        states.append(env.state)
+    q, u = (np.array(x) for x in zip(*states))
+    grf, w = (np.asarray(x) for x in contact_forces(q, u, env.body, env.contact))
+    points = np.asarray(kinematics.point_kinematics(q, u, np.zeros_like(q), w, env.body))
+    mu, v_s = env.contact.friction, env.contact.slip_velocity
+    checked = 0
+    for f, row in enumerate((kinematics.point_index("contact_r"), kinematics.point_index("contact_l"))):
+        fx, fy = grf[:, 2 * f], grf[:, 2 * f + 1]
+        ok = (fy > 0.1 * BODY.body_weight) & (np.abs(fx) < 0.9 * mu * fy)
+        slip = -v_s * np.arctanh(fx[ok] / (mu * fy[ok]))
+        np.testing.assert_allclose(points[ok, row, 2], slip, atol=1e-6)
+        checked += int(ok.sum())
+    assert checked > 30
+
+
+def test_too_short_a_trajectory_gives_undefined_metrics() -> None:
+    m = gait_metrics(_gait()[:2], BODY)
+    assert m.steps_r == 0 and m.heel_strikes_l == 0 and math.isnan(m.peak_impact_bw) and m.as_dict()["foot_slide_m"] is None
