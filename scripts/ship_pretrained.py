@@ -43,6 +43,7 @@ def main() -> None:
     p.add_argument("--data", type=Path, required=True, help="the dataset whose test split gives the example")
     p.add_argument("--metrics", type=Path, action="append", default=[], help="metrics.json of its evaluations (repeatable)")
     p.add_argument("--command", required=True, help="the command that trained the model")
+    p.add_argument("--commit", default=None, help="the commit whose code trained the model (default: HEAD)")
     p.add_argument("--out", type=Path, default=Path("models/pretrained"))
     args = p.parse_args()
 
@@ -54,20 +55,21 @@ def main() -> None:
     est = sspinn.SSPINNpose.load(args.out / "model.pt").predict(sspinn.open_recordings(args.out / f"{rec.name}.csv")[0])
     with atomic_path(args.out / "reference_outputs.npz") as tmp, open(tmp, "wb") as fh:
         np.savez(fh, **{k: getattr(est, k) for k in REFERENCE_FIELDS})
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip() or "unknown"
+    commit = args.commit or subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip() or "unknown"
     lines = [
         "# The pretrained model", "",
         "`model.pt` is the model that `make demo` trains on the default synthetic dataset (no labels used), shipped so",
         "that a recording can be estimated without training first:", "",
         f"- trained by: `{args.command}`",
-        f"- code: commit `{commit}` (the model file format is checked by `tests/test_pretrained.py`)",
+        f"- code: commit `{commit}` (the model file format and these outputs are checked by `tests/test_pretrained.py`)",
         f"- trained on the IMU signals of: {', '.join(sspinn.load_model(args.out / 'model.pt').trained_on or ())}",
         f"- `{rec.name}.csv` / `.json`: {rec.provenance['source']}",
         "- `reference_outputs.npz`: its estimates (q, u, tau, grf) from this model; the test reproduces them.", "",
     ]
     for path in args.metrics:
         result = json.loads(path.read_text())
-        lines += [f"## {result['title']}", "", "| gait | JAE (deg) | JTE (%BW·BH) | GRFE (%BW) | speed error (m/s) |", "|---|---|---|---|---|"]
+        split = "held-out test split" if "(test)" in result["title"] else "evaluated recordings"
+        lines += [f"## Its figures on the dataset's {split} (`sspinn evaluate`), beside the trivial predictors", "", "| gait | JAE (deg) | JTE (%BW·BH) | GRFE (%BW) | speed error (m/s) |", "|---|---|---|---|---|"]
         for program, c in result.get("by_program", {}).items():
             m, b = c["model"], c["baseline"]
             lines.append(f"| {program} | {m['jae_deg']:.2f} (trivial {b['jae_deg']:.2f}) | {m['jte_pct_bwbh']:.2f} ({b['jte_pct_bwbh']:.2f}) "
