@@ -29,8 +29,11 @@ accelerometers in g, GRFs in body weights, angles in degrees, shape mismatches.
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import io
 import json
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Final
@@ -42,6 +45,7 @@ from sspinn.errors import DataFormatError
 from sspinn.model.body import IMUPlacement, ParameterError
 from sspinn.model.conventions import GRAVITY, IMU_CHANNELS, SEGMENTS
 from sspinn.model.trajectory import COLUMNS, Trajectory
+from sspinn.run_folder import atomic_path, atomic_write_text
 
 FORMAT: Final = "sspinn-recording"
 VERSION: Final = 1
@@ -209,8 +213,10 @@ class Recording:
             for name in self.labels.columns():
                 columns.append(name)
                 data.append(self.labels.column(name)[:, None])
+        check_name(self.name, folder)
         csv = folder / f"{self.name}.csv"
-        np.savetxt(csv, np.hstack(data), delimiter=",", header=",".join(columns), comments="", fmt="%.9g")
+        with atomic_path(csv) as tmp:
+            np.savetxt(tmp, np.hstack(data), delimiter=",", header=",".join(columns), comments="", fmt="%.9g")
         sidecar = {
             "format": FORMAT,
             "version": VERSION,
@@ -227,7 +233,7 @@ class Recording:
             "units": UNITS,
             "provenance": self.provenance,
         }
-        (folder / f"{self.name}.json").write_text(json.dumps(sidecar, indent=2))
+        atomic_write_text(folder / f"{self.name}.json", json.dumps(sidecar, indent=2))
         return csv
 
     @classmethod
@@ -496,5 +502,73 @@ class Dataset:
                     raise DataFormatError(f"subject {r.subject!r} appears in splits {seen[r.subject]!r} and {split!r}")
                 r.save(root)
         splits = {split: [r.name for r in recs] for split, recs in recordings.items()}
-        (root / "dataset.json").write_text(json.dumps({"format": "sspinn-dataset", "version": VERSION, "splits": splits, "info": info or {}}, indent=2))
+        with index_lock(root):
+            _write_index(root, splits, info or {})
         return Dataset(root=root, splits=splits, info=info or {})
+
+    @staticmethod
+    def add(root: str | Path, rec: Recording, splits: tuple[str, ...], update_info: Callable[[dict[str, Any]], None] | None = None) -> Dataset:
+        """Save ``rec`` into the dataset folder ``root`` and list it in ``splits`` of its index
+        (created if absent; a recording of the same name is replaced), ``update_info`` changing
+        the index's ``info`` on the way. The read-modify-write of ``dataset.json`` holds an
+        exclusive lock on the folder's index, so concurrent adds never lose each other's entries."""
+        root = Path(root)
+        root.mkdir(parents=True, exist_ok=True)
+        index = root / INDEX
+        with index_lock(root):
+            meta: dict[str, Any] = {"splits": {}, "info": {}}
+            if index.exists():
+                try:
+                    meta = json.loads(index.read_text())
+                except json.JSONDecodeError as exc:
+                    raise DataFormatError(f"{index}: not valid JSON ({exc}); remove it or use another folder") from None
+                if not isinstance(meta, dict) or not isinstance(meta.get("splits"), dict):
+                    raise DataFormatError(f"{index}: not a dataset index (no 'splits'); use another folder")
+            listed = any(rec.name in names for names in meta["splits"].values())
+            sidecar = root / f"{rec.name}.json"
+            if listed and sidecar.exists():
+                other = _read_sidecar(sidecar).get("subject", {}).get("id")
+                if other != rec.subject:
+                    raise DataFormatError(f"{root}: already holds a recording {rec.name!r} of subject {other!r}, not "
+                                          f"{rec.subject!r}; give this one another name")
+            rec.save(root)
+            current = {k: [n for n in v if n != rec.name] for k, v in meta["splits"].items()}
+            for split in splits:
+                current.setdefault(split, []).append(rec.name)
+            info = dict(meta.get("info") or {})
+            if update_info is not None:
+                update_info(info)
+            ordered = {k: current[k] for k in SPLITS if k in current}
+            _write_index(root, ordered, info)
+        return Dataset(root=root, splits=ordered, info=info)
+
+
+#: The index file of a dataset folder.
+INDEX: Final = "dataset.json"
+#: Names a recording may not take: they would collide with the dataset's own files.
+RESERVED_NAMES: Final = ("dataset",)
+
+
+def check_name(name: str, folder: Path) -> None:
+    """A recording name is a plain file stem: no path separators, not ``.``/``..``, not reserved."""
+    if not name or name in (".", "..") or "/" in name or "\\" in name or Path(name).name != name or name in RESERVED_NAMES:
+        raise DataFormatError(f"{folder}: {name!r} is not a usable recording name (a plain file name, not "
+                              f"{', '.join(RESERVED_NAMES)}, without path separators)")
+
+
+@contextlib.contextmanager
+def index_lock(root: Path) -> Iterator[None]:
+    """An exclusive advisory lock (``fcntl.flock``) on ``<root>/.dataset.lock``, waited for: the
+    one writer of ``dataset.json`` holds it for its whole read-modify-write."""
+    root.mkdir(parents=True, exist_ok=True)
+    with open(root / ".dataset.lock", "a") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def _write_index(root: Path, splits: dict[str, list[str]], info: dict[str, Any]) -> Path:
+    """The one writer of ``dataset.json`` (atomically; callers hold :func:`index_lock`)."""
+    return atomic_write_text(root / INDEX, json.dumps({"format": "sspinn-dataset", "version": VERSION, "splits": splits, "info": info}, indent=2))

@@ -45,7 +45,7 @@ from typing import Any, Final
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
-from sspinn.data.dataset import FORMAT, SPLITS, VERSION, DataFormatError, Labels, Recording
+from sspinn.data.dataset import FORMAT, SPLITS, DataFormatError, Dataset, Labels, Recording
 from sspinn.imu.calibration import Calibration, calibrate
 from sspinn.imu.calibration_report import calibration_markdown, plot_calibration
 from sspinn.imu.cross_sensor_checks import check_mounting
@@ -159,8 +159,7 @@ def import_imu(
     except DataFormatError as exc:
         raise IMUImportError(f"{stream.source} after calibration: {exc}") from None
     out = Path(out)
-    csv = rec.save(out)
-    add_to_index(out, rec, split)
+    csv = add_to_index(out, rec, split)
     context = {"files": ", ".join(str(f) for f in files), "sensor map": smap.source,
                "subject": f"{subject}, {height} m, {mass} kg", "recording": f"{csv} ({rec.n_samples} samples, {rec.duration:.2f} s)"}
     report = out / f"{name}_calibration.md"
@@ -219,27 +218,18 @@ def _grf_labels(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], c
 
 
 def add_to_index(folder: Path, rec: Recording, split: str) -> Path:
-    """Add ``rec`` to ``folder/dataset.json`` (created if absent) in ``split`` (``"all"``: train,
-    val and test); a recording of the same name is replaced."""
-    index = folder / "dataset.json"
-    meta: dict[str, Any] = {"format": "sspinn-dataset", "version": VERSION, "splits": {}, "info": {}}
-    if index.exists():
-        try:
-            meta = json.loads(index.read_text())
-        except json.JSONDecodeError as exc:
-            raise DataFormatError(f"{index}: not valid JSON ({exc}); remove it or import into another folder") from None
-        if not isinstance(meta, dict) or not isinstance(meta.get("splits"), dict):
-            raise DataFormatError(f"{index}: not a dataset index (no 'splits'); import into another folder")
-    splits = {k: [n for n in v if n != rec.name] for k, v in meta["splits"].items()}
-    for s in (SPLITS if split == "all" else (split,)):
-        splits.setdefault(s, []).append(rec.name)
-    meta["splits"] = {s: splits[s] for s in SPLITS if s in splits}
-    info = meta.setdefault("info", {})
-    info.setdefault("imported", {})[rec.name] = {"subject": rec.subject, "split": split, "format": FORMAT}
-    info["note"] = ("recordings imported with `sspinn import`; split 'all' lists a recording in train, val and test "
-                    "(self-supervised use on the same data)")
-    index.write_text(json.dumps(meta, indent=2))
-    return index
+    """Save ``rec`` into the dataset folder and list it in ``split`` of its ``dataset.json``
+    (``"all"``: train, val and test) through the dataset's one writer
+    (:meth:`sspinn.data.dataset.Dataset.add`: locked, atomic); a recording of the same name is
+    replaced. Returns the CSV path."""
+
+    def note(info: dict[str, Any]) -> None:
+        info.setdefault("imported", {})[rec.name] = {"subject": rec.subject, "split": split, "format": FORMAT}
+        info["note"] = ("recordings imported with `sspinn import`; split 'all' lists a recording in train, val and test "
+                        "(self-supervised use on the same data)")
+
+    Dataset.add(folder, rec, SPLITS if split == "all" else (split,), note)
+    return folder / f"{rec.name}.csv"
 
 
 # ---------------------------------------------------------------------------------- command line

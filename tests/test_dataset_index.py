@@ -1,0 +1,56 @@
+"""The dataset index has one writer: locked, atomic, and safe against name collisions and paths."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sspinn.data.dataset import Dataset, DataFormatError
+from sspinn.testing import make_recording
+
+
+def _add_many(root: str, worker: int) -> None:
+    rng = np.random.default_rng(worker)
+    for k in range(5):
+        Dataset.add(root, make_recording(f"w{worker}_{k}", f"s{worker}", 50, rng), ("train",))
+
+
+def test_concurrent_adds_lose_nothing(tmp_path: Path) -> None:
+    ctx = mp.get_context("fork")
+    procs = [ctx.Process(target=_add_many, args=(str(tmp_path), w)) for w in range(3)]
+    for p in procs:
+        p.start()
+    for p in procs:
+        p.join()
+    assert all(p.exitcode == 0 for p in procs)
+    index = json.loads((tmp_path / "dataset.json").read_text())
+    assert sorted(index["splits"]["train"]) == sorted(f"w{w}_{k}" for w in range(3) for k in range(5))
+    assert len(Dataset.open(tmp_path).load("train")) == 15
+
+
+def test_a_name_of_another_subject_is_refused_and_the_same_subject_replaces(tmp_path: Path) -> None:
+    rng = np.random.default_rng(0)
+    Dataset.add(tmp_path, make_recording("walk", "s1", 50, rng), ("train",))
+    with pytest.raises(DataFormatError, match="subject 's1'"):
+        Dataset.add(tmp_path, make_recording("walk", "s2", 50, rng), ("test",))
+    assert Dataset.open(tmp_path).splits == {"train": ["walk"]}
+    Dataset.add(tmp_path, make_recording("walk", "s1", 60, rng), ("test",))
+    assert Dataset.open(tmp_path).splits == {"train": [], "test": ["walk"]}
+
+
+@pytest.mark.parametrize("name", ["../x", "/tmp/abs", "dataset", "a/b", ".."])
+def test_names_that_escape_or_collide_are_refused(tmp_path: Path, name: str) -> None:
+    with pytest.raises(DataFormatError, match="not a usable recording name"):
+        Dataset.add(tmp_path / "d", make_recording(name, "s1", 50, np.random.default_rng(0)), ("train",))
+    assert not (tmp_path / "x.csv").exists() and not (tmp_path / "d" / "dataset.json").exists()
+
+
+def test_write_leaves_no_temporary_files(tmp_path: Path) -> None:
+    rng = np.random.default_rng(1)
+    Dataset.write(tmp_path, {"train": [make_recording("a", "s1", 50, rng)], "test": [make_recording("b", "s2", 50, rng)]})
+    assert sorted(p.name for p in tmp_path.iterdir() if not p.name.startswith(".dataset.lock")) == [
+        "a.csv", "a.json", "b.csv", "b.json", "dataset.json"]
