@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sspinn.data.dataset import Dataset, DataFormatError
+from sspinn.data.dataset import DataFormatError, Dataset
 from sspinn.testing import make_recording
 
 
