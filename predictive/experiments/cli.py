@@ -1,4 +1,4 @@
-"""The experiment sub-commands of ``python -m predictive``: ``track-imu`` and ``compare``.
+"""The experiment sub-commands of ``python -m predictive``: ``track-imu``, ``compare`` and ``robustness``.
 
 ``python -m predictive track-imu --data ../shared/data/dorschky_P03_walking --out results/ocp/imu_tracking``:
 IMU tracking of an averaged stride, compared with its labels. Reads the averaged stride
@@ -14,6 +14,10 @@ Predictive initial guesses are cached in ``<out>_guesses/``.
 ``python -m predictive compare --config configs/predictive/compare.yaml --out results/compare``:
 the comparison harness of :mod:`predictive.experiments.controller_comparison` (table, learning
 curves, gait cycles, stick figures in ``<out>/report.md``).
+
+``python -m predictive robustness --config configs/predictive/robustness.yaml --out results/robustness``:
+falls of the generator's controllers per training seed, speed and reset seed under the configured
+disturbances (:mod:`predictive.experiments.robustness`).
 """
 
 from __future__ import annotations
@@ -27,7 +31,8 @@ from typing import Any
 #: Sub-command names.
 TRACK_IMU = "track-imu"
 COMPARE = "compare"
-COMMANDS = (TRACK_IMU, COMPARE)
+ROBUSTNESS = "robustness"
+COMMANDS = (TRACK_IMU, COMPARE, ROBUSTNESS)
 
 
 def add_track_imu_parser(sub: Any) -> argparse.ArgumentParser:
@@ -64,12 +69,24 @@ def add_compare_parser(sub: Any) -> argparse.ArgumentParser:
     return p
 
 
+def add_robustness_parser(sub: Any) -> argparse.ArgumentParser:
+    """Register the ``robustness`` sub-command on an ``argparse`` sub-parsers object."""
+    p = sub.add_parser(ROBUSTNESS, help="falls of the generator's controllers per training seed, speed and reset seed")
+    p.add_argument("--config", type=Path, default=Path("configs/predictive/robustness.yaml"))
+    p.add_argument("--out", type=Path, required=True, help="report folder")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a config entry (repeatable), e.g. --set env.reset_noise_scale=0.005")
+    return p
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``args.command`` (one of :data:`COMMANDS`); returns the exit code."""
     if args.command == TRACK_IMU:
         return run_track_imu(args)
     if args.command == COMPARE:
         return run_compare(args)
+    if args.command == ROBUSTNESS:
+        return run_robustness(args)
     raise ValueError(f"not an experiment sub-command: {args.command!r}")
 
 
@@ -85,6 +102,21 @@ def run_compare(args: argparse.Namespace) -> int:
     except (ValueError, FileNotFoundError) as exc:
         print(f"python -m predictive compare: error: {exc}", file=sys.stderr)
         return 2
+    print(f"report: {args.out / 'report.md'}")
+    return 0
+
+
+def run_robustness(args: argparse.Namespace) -> int:
+    """Run ``robustness``; prints the report; returns the exit code (2 for a bad configuration)."""
+    from predictive.experiments.robustness import RobustnessConfig, report, run_robustness
+
+    try:
+        config = RobustnessConfig.from_yaml(args.config, settings=args.set)
+        results = run_robustness(config, args.out)
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"python -m predictive robustness: error: {exc}", file=sys.stderr)
+        return 2
+    print(report(config, results))
     print(f"report: {args.out / 'report.md'}")
     return 0
 
