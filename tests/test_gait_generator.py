@@ -132,3 +132,21 @@ def test_generator_cli_set_overrides(tmp_path) -> None:
     assert main(["train-generator", "--config", str(cfg), "--out", str(tmp_path / "run"), "--set", "steps=2"]) == 0
     assert GeneratorConfig.from_yaml(tmp_path / "run" / "config.yaml").steps == 2
     assert main(["train-generator", "--config", str(cfg), "--out", str(tmp_path / "run2"), "--set", "stepz"]) == 2
+
+
+def test_polish_stage_lowers_the_grid_loss_and_resumes_exactly(tmp_path) -> None:
+    polish = {"polish_iterations": 50, "polish_points": 4, "polish_speed_step": 1.0}
+    straight = GeneratorTrainer(_tiny(**polish), tmp_path / "a")
+    straight.fit()
+    assert straight.step == 57 and straight.step == straight.total_steps
+    polished = [r for r in straight.history_ if r["step"] > straight.adam_steps]
+    assert len(polished) >= 2 and polished[-1]["total"] < polished[0]["total"]
+    first = GeneratorTrainer(_tiny(**{**polish, "polish_iterations": 25}), tmp_path / "b")
+    first.fit()  # stops after one chunk of the polish stage
+    second = GeneratorTrainer(_tiny(**polish), tmp_path / "b")
+    second.fit(resume=True)
+    assert second.step == 57
+    for x, y in zip(straight.model_.state_dict().values(), second.model_.state_dict().values()):
+        torch.testing.assert_close(x, y)
+    with pytest.raises(ValueError, match="polish_factor"):
+        GeneratorConfig(polish_factor=0.0)
