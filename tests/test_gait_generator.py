@@ -150,3 +150,25 @@ def test_polish_stage_lowers_the_grid_loss_and_resumes_exactly(tmp_path) -> None
         torch.testing.assert_close(x, y)
     with pytest.raises(ValueError, match="polish_factor"):
         GeneratorConfig(polish_factor=0.0)
+
+
+def test_clearance_term_penalises_a_swing_foot_near_the_ground_only() -> None:
+    body = BodyParameters.from_anthropometry()
+    weights = {"kane": 0.0, "effort": 0.0, "w_acc": 0.0, "bounds": 0.0, "slide": 0.0, "clearance": 1.0}
+    losses = GaitLosses(GeneratorConfig(weights=weights, clearance_height=0.03))
+    one = lambda x: torch.tensor([x], dtype=torch.float64)  # noqa: E731
+    q = torch.zeros(1, 1, 9, dtype=torch.float64)
+    u = torch.zeros(1, 1, 9, dtype=torch.float64)
+    u[..., 0] = 1.0  # pelvis forward at 1 m/s
+    u[..., 3] = 4.0  # right hip flexing: the right foot moves forward faster than the pelvis (swing)
+    u[..., 6] = -4.0  # left hip extending: the left foot moves backward relative to the pelvis (stance)
+    p = torch.as_tensor(body.vector())[None, None]
+
+    def clearance(hip_height: float) -> float:
+        q[..., 1] = hip_height
+        terms = losses(q, u, torch.zeros_like(q), p, one(body.height), one(body.mass), one(1.0))
+        return float(terms["clearance"])
+
+    on_ground = clearance(body.standing_hip_height)
+    assert 1.5 < on_ground < 2.1  # heel and toe of the swing foot at the ground: (1 - 0/c)² each
+    assert clearance(body.standing_hip_height + 0.1) < 1e-6  # 10 cm up: clear
