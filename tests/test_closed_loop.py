@@ -14,6 +14,7 @@ from predictive.generator.closed_loop import (
     GaitTracker,
     LQRWeights,
     TrackerSettings,
+    linearise,
     periodic_lqr,
     resample_cycle,
     step_map,
@@ -135,13 +136,21 @@ def test_tracker_settings_schedule_interpolates_log_linearly_over_speed() -> Non
 
 
 def test_lqr_tracks_a_small_ocp_walking_cycle_for_two_seconds() -> None:
-    """A coarse predictive OCP gait (fast to solve) replayed closed loop does not fall in 2 s."""
+    """A coarse predictive OCP gait (fast to solve) replayed closed loop does not fall in 2 s, also
+    when the episode starts elsewhere on the cycle (state-based phase)."""
     from predictive.ocp.collocation import solve_predictive
 
     env = SagittalWalkerEnv(target_speed=1.3, max_episode_steps=200)
     sol = solve_predictive(1.3, env.body, contact=env.contact, n_nodes=100)
     ref = resample_cycle(sol.time, sol.q, sol.tau, sol.speed, sol.duration, env)
-    tracker = GaitTracker.build(env, ref, LQRWeights())
+    A, B = linearise(env, ref)
+    Q, R = LQRWeights().matrices()
+    gains, metric = periodic_lqr(A, B, Q, R), np.sqrt(np.diag(Q))
+    tracker = GaitTracker(ref, gains, metric, phase="state")
     episode = run_episode(tracker, env, seed=0)
     assert episode.steps == 200 and not episode.fell
     assert episode.distance_m == pytest.approx(2.0 * 1.3, rel=0.1)
+    # started a third of a cycle later on the cycle: the state-based phase re-synchronises, a clock does not
+    later = {"initial_state": (ref.q[ref.n // 3], ref.u[ref.n // 3])}
+    assert not run_episode(tracker, env, seed=0, reset_options=later).fell
+    assert run_episode(GaitTracker(ref, gains, metric, phase="clock"), env, seed=0, reset_options=later).fell
