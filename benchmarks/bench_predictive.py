@@ -69,7 +69,7 @@ def main(argv: list[str] | None = None) -> int:
             ctrl = build(spec, config, speed, env)
             wall = time.perf_counter() - start
             distance, fell = float("nan"), None
-            if ctrl.policy is not None:
+            if ctrl.controller is not None:
                 eps, _, _ = evaluate_controller(ctrl, env, speed, config.seeds[:1], None)
                 distance, fell = eps[0]["distance_m"], eps[0]["fell"]
             rows.append({"speed": speed, "method": label, "time_s": wall, "distance_m": distance, "fell": fell})

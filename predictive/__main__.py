@@ -7,7 +7,8 @@ The dispatcher of ``python -m predictive``; each sub-command lives next to what 
   (:mod:`predictive.experiments.cli`);
 * ``synth`` — a physically exact synthetic dataset (:mod:`predictive.synth.cli`);
 * ``train-generator``, ``generate`` — the self-supervised gait generator (:mod:`predictive.generator.cli`);
-* ``compare`` — generator vs SB3 agents vs OCP on the same environment (:mod:`predictive.experiments.cli`).
+* ``compare`` — generator vs SB3 agents vs OCP on the same environment (:mod:`predictive.experiments.cli`);
+* ``robustness`` — falls of the generator's controllers under disturbances (:mod:`predictive.experiments.cli`).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
     synth_cli.add_parser(sub)  # synth
     generator_cli.add_parsers(sub)  # train-generator, generate
     experiments_cli.add_compare_parser(sub)  # compare
+    experiments_cli.add_robustness_parser(sub)  # robustness
     return parser
 
 

@@ -112,3 +112,27 @@ def test_bench_predictive_times_a_new_speed(tmp_path, capsys) -> None:
     rows = json.loads((tmp_path / "out" / "new_speed_timing.json").read_text())
     assert len(rows["speeds"]) == 3 and all(r["time_s"] > 0 for r in rows["speeds"])
     assert len(rows["bodies"]) == 2 and "Other bodies" in out
+
+
+def test_sb3_controller_passes_state_and_episode_start_to_the_model() -> None:
+    from predictive.controller import Controller
+    from predictive.experiments.controller_comparison import SB3Controller
+
+    class Model:
+        def predict(self, observation, state=None, episode_start=None, deterministic=True):
+            self.seen = (observation.copy(), state, episode_start, deterministic)
+            return np.ones(6, np.float32), "memory"
+
+    class Agent:
+        model = Model()
+
+        def normalize(self, obs):
+            return obs * 2
+
+    ctrl = SB3Controller(Agent())
+    assert isinstance(ctrl, Controller) and ctrl.initial_state is None
+    action, state = ctrl.predict(np.ones(22, np.float32), None, episode_start=True)
+    assert state == "memory" and action.shape == (6,)
+    obs, st, start, det = Agent.model.seen
+    np.testing.assert_array_equal(obs, 2 * np.ones(22))
+    assert st is None and start is True and det is True

@@ -132,3 +132,43 @@ def test_generator_cli_set_overrides(tmp_path) -> None:
     assert main(["train-generator", "--config", str(cfg), "--out", str(tmp_path / "run"), "--set", "steps=2"]) == 0
     assert GeneratorConfig.from_yaml(tmp_path / "run" / "config.yaml").steps == 2
     assert main(["train-generator", "--config", str(cfg), "--out", str(tmp_path / "run2"), "--set", "stepz"]) == 2
+
+
+def test_polish_stage_lowers_the_grid_loss_and_resumes_exactly(tmp_path) -> None:
+    polish = {"polish_iterations": 50, "polish_points": 4, "polish_speed_step": 1.0}
+    straight = GeneratorTrainer(_tiny(**polish), tmp_path / "a")
+    straight.fit()
+    assert straight.step == 57 and straight.step == straight.total_steps
+    polished = [r for r in straight.history_ if r["step"] > straight.adam_steps]
+    assert len(polished) >= 2 and polished[-1]["total"] < polished[0]["total"]
+    first = GeneratorTrainer(_tiny(**{**polish, "polish_iterations": 25}), tmp_path / "b")
+    first.fit()  # stops after one chunk of the polish stage
+    second = GeneratorTrainer(_tiny(**polish), tmp_path / "b")
+    second.fit(resume=True)
+    assert second.step == 57
+    for x, y in zip(straight.model_.state_dict().values(), second.model_.state_dict().values()):
+        torch.testing.assert_close(x, y)
+    with pytest.raises(ValueError, match="polish_factor"):
+        GeneratorConfig(polish_factor=0.0)
+
+
+def test_clearance_term_penalises_a_swing_foot_near_the_ground_only() -> None:
+    body = BodyParameters.from_anthropometry()
+    weights = {"kane": 0.0, "effort": 0.0, "w_acc": 0.0, "bounds": 0.0, "slide": 0.0, "clearance": 1.0}
+    losses = GaitLosses(GeneratorConfig(weights=weights, clearance_height=0.03))
+    one = lambda x: torch.tensor([x], dtype=torch.float64)  # noqa: E731
+    q = torch.zeros(1, 1, 9, dtype=torch.float64)
+    u = torch.zeros(1, 1, 9, dtype=torch.float64)
+    u[..., 0] = 1.0  # pelvis forward at 1 m/s
+    u[..., 3] = 4.0  # right hip flexing: the right foot moves forward faster than the pelvis (swing)
+    u[..., 6] = -4.0  # left hip extending: the left foot moves backward relative to the pelvis (stance)
+    p = torch.as_tensor(body.vector())[None, None]
+
+    def clearance(hip_height: float) -> float:
+        q[..., 1] = hip_height
+        terms = losses(q, u, torch.zeros_like(q), p, one(body.height), one(body.mass), one(1.0))
+        return float(terms["clearance"])
+
+    on_ground = clearance(body.standing_hip_height)
+    assert 1.5 < on_ground < 2.1  # heel and toe of the swing foot at the ground: (1 - 0/c)² each
+    assert clearance(body.standing_hip_height + 0.1) < 1e-6  # 10 cm up: clear

@@ -1,4 +1,4 @@
-"""The experiment sub-commands of ``python -m predictive``: ``track-imu`` and ``compare``.
+"""The experiment sub-commands of ``python -m predictive``: ``track-imu``, ``compare`` and ``robustness``.
 
 ``python -m predictive track-imu --data ../shared/data/dorschky_P03_walking --out results/ocp/imu_tracking``:
 IMU tracking of an averaged stride, compared with its labels. Reads the averaged stride
@@ -14,6 +14,10 @@ Predictive initial guesses are cached in ``<out>_guesses/``.
 ``python -m predictive compare --config configs/predictive/compare.yaml --out results/compare``:
 the comparison harness of :mod:`predictive.experiments.controller_comparison` (table, learning
 curves, gait cycles, stick figures in ``<out>/report.md``).
+
+``python -m predictive robustness --config configs/predictive/robustness.yaml --out results/robustness``:
+falls of the generator's controllers per training seed, speed and reset seed under the configured
+disturbances (:mod:`predictive.experiments.robustness`).
 """
 
 from __future__ import annotations
@@ -31,7 +35,8 @@ from sspinn.yaml_config import shipped_path
 #: Sub-command names.
 TRACK_IMU = "track-imu"
 COMPARE = "compare"
-COMMANDS = (TRACK_IMU, COMPARE)
+ROBUSTNESS = "robustness"
+COMMANDS = (TRACK_IMU, COMPARE, ROBUSTNESS)
 #: Most seeds ``compare --seeds`` keeps.
 MAX_SEEDS = 1000
 
@@ -75,12 +80,25 @@ def add_compare_parser(sub: Any) -> argparse.ArgumentParser:
     return p
 
 
+def add_robustness_parser(sub: Any) -> argparse.ArgumentParser:
+    """Register the ``robustness`` sub-command on an ``argparse`` sub-parsers object."""
+    p = sub.add_parser(ROBUSTNESS, help="falls of the generator's controllers per training seed, speed and reset seed")
+    p.add_argument("--config", type=Path, default=shipped_path("configs/predictive/robustness.yaml"),
+                   help="robustness YAML (default: the project's configs/predictive/robustness.yaml)")
+    p.add_argument("--out", type=Path, required=True, help="report folder")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a config entry (repeatable), e.g. --set env.reset_noise_scale=0.005")
+    return p
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``args.command`` (one of :data:`COMMANDS`); returns the exit code."""
     if args.command == TRACK_IMU:
         return run_track_imu(args)
     if args.command == COMPARE:
         return run_compare(args)
+    if args.command == ROBUSTNESS:
+        return run_robustness(args)
     raise ValueError(f"not an experiment sub-command: {args.command!r}")
 
 
@@ -92,6 +110,17 @@ def run_compare(args: argparse.Namespace) -> int:
     if args.seeds is not None:
         config.seeds = config.seeds[: args.seeds]
     run_comparison(config, args.out)
+    print(f"report: {args.out / 'report.md'}")
+    return 0
+
+
+def run_robustness(args: argparse.Namespace) -> int:
+    """Run ``robustness``; prints the report; returns the exit code."""
+    from predictive.experiments.robustness import RobustnessConfig, report, run_robustness
+
+    config = RobustnessConfig.from_yaml(args.config, settings=args.set)  # a bad one is a one-line user error
+    results = run_robustness(config, args.out)
+    print(report(config, results))
     print(f"report: {args.out / 'report.md'}")
     return 0
 

@@ -10,6 +10,10 @@ the task's body, target speed and reset seeds) and scored by the same code:
   with the environment's contact model, 100 nodes per half cycle) deployed the same way;
 * **sb3** — trained stable-baselines3 agents (:mod:`agents`), one checkpoint per target speed.
 
+All of them are :class:`predictive.controller.Controller` objects (SB3's ``predict`` convention;
+the SB3 agents through :class:`SB3Controller`), made by ``controller_for(speed, body)`` of a
+:class:`predictive.controller.ControllerSource` and run by the same episode loop.
+
 Start states: the gait trackers start on their reference at phase 0 (``reset(options=
 {"initial_state": ...})``) with the environment's reset noise; the SB3 agents start standing, as
 trained. The gait trackers do not learn gait initiation — a stated difference, not hidden.
@@ -42,9 +46,11 @@ import envs  # noqa: F401  (registers the environment)
 from agents.checkpoints import checkpoint_steps, load_agent
 from agents.plot_learning_curve import read_evaluations
 from agents.rollout import run_episode
-from predictive.generator.closed_loop import GaitTracker, LQRWeights, resample_cycle
-from predictive.generator.gait_generator import generate, load_generator
-from predictive.ocp.collocation import OCPError, solve_predictive
+from predictive.controller import Controller as ControllerProtocol
+from predictive.controller import episode_policy, start_options
+from predictive.generator.closed_loop import TrackerSettings
+from predictive.generator.controllers import GeneratorControllers, OCPControllers
+from predictive.ocp.collocation import OCPError
 from predictive.ocp.gait_analysis import load_winter
 from sspinn.estimator.evaluation import angle_jitter
 from sspinn.model.body import BodyParameters
@@ -99,14 +105,14 @@ class ComparisonConfig:
     height: float = 1.75
     mass: float = 70.0
     methods: list[MethodSpec] = field(default_factory=list)
-    lqr: LQRWeights = field(default_factory=LQRWeights)
+    tracker: TrackerSettings = field(default_factory=TrackerSettings)
     data_dir: str | None = None
     snapshot_seeds: list[int] = field(default_factory=lambda: [0])
 
     def __post_init__(self) -> None:
         self.methods = [m if isinstance(m, MethodSpec) else MethodSpec(**m) for m in self.methods]
-        if isinstance(self.lqr, dict):
-            self.lqr = LQRWeights(**self.lqr)
+        if isinstance(self.tracker, dict):
+            self.tracker = TrackerSettings(**self.tracker)
         if not self.speeds or any(not (0 < v <= 12) for v in self.speeds):
             raise ValueError(f"speeds must be a non-empty list of m/s in (0, 12], got {self.speeds}")
         if not self.seeds:
@@ -118,15 +124,33 @@ class ComparisonConfig:
 
 
 @dataclass
-class Controller:
-    """A policy obs → action plus how it starts and what it cost."""
+class BuiltController:
+    """A controller (:class:`predictive.controller.Controller`, None when it could not be made)
+    and what it cost."""
 
-    policy: Any
-    initial_state: tuple[np.ndarray, np.ndarray] | None
+    controller: ControllerProtocol | None
     setup_time_s: float  # one-off (training) wall time, s
     per_speed_time_s: float  # wall time for this speed, s
     reference: Any = None  # the GaitSolution tracked (gait trackers)
     note: str = ""
+
+
+class SB3Controller:
+    """A trained stable-baselines3 agent as a :class:`predictive.controller.Controller`: the
+    observation normalised as in training, then the SB3 model's own ``predict`` (state and
+    ``episode_start`` passed through, so recurrent policies keep their convention). ``agent``: an
+    :class:`agents.checkpoints.LoadedAgent` or any object with ``normalize(obs)`` and ``model``."""
+
+    initial_state = None  # the agents learned to start from standing
+
+    def __init__(self, agent: Any) -> None:
+        self.agent = agent
+
+    def predict(
+        self, observation: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = True
+    ) -> tuple[np.ndarray, Any]:
+        return self.agent.model.predict(self.agent.normalize(observation), state=state, episode_start=episode_start,
+                                        deterministic=deterministic)
 
 
 # ------------------------------------------------------------------------------------------ methods
@@ -134,33 +158,26 @@ def make_env(config: ComparisonConfig, speed: float) -> Any:
     return gymnasium.make("sspinn/SagittalWalker-v0", height=config.height, mass=config.mass, target_speed=speed)
 
 
-def tracker_controller(solution: Any, env: Any, weights: LQRWeights, setup_s: float, solve_s: float, note: str) -> Controller:
-    """Feedforward + LQR controller of a gait cycle (:mod:`predictive.generator.closed_loop`)."""
-    start = time.perf_counter()
-    ref = resample_cycle(solution.time, solution.q, solution.tau, solution.speed, solution.duration, env.unwrapped)
-    tracker = GaitTracker.build(env.unwrapped, ref, weights)
-    lqr_s = time.perf_counter() - start
-    return Controller(tracker, tracker.initial_state(), setup_s, solve_s + lqr_s, solution, note)
+def tracked(source: Any, speed: float, env: Any, setup_s: float) -> BuiltController:
+    """``source.controller_for(speed, body)`` for the environment's body; the time per speed is
+    the plan plus the LQR (:func:`predictive.generator.controllers.track`)."""
+    tracker = source.controller_for(speed, env.unwrapped.body)
+    info = tracker.info
+    return BuiltController(tracker, setup_s, info["plan_time_s"] + info["lqr_time_s"], info["plan"], info["note"])
 
 
-def generator_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> Controller:
-    model, gcfg = load_generator(spec.model)
-    train_s = model.training_wall_s_
-    start = time.perf_counter()
-    sol = generate(model, speed, BodyParameters.from_anthropometry(config.height, config.mass),
-                   refine_iterations=spec.refine_iterations, config=gcfg, refine_kane_factor=spec.refine_kane_factor)
-    gen_s = time.perf_counter() - start
-    note = f"kane rms {sol.settings['kane_rms_bw']:.3g} BW"
-    return tracker_controller(sol, env, config.lqr, train_s, gen_s, note)
+def generator_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> BuiltController:
+    source = GeneratorControllers.from_file(spec.model, tracker=config.tracker, refine_iterations=spec.refine_iterations,
+                                            refine_kane_factor=spec.refine_kane_factor)
+    return tracked(source, speed, env, source.training_time_s)
 
 
-def ocp_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> Controller:
+def ocp_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> BuiltController:
     start = time.perf_counter()
     try:
-        sol = solve_predictive(speed, env.unwrapped.body, contact=env.unwrapped.contact, n_nodes=spec.n_nodes)
+        return tracked(OCPControllers(spec.n_nodes, config.tracker), speed, env, 0.0)
     except OCPError as exc:
-        return Controller(None, None, 0.0, time.perf_counter() - start, None, f"OCP failed: {exc.status}")
-    return tracker_controller(sol, env, config.lqr, 0.0, time.perf_counter() - start, f"IPOPT {sol.iterations} it.")
+        return BuiltController(None, 0.0, time.perf_counter() - start, None, f"OCP failed: {exc.status}")
 
 
 def agent_training_time(checkpoint: Path) -> float:
@@ -193,13 +210,13 @@ def agent_evaluations(checkpoint: str | Path) -> dict[str, np.ndarray]:
     return {}
 
 
-def sb3_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> Controller:
+def sb3_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> BuiltController:
     path = spec.checkpoints.get(float(speed))
     if path is None or not Path(path).exists():
-        return Controller(None, None, float("nan"), float("nan"), None, "not trained for this speed")
+        return BuiltController(None, float("nan"), float("nan"), None, "not trained for this speed")
     agent = load_agent(path)
     train_s = agent_training_time(Path(path))
-    return Controller(agent, None, train_s, train_s, None, f"{agent.config.algo} {Path(path).name}")
+    return BuiltController(SB3Controller(agent), train_s, train_s, None, f"{agent.config.algo} {Path(path).name}")
 
 
 BUILDERS = {"generator": generator_controller, "ocp": ocp_controller, "sb3": sb3_controller}
@@ -306,17 +323,16 @@ class CellResult:
 
 
 def evaluate_controller(
-    controller: Controller, env: Any, speed: float, seeds: list[int], reference: Any
+    built: BuiltController, env: Any, speed: float, seeds: list[int], reference: Any
 ) -> tuple[list[dict[str, Any]], dict[str, np.ndarray] | None, np.ndarray | None]:
     """Episodes over ``seeds`` → per-episode metrics, the mean cycle of the first successful
     episode and its states (for stick figures)."""
     e = env.unwrapped
+    controller = built.controller
     rows, cycle, states = [], None, None
     for seed in seeds:
-        if hasattr(controller.policy, "reset"):
-            controller.policy.reset()
-        options = {"initial_state": controller.initial_state} if controller.initial_state is not None else None
-        res = run_episode(controller.policy, env, seed, speed, record_traces=True, reset_options=options)
+        res = run_episode(episode_policy(controller), env, seed, speed, record_traces=True,
+                          reset_options=start_options(controller))
         m = res.metrics()
         m["kane_residual_bw"] = executed_kane_residual(res.traces, env)
         m["jitter_rad_s3"] = angle_jitter(res.traces["angles"], 1.0 / e.dt)
@@ -340,7 +356,7 @@ def run_comparison(config: ComparisonConfig, out: str | Path) -> list[CellResult
             print(f"[compare] {spec.name} at {speed} m/s …", flush=True)
             ctrl = BUILDERS[spec.kind](spec, config, speed, env)
             cell = CellResult(spec.name, spec.kind, speed, ctrl.note, ctrl.setup_time_s, ctrl.per_speed_time_s)
-            if ctrl.policy is not None:
+            if ctrl.controller is not None:
                 rows, cycle, states = evaluate_controller(ctrl, env, speed, config.seeds, reference)
                 cell.episodes = rows
                 cell.cycle = {k: v.tolist() for k, v in cycle.items()} if cycle is not None else None
@@ -507,6 +523,6 @@ def _json_default(obj: Any) -> Any:
 
 
 __all__ = [
-    "CellResult", "ComparisonConfig", "Controller", "MethodSpec", "evaluate_controller", "executed_kane_residual",
+    "BuiltController", "CellResult", "ComparisonConfig", "MethodSpec", "SB3Controller", "evaluate_controller", "executed_kane_residual",
     "executed_trajectory", "learning_curves", "normalised_cycle", "run_comparison", "winter_rmsd", "write_report",
 ]

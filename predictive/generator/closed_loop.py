@@ -6,22 +6,28 @@ loop, any mismatch (the environment's discrete integration, passive joint moment
 noise) makes the body fall within a few steps. Both are therefore deployed the same way, by a
 **feedforward + periodic time-varying LQR** controller:
 
-    a_k = a_ff[i] + K_i · (z_ref[i] − z_k),    i = k mod N,
+    a_k = a_ff[i_k] + K_{i_k} · (z_ref[i_k] − z_k),
 
-with the environment's own action scaling (a = τ / τ_max, clipped to [−1, 1] by the environment).
+with the environment's own action scaling (a = τ / τ_max, clipped to [−1, 1] by the environment)
+and i_k the gait phase (sample of the cycle) — by default estimated from the state at every step
+(the cycle sample nearest to z_k in the LQR's metric, kept close to i_{k−1} + 1; see
+:class:`GaitTracker`), so the controller re-synchronises with the body after a disturbance and
+needs no step counter.
 
 * The reference is the cycle resampled on the control grid t_k = k·0.01 s. The cycle is time-scaled
   by N·dt / T (N = round(T / dt) samples) so that it repeats after a whole number of control
   steps; the average speed is kept (the stride length changes by the same < 0.5 %).
 * z = observation[:17] = (pelvis_ty, pelvis_tilt, 6 joint angles, 9 speeds): every state except the
   absolute horizontal position, on which the dynamics do not depend (flat ground). The controller
-  uses nothing but the observation and its step count, as the SB3 agents do.
+  uses nothing but the observation and its phase, which it returns to the caller as SB3 policies
+  return their memory (:mod:`predictive.controller`).
 * a_ff: the cycle's joint torques at the middle of each control interval, minus the environment's
   passive joint moments at that reference state (they are added by the environment), divided by
   the environment's torque limits.
 * K_i: the discrete-time LQR gains of the environment's step map (100 Hz, its own integrator and
   contact model) linearised around the reference by central finite differences, from the
-  periodic Riccati recursion iterated backward over cycles until the gains converge.
+  periodic Riccati recursion iterated backward over cycles until the gains converge. Its
+  weights may depend on the speed (a gain schedule, :class:`TrackerSettings`).
 
 Why this and not a PD law on the joints: the model is underactuated (pelvis x, y, tilt) and the
 trunk is balanced only through the hip torques and the ground; joint-space PD feedback leaves the
@@ -31,12 +37,14 @@ them, and it costs about a second to compute per gait.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from predictive.controller import episode_starts
 from sspinn.model.conventions import N_Q, N_TAU
 
 #: Size of the controlled state z (observation entries 0–16).
@@ -188,27 +196,110 @@ def periodic_lqr(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray, max
     return K
 
 
-class GaitTracker:
-    """A controller ``action = tracker(observation)`` that follows a :class:`GaitReference`
-    (feedforward + periodic LQR, see the module docstring). Call :meth:`reset` at every episode
-    start; each call advances the phase by one control step.
+@dataclass(frozen=True)
+class WeightsAtSpeed:
+    """One point of an LQR gain schedule: the weights used at ``speed`` (m/s)."""
+
+    speed: float
+    weights: LQRWeights = field(default_factory=LQRWeights)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.weights, dict):
+            object.__setattr__(self, "weights", LQRWeights(**self.weights))
+        if not (math.isfinite(self.speed) and self.speed > 0):
+            raise ValueError(f"lqr schedule: speed must be > 0 m/s, got {self.speed}")
+
+
+#: Ways a tracker finds its place on the cycle (see :class:`GaitTracker`).
+PHASE_MODES = ("state", "clock")
+
+
+@dataclass
+class TrackerSettings:
+    """How gait cycles are tracked (``tracker:`` in ``configs/predictive/*.yaml``).
 
     Attributes:
-        reference: the tracked cycle. gains: (N, 6, 17) LQR gains.
-        build_time_: seconds spent linearising and solving the Riccati recursion.
+        lqr: the gain schedule over speed: LQR weights at some speeds (m/s); at a speed between two
+            entries every characteristic deviation is interpolated log-linearly in speed, beyond the
+            ends the nearest entry holds.
+        phase: "state" (the phase is estimated from the observation at every step,
+            :meth:`GaitTracker.phase_of`) or "clock" (phase 0 at the episode start, then one
+            control step per step).
+        phase_prior: λ of the "state" estimate: the cost of moving the phase by Δ samples away
+            from the previous phase + 1 is λ·Δ² (in units of the LQR-scaled squared state distance).
     """
 
-    def __init__(self, reference: GaitReference, gains: np.ndarray, build_time: float = float("nan")) -> None:
+    lqr: list[WeightsAtSpeed] = field(default_factory=lambda: [WeightsAtSpeed(1.0)])
+    phase: str = "state"
+    phase_prior: float = 1.0
+
+    def __post_init__(self) -> None:
+        self.lqr = sorted((w if isinstance(w, WeightsAtSpeed) else WeightsAtSpeed(**w) for w in self.lqr),
+                          key=lambda w: w.speed)
+        if not self.lqr:
+            raise ValueError("tracker.lqr: give weights at one speed at least")
+        if self.phase not in PHASE_MODES:
+            raise ValueError(f"tracker.phase must be one of {PHASE_MODES}, got {self.phase!r}")
+        if not (math.isfinite(self.phase_prior) and self.phase_prior >= 0):
+            raise ValueError(f"tracker.phase_prior must be >= 0, got {self.phase_prior}")
+
+    def weights_at(self, speed: float) -> LQRWeights:
+        """The scheduled LQR weights at ``speed`` (m/s)."""
+        speeds = np.log([w.speed for w in self.lqr])
+        names = [f.name for f in fields(LQRWeights)]
+        table = np.log([[getattr(w.weights, n) for n in names] for w in self.lqr])
+        x = math.log(speed)
+        return LQRWeights(**{n: float(np.exp(np.interp(x, speeds, table[:, j]))) for j, n in enumerate(names)})
+
+
+class GaitTracker:
+    """Feedforward + periodic LQR tracking of a :class:`GaitReference` (module docstring), as a
+    :class:`predictive.controller.Controller`: ``action, state = tracker.predict(obs, state,
+    episode_start)``. The state is the phase (the cycle sample, one per environment); the tracker
+    itself holds no memory, so one tracker runs any number of episodes.
+
+    Phase (``phase``):
+
+    * ``"state"``: the sample i of the cycle that minimises ‖W·(z_ref[i] − z)‖² + λ·Δ(i)², where W
+      are the LQR's characteristic deviations (Bryson scaling, ``metric``) and Δ(i) the distance
+      (samples, around the cycle) between i and the previous phase + 1; at an episode start λ = 0
+      (the whole cycle is searched). The phase thus follows the body: a disturbance that delays or
+      advances the gait, or an episode that starts elsewhere on the cycle, is re-synchronised at
+      once, and between disturbances the estimate advances one sample per step.
+    * ``"clock"``: phase 0 at the episode start, then one sample per control step.
+
+    Attributes:
+        reference: the tracked cycle. gains: (N, 6, 17) LQR gains. metric: (17,) W.
+        phase, phase_prior: see above. initial_state: the cycle's (q, u) at phase 0.
+        build_time_: seconds spent linearising and solving the Riccati recursion.
+        info: free-form facts about where the tracker came from (the plan, times, a note).
+    """
+
+    def __init__(
+        self, reference: GaitReference, gains: np.ndarray, metric: np.ndarray | None = None, phase: str = "state",
+        phase_prior: float = 1.0, build_time: float = float("nan"),
+    ) -> None:
         if gains.shape != (reference.n, N_TAU, N_Z):
             raise ValueError(f"gains must have shape ({reference.n}, {N_TAU}, {N_Z}), got {gains.shape}")
+        if phase not in PHASE_MODES:
+            raise ValueError(f"phase must be one of {PHASE_MODES}, got {phase!r}")
         self.reference = reference
         self.gains = gains
+        self.metric = np.sqrt(np.diag(LQRWeights().matrices()[0])) if metric is None else np.asarray(metric, float)
+        if self.metric.shape != (N_Z,):
+            raise ValueError(f"metric must have shape ({N_Z},), got {self.metric.shape}")
+        self.phase = phase
+        self.phase_prior = float(phase_prior)
         self.build_time_ = build_time
+        self.info: dict[str, Any] = {}
         self._z = reference.z
-        self._k = 0
+        self._offsets = np.arange(reference.n)
 
     @classmethod
-    def build(cls, env: Any, reference: GaitReference, weights: LQRWeights | None = None) -> GaitTracker:
+    def build(
+        cls, env: Any, reference: GaitReference, weights: LQRWeights | None = None, phase: str = "state",
+        phase_prior: float = 1.0,
+    ) -> GaitTracker:
         """Linearise ``env`` around ``reference`` and compute the periodic LQR gains."""
         import time
 
@@ -216,21 +307,49 @@ class GaitTracker:
         A, B = linearise(env, reference)
         Q, R = (weights or LQRWeights()).matrices()
         K = periodic_lqr(A, B, Q, R)
-        return cls(reference, K, time.perf_counter() - start)
+        return cls(reference, K, np.sqrt(np.diag(Q)), phase, phase_prior, time.perf_counter() - start)
 
+    @property
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
         """(q, u) of the reference at phase 0, for ``env.reset(options={"initial_state": ...})``."""
         return self.reference.q[0].copy(), self.reference.u[0].copy()
 
-    def reset(self) -> None:
-        self._k = 0
+    def phase_of(self, z: np.ndarray, previous: int | None) -> int:
+        """The phase (cycle sample) at the controlled state ``z`` (17,) after ``previous`` (None:
+        an episode start); see the class docstring."""
+        n = self.reference.n
+        if self.phase == "clock":
+            return 0 if previous is None else (previous + 1) % n
+        distance = np.square((self._z - z) * self.metric).sum(axis=1)
+        if previous is not None and self.phase_prior > 0:
+            shift = (self._offsets - (previous + 1) + n // 2) % n - n // 2
+            distance = distance + self.phase_prior * np.square(shift)
+        return int(np.argmin(distance))
 
-    def __call__(self, observation: np.ndarray) -> np.ndarray:
-        i = self._k % self.reference.n
-        self._k += 1
-        z = np.asarray(observation[:N_Z], dtype=np.float64)
-        action = self.reference.action[i] + self.gains[i] @ (self._z[i] - z)
-        return np.clip(action, -1.0, 1.0).astype(np.float32)
+    def predict(
+        self, observation: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = True
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(action, phases) for an observation (22,) or a batch (n, 22) (SB3's convention; the
+        tracker is deterministic). ``state``: the phases returned by the previous call (None: every
+        environment starts an episode); ``episode_start``: True where an episode starts."""
+        obs = np.asarray(observation, dtype=np.float64)
+        batch = np.atleast_2d(obs)
+        n_envs = len(batch)
+        previous = np.full(n_envs, -1, dtype=np.int64) if state is None else np.array(state, dtype=np.int64).reshape(-1)
+        if previous.size != n_envs:
+            raise ValueError(f"state has {previous.size} phases for {n_envs} observations")
+        previous[episode_starts(episode_start, n_envs)] = -1
+        phases = np.empty(n_envs, dtype=np.int64)
+        actions = np.empty((n_envs, N_TAU), dtype=np.float32)
+        for e in range(n_envs):
+            z = batch[e, :N_Z]
+            i = self.phase_of(z, None if previous[e] < 0 else int(previous[e]))
+            phases[e] = i
+            actions[e] = np.clip(self.reference.action[i] + self.gains[i] @ (self._z[i] - z), -1.0, 1.0)
+        return (actions if obs.ndim == 2 else actions[0]), phases
 
 
-__all__ = ["GaitReference", "GaitTracker", "LQRWeights", "linearise", "periodic_lqr", "resample_cycle", "step_map"]
+__all__ = [
+    "PHASE_MODES", "GaitReference", "GaitTracker", "LQRWeights", "TrackerSettings", "WeightsAtSpeed", "linearise",
+    "periodic_lqr", "resample_cycle", "step_map",
+]

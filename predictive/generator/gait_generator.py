@@ -28,11 +28,19 @@ Loss per batch of (speed, body) at random phases of the half cycle (the other ha
   acceleration regularisation on the normalised cycle (:mod:`predictive.ocp.collocation`);
 * ``bounds``: SSPINNpose's L_B with the OCP's ranges — joint ranges, pelvis height and tilt, and
   the environment's torque limits (with a margin for feedback);
-* ``slide``: SSPINNpose's L_slide, (contact-point speed × F_y / BW)².
+* ``slide``: SSPINNpose's L_slide, (contact-point speed × F_y / BW)²;
+* ``clearance`` (weight 0 = off): a foot that moves forward faster than the pelvis (swing) keeps
+  its heel and toe ``clearance_height`` above the ground, Σ σ((ẋ_foot − ẋ_pelvis)/0.1 m/s) ·
+  (max(c − y, 0) / c)² over heel and toe. Without it the effort objective lets swing feet skim
+  the ground by millimetres, where the smooth contact model already produces scuffing forces
+  and any joint-angle error trips the body.
 
 Training starts with ``warmup_steps`` of fitting the data-free textbook shapes of
 :func:`predictive.ocp.generic_gait.generic_gait` (the OCP's initial guess), then minimises the loss
-with Adam. No recorded or optimised gait is used. Checkpoints every ``checkpoint_every`` steps,
+with Adam, then (``polish_iterations`` > 0) polishes the whole network with L-BFGS on a fixed grid
+of speeds and bodies with the Kane and bounds weights × ``polish_factor`` — the per-gait fine-tune
+of :func:`generate` folded into training, so that running gaits need no fine-tune at deployment.
+No recorded or optimised gait is used. Checkpoints every ``checkpoint_every`` steps,
 ``resume``, a checkpoint on Ctrl-C and a CSV learning curve (loss vs wall time).
 """
 
@@ -71,6 +79,8 @@ GENERATOR_CHECKPOINT = "gait-generator-checkpoint"
 ENV_SLIP_VELOCITY = 0.2
 #: Environment's default actuator strength, N·m/kg (envs.task).
 ENV_MAX_TORQUE = 3.0
+#: L-BFGS iterations per call (and per history row / checkpoint) in the polish stage.
+POLISH_CHUNK = 25
 
 
 @dataclass(frozen=True)
@@ -82,6 +92,7 @@ class GeneratorWeights:
     w_acc: float = 0.1
     bounds: float = 1000.0
     slide: float = 10.0
+    clearance: float = 0.0
 
 
 @dataclass
@@ -99,6 +110,17 @@ class GeneratorConfig:
         seed, threads (0 = torch default), checkpoint_every, log_every, time_limit_s (0 = none).
         snapshot_every: keep ``snapshots/generator_<step>.pt`` every this many steps (with the wall
         time), for learning curves of the closed-loop result (0 = none).
+        clearance_height: c of the ``clearance`` term, m.
+        tilt_range: (min, max) pelvis tilt of the ``bounds`` term, rad (+: trunk leaning back).
+        kane_ramp: the Kane weight grows geometrically from ``weights.kane`` to ``weights.kane ×
+        kane_ramp`` over the Adam steps (1 = constant).
+        polish_iterations: L-BFGS iterations of the polish stage after the Adam steps (0 = none):
+            the per-gait fine-tune folded into training — the whole network is refined on a fixed
+            grid of gaits (speeds every ``polish_speed_step`` m/s over ``speeds`` × five bodies:
+            the corners and the centre of ``heights`` × ``masses``, ``polish_points`` phases per
+            half cycle) with the Kane and bounds weights × ``polish_factor``, so that one forward
+            pass gives gaits as consistent as the fine-tune's. Counted as steps (in chunks of
+            :data:`POLISH_CHUNK` iterations).
     """
 
     speeds: tuple[float, float] = (0.8, 3.7)
@@ -120,6 +142,13 @@ class GeneratorConfig:
     snapshot_every: int = 1000
     log_every: int = 25
     time_limit_s: float = 0.0
+    kane_ramp: float = 1.0
+    clearance_height: float = 0.03
+    tilt_range: tuple[float, float] = (-0.6, 0.6)
+    polish_iterations: int = 0
+    polish_factor: float = 10.0
+    polish_points: int = 50
+    polish_speed_step: float = 0.1
 
     def __post_init__(self) -> None:
         if isinstance(self.weights, dict):
@@ -129,10 +158,22 @@ class GeneratorConfig:
             if not 0 < lo <= hi:
                 raise ValueError(f"{name} must be (min, max) with 0 < min <= max, got {getattr(self, name)}")
             setattr(self, name, (float(lo), float(hi)))
+        lo, hi = self.tilt_range
+        if not lo < hi:
+            raise ValueError(f"tilt_range must be (min, max) with min < max, got {self.tilt_range}")
+        self.tilt_range = (float(lo), float(hi))
         for name in ("harmonics", "hidden", "layers", "points", "batch_size", "checkpoint_every", "log_every"):
             setattr(self, name, int(getattr(self, name)))
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        for name in ("kane_ramp", "polish_factor", "polish_speed_step", "clearance_height"):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        self.polish_iterations = int(self.polish_iterations)
+        if self.polish_iterations < 0 or int(self.polish_points) < 1:
+            raise ValueError(f"polish_iterations must be >= 0 and polish_points >= 1, got {self.polish_iterations}, "
+                             f"{self.polish_points}")
+        self.polish_points = int(self.polish_points)
 
     @classmethod
     def from_yaml(cls, path: str | Path, settings: list[str] | None = None) -> GeneratorConfig:
@@ -243,6 +284,8 @@ class GaitLosses:
 
     def __init__(self, config: GeneratorConfig) -> None:
         self.config = config
+        #: multiplier of the Kane weight (the trainer's ramp, :attr:`GeneratorConfig.kane_ramp`)
+        self.kane_scale = 1.0
         self.contact = torch.as_tensor(ContactParameters(slip_velocity=ENV_SLIP_VELOCITY).vector())
         self.passive = torch.as_tensor(passive_parameters())
         lo, hi = default_joint_limits().arrays()
@@ -282,17 +325,24 @@ class GaitLosses:
             + relu2(joints - self.upper.to(q)).sum(-1)
             + (relu2(ph["actuator"].abs() - tau_limit) / tau_limit**2).sum(-1)
             + relu2(0.3 * height[:, None] - q[..., 1]) + relu2(q[..., 1] - 0.7 * height[:, None])
-            + relu2(q[..., 2].abs() - 0.6)
+            + relu2(cfg.tilt_range[0] - q[..., 2]) + relu2(q[..., 2] - cfg.tilt_range[1])
         )
         pk = kinematics.point_kinematics(q, u, qdd, ph["w"], p)
         vx = torch.stack([pk[..., kinematics.point_index(f"contact_{s}"), 2] for s in "rl"], dim=-1)
         slide = (vx * ph["grf"][..., 1::2] / bw[..., None]).square().sum(-1)
+        c = cfg.clearance_height
+        swing = torch.sigmoid((vx - u[..., :1]) / 0.1)
+        low = torch.stack([
+            relu2(1 - pk[..., kinematics.point_index(f"{point}_{s}"), 1] / c) for s in "rl" for point in ("heel", "toe")
+        ], dim=-1).view(*vx.shape, 2).sum(-1)
+        clearance = (swing * low).sum(-1)
         terms = {
-            "kane": lam.kane * kane.mean(),
+            "kane": lam.kane * self.kane_scale * kane.mean(),
             "effort": lam.effort * effort.mean(),
             "acc": lam.effort * lam.w_acc * acc.mean(),
             "bounds": lam.bounds * bounds.mean(),
             "slide": lam.slide * slide.mean(),
+            "clearance": lam.clearance * clearance.mean(),
         }
         terms["total"] = sum(terms.values())
         terms["kane_rms_bw"] = kane.mean().sqrt().detach()
@@ -318,10 +368,67 @@ class GeneratorTrainer:
         self.optimizer = torch.optim.Adam(self.model_.parameters(), lr=config.lr)
         self.bodies = BodyPool.sample(256, config.heights, config.masses, self.rng)
         self.losses = GaitLosses(config)
+        self._polish: tuple[dict[str, torch.Tensor], GaitLosses, torch.optim.LBFGS] | None = None
+        self._polish_state: dict[str, Any] | None = None  # a checkpoint's L-BFGS state, loaded lazily
 
     @property
     def total_steps(self) -> int:
+        return self.config.warmup_steps + self.config.steps + self.config.polish_iterations
+
+    @property
+    def adam_steps(self) -> int:
+        """Warm-up and Adam steps (the polish stage follows them)."""
         return self.config.warmup_steps + self.config.steps
+
+    def _polish_problem(self) -> tuple[dict[str, torch.Tensor], GaitLosses, torch.optim.LBFGS]:
+        """The polish stage's fixed grid of gaits, its losses and its optimiser (config docstring)."""
+        cfg = self.config
+        lo, hi = cfg.speeds
+        speeds = np.arange(lo, hi + 1e-9, cfg.polish_speed_step) if hi > lo else np.array([lo])
+        (h0, h1), (m0, m1) = cfg.heights, cfg.masses
+        bodies = [BodyParameters.from_anthropometry(h, m) for h, m in
+                  [(h0, m0), (h0, m1), (h1, m0), (h1, m1), (0.5 * (h0 + h1), 0.5 * (m0 + m1))]]
+        rows = [(v, b) for b in bodies for v in speeds]
+        t = lambda x: torch.as_tensor(np.asarray(x, dtype=np.float64))  # noqa: E731
+        grid = {
+            "speed": t([v for v, _ in rows]), "duration": t([typical_stride_duration(v) for v, _ in rows]),
+            "height": t([b.height for _, b in rows]), "mass": t([b.mass for _, b in rows]),
+            "hip": t([b.standing_hip_height for _, b in rows]), "p": t(np.stack([b.vector() for _, b in rows]))[:, None, :],
+            "phase": t((np.arange(cfg.polish_points) + 0.5) / cfg.polish_points * 0.5),
+        }
+        w = cfg.weights
+        weights = dataclasses.replace(w, kane=w.kane * cfg.polish_factor, bounds=w.bounds * cfg.polish_factor)
+        losses = GaitLosses(GeneratorConfig(**{**cfg.to_dict(), "weights": weights}))
+        optimizer = torch.optim.LBFGS(self.model_.parameters(), lr=1.0, max_iter=POLISH_CHUNK, history_size=50,
+                                      line_search_fn="strong_wolfe")
+        return grid, losses, optimizer
+
+    def _polish_chunk(self) -> dict[str, torch.Tensor]:
+        """Up to :data:`POLISH_CHUNK` L-BFGS iterations; returns the last evaluated loss terms and
+        advances ``step`` by the iterations done (to the end when L-BFGS has converged)."""
+        if self._polish is None:
+            self._polish = self._polish_problem()
+            if self._polish_state is not None:
+                self._polish[2].load_state_dict(self._polish_state)
+        grid, losses, optimizer = self._polish
+        last: dict[str, torch.Tensor] = {}
+
+        def closure() -> torch.Tensor:
+            optimizer.zero_grad()
+            coeffs = self.model_(grid["speed"], grid["height"], grid["mass"])
+            q, u, qdd = cycle(coeffs, grid["speed"], grid["duration"], grid["hip"], grid["phase"])
+            terms = losses(q, u, qdd, grid["p"], grid["height"], grid["mass"], grid["duration"])
+            terms["total"].backward()
+            last.update(terms)
+            return terms["total"]
+
+        first = optimizer.param_groups[0]["params"][0]
+        before = optimizer.state[first].get("n_iter", 0)
+        optimizer.step(closure)
+        done = optimizer.state[first]["n_iter"] - before
+        remaining = self.total_steps - self.step
+        self.step += remaining if done < min(POLISH_CHUNK, remaining) else min(done, remaining)
+        return last
 
     def _batch(self) -> dict[str, torch.Tensor]:
         cfg = self.config
@@ -345,12 +452,39 @@ class GeneratorTrainer:
         err = q[..., 1:] - target[..., 1:]
         return err.square().mean() * 100.0
 
+    def _kane_scale(self) -> float:
+        cfg = self.config
+        x = (self.step - cfg.warmup_steps) / max(cfg.steps, 1)
+        return cfg.kane_ramp ** min(max(x, 0.0), 1.0)
+
     def _lr(self) -> float:
         cfg = self.config
         if self.step < cfg.warmup_steps:
             return cfg.lr
         x = (self.step - cfg.warmup_steps) / max(cfg.steps, 1)
         return cfg.lr * (0.1 + 0.9 * 0.5 * (1 + math.cos(math.pi * min(x, 1.0))))
+
+    def _adam_step(self) -> dict[str, torch.Tensor]:
+        """One warm-up or Adam step on a random batch; returns its loss terms."""
+        b = self._batch()
+        coeffs = self.model_(b["speed"], b["height"], b["mass"])
+        q, u, qdd = cycle(coeffs, b["speed"], b["duration"], b["hip"], b["phase"])
+        if self.step < self.config.warmup_steps:
+            terms = {"warmup": self._warmup_loss(b, q)}
+            terms["total"] = terms["warmup"]
+        else:
+            self.losses.kane_scale = self._kane_scale()
+            terms = self.losses(q, u, qdd, b["p"], b["height"], b["mass"], b["duration"])
+        if not torch.isfinite(terms["total"]):
+            return terms
+        for group in self.optimizer.param_groups:
+            group["lr"] = self._lr()
+        self.optimizer.zero_grad(set_to_none=True)
+        terms["total"].backward()
+        torch.nn.utils.clip_grad_norm_(self.model_.parameters(), 1.0)
+        self.optimizer.step()
+        self.step += 1
+        return terms
 
     def fit(self, resume: bool = False) -> GaitGenerator:
         """Train (continuing from ``<out>/checkpoint.pt`` with ``resume``); the run folder is
@@ -375,32 +509,20 @@ class GeneratorTrainer:
         bar = tqdm(total=self.total_steps, initial=self.step, desc="gait generator", unit="step", dynamic_ncols=True)
         try:
             while self.step < self.total_steps:
-                b = self._batch()
-                coeffs = self.model_(b["speed"], b["height"], b["mass"])
-                q, u, qdd = cycle(coeffs, b["speed"], b["duration"], b["hip"], b["phase"])
-                if self.step < cfg.warmup_steps:
-                    terms = {"warmup": self._warmup_loss(b, q)}
-                    terms["total"] = terms["warmup"]
-                else:
-                    terms = self.losses(q, u, qdd, b["p"], b["height"], b["mass"], b["duration"])
+                before = self.step
+                terms = self._adam_step() if self.step < self.adam_steps else self._polish_chunk()
                 if not torch.isfinite(terms["total"]):
                     raise FloatingPointError(f"step {self.step}: non-finite loss {terms}; last checkpoint: {ckpt}")
-                for group in self.optimizer.param_groups:
-                    group["lr"] = self._lr()
-                self.optimizer.zero_grad(set_to_none=True)
-                terms["total"].backward()
-                torch.nn.utils.clip_grad_norm_(self.model_.parameters(), 1.0)
-                self.optimizer.step()
-                self.step += 1
                 self.wall = time.perf_counter() - start
-                bar.update(1)
-                if self.step % cfg.log_every == 0 or self.step == self.total_steps:
+                bar.update(self.step - before)
+                crossed = lambda every, before=before: self.step // every > before // every  # noqa: E731
+                if crossed(cfg.log_every) or self.step == self.total_steps:
                     rec = {"step": self.step, "wall_s": self.wall, **{k: float(v.detach()) for k, v in terms.items()}}
                     self.history_.append(rec)
                     bar.set_postfix(loss=f"{rec['total']:.3g}", kane_rms=f"{rec.get('kane_rms_bw', float('nan')):.2g}")
-                if self.step % cfg.checkpoint_every == 0:
+                if crossed(cfg.checkpoint_every):
                     self._save(ckpt)
-                if cfg.snapshot_every and self.step % cfg.snapshot_every == 0:
+                if cfg.snapshot_every and crossed(cfg.snapshot_every):
                     (self.out / "snapshots").mkdir(exist_ok=True)
                     save_generator(self.model_, self.out / "snapshots" / f"generator_{self.step:06d}.pt", cfg, self.wall)
                 if cfg.time_limit_s and self.wall > cfg.time_limit_s:
@@ -423,6 +545,7 @@ class GeneratorTrainer:
             "model": self.model_.state_dict(), "optimizer": self.optimizer.state_dict(), "step": self.step,
             "wall": self.wall, "history": self.history_, "rng": self.rng.bit_generator.state,
             "torch_rng": torch.get_rng_state(), "config": self.config.to_dict(),
+            "polish_optimizer": self._polish[2].state_dict() if self._polish is not None else self._polish_state,
         }
         save_torch_file(path, GENERATOR_CHECKPOINT, state)
 
@@ -436,6 +559,7 @@ class GeneratorTrainer:
         self.step, self.wall, self.history_ = state["step"], state["wall"], state["history"]
         self.rng.bit_generator.state = state["rng"]
         torch.set_rng_state(state["torch_rng"])
+        self._polish, self._polish_state = None, state.get("polish_optimizer")
 
     def _write_history(self) -> None:
         if not self.history_:
