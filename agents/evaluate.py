@@ -65,7 +65,7 @@ def evaluate(
     reference = winter_or_none(data_dir) if target < WALKING_BELOW_M_S else None
     try:
         results = [
-            run_episode(agent, env, seed + i, target, record_traces=(i == 0), frame_every=frame_every if i == 0 else 0,
+            run_episode(agent, env, seed + i, target, frame_every=frame_every if i == 0 else 0,
                         reference=reference)
             for i in range(episodes)
         ]
@@ -176,25 +176,26 @@ def plot_traces(result: EpisodeResult, path: str | Path) -> Path:
 
     from sspinn.model.conventions import SIDES
 
-    if not result.traces:
-        raise ValueError("the episode was run without record_traces=True")
-    tr = result.traces
-    t = tr["time"]
+    traj = result.trajectory
+    if traj is None:
+        raise ValueError("the episode has no trajectory")
+    # after each step: states and forces from sample 1 on, the torque applied during the step
+    t, q, tau, grf = traj.time[1:], traj.q[1:], traj.tau[:-1], traj.grf[1:]
     colors = {"r": "tab:red", "l": "tab:blue"}
     fig, axes = plt.subplots(3, 3, figsize=(13, 8.5), sharex=True)
     for j, joint in enumerate(("hip", "knee", "ankle")):
         for s, side in enumerate(SIDES):
             k = 3 * s + j
-            axes[0, j].plot(t, np.degrees(tr["angles"][:, k]), color=colors[side], lw=1, label=side)
-            axes[1, j].plot(t, tr["torques"][:, k], color=colors[side], lw=1, label=side)
+            axes[0, j].plot(t, np.degrees(q[:, 3 + k]), color=colors[side], lw=1, label=side)
+            axes[1, j].plot(t, tau[:, k], color=colors[side], lw=1, label=side)
         axes[0, j].set_title(f"{joint} angle (deg)")
         axes[1, j].set_title(f"{joint} torque (N·m)")
     for s, side in enumerate(SIDES):
-        axes[2, 0].plot(t, tr["grf"][:, 2 * s + 1], color=colors[side], lw=1, label=side)
-        axes[2, 1].plot(t, tr["grf"][:, 2 * s], color=colors[side], lw=1, label=side)
+        axes[2, 0].plot(t, grf[:, 2 * s + 1], color=colors[side], lw=1, label=side)
+        axes[2, 1].plot(t, grf[:, 2 * s], color=colors[side], lw=1, label=side)
     axes[2, 0].set_title("vertical GRF (N)")
     axes[2, 1].set_title("horizontal GRF (N)")
-    axes[2, 2].plot(t, tr["speed"], color="k", lw=0.8, label="hip speed")
+    axes[2, 2].plot(t, traj.u[1:, 0], color="k", lw=0.8, label="hip speed")
     axes[2, 2].axhline(result.target_speed, color="tab:green", ls="--", label="target")
     axes[2, 2].set_title("hip forward speed (m/s)")
     axes[2, 2].legend(loc="lower right", fontsize=8)

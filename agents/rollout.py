@@ -41,7 +41,10 @@ GAIT_SETTLE_S = 1.0
 
 @dataclass
 class EpisodeResult:
-    """Outcome of one episode (SI units) and, when recorded, its time series and frames."""
+    """Outcome of one episode (SI units), its motion as the project's
+    :class:`~sspinn.model.trajectory.Trajectory` (``trajectory``: the reset state first, then the
+    state after each step; ``tau[k]`` the actuator torque held from sample k to k + 1) and, when
+    recorded, its frames."""
 
     seed: int
     target_speed: float
@@ -54,7 +57,7 @@ class EpisodeResult:
     fell: bool
     episode_return: float
     gait: GaitMetrics
-    traces: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    trajectory: Trajectory | None = field(default=None, repr=False)
     frames: list[np.ndarray] = field(default_factory=list, repr=False)
 
     @property
@@ -93,7 +96,6 @@ def run_episode(
     env: gymnasium.Env,
     seed: int,
     target_speed: float | None = None,
-    record_traces: bool = False,
     frame_every: int = 0,
     reset_options: dict[str, Any] | None = None,
     reference: ReferenceGait | None = None,
@@ -105,9 +107,6 @@ def run_episode(
         env: a SagittalWalker environment (``render_mode="rgb_array"`` when ``frame_every > 0``).
         seed: reset seed (initial-state noise).
         target_speed: m/s, passed as ``reset(options={"target_speed": ...})``; None keeps the env's.
-        record_traces: keep time series of joint angles (rad), actuator torques (N·m) and ground
-            reaction forces (N) under ``traces`` (keys ``time``, ``angles``, ``torques``, ``grf``,
-            ``speed``, and the full state ``q``, ``u`` after each step).
         frame_every: keep every ``frame_every``-th rendered frame (0: none).
         reset_options: further ``reset`` options (e.g. ``{"initial_state": (q, u)}``).
         reference: reference cycle for the gait metrics' angle RMSD (e.g. Winter's walking).
@@ -119,11 +118,6 @@ def run_episode(
     target = float(info["target_speed"])
     unwrapped = env.unwrapped
     dt = float(unwrapped.dt)
-    angles: list[np.ndarray] = []
-    torques: list[np.ndarray] = []
-    grfs: list[np.ndarray] = []
-    speeds: list[float] = []
-    states: list[np.ndarray] = []
     frames: list[np.ndarray] = []
     if frame_every:
         frames.append(env.render())
@@ -141,29 +135,13 @@ def run_episode(
         samples_u.append(u)
         samples_grf.append(np.asarray(info["grf"]))
         samples_tau.append(np.asarray(info["torques"]))
-        if record_traces:
-            angles.append(q[3:])
-            states.append(np.concatenate([q, u]))
-            torques.append(np.asarray(info["torques"]))
-            grfs.append(np.asarray(info["grf"]))
-            speeds.append(float(info["speed"]))
         if frame_every and steps % frame_every == 0:
             frames.append(env.render())
     duration = round(steps * dt, 9)
     distance = float(info["distance"])
     mean_speed = distance / duration
-    traces: dict[str, np.ndarray] = {}
-    if record_traces:
-        traces = {
-            "time": dt * np.arange(1, steps + 1),
-            "angles": np.asarray(angles),
-            "torques": np.asarray(torques),
-            "grf": np.asarray(grfs),
-            "speed": np.asarray(speeds),
-            "q": np.asarray(states)[:, :9],
-            "u": np.asarray(states)[:, 9:],
-        }
-    gait = gait_metrics(_trajectory(unwrapped, samples_q, samples_u, samples_grf, samples_tau), unwrapped.body,
+    trajectory = _trajectory(unwrapped, samples_q, samples_u, samples_grf, samples_tau)
+    gait = gait_metrics(trajectory, unwrapped.body,
                         reference=reference, settle_s=GAIT_SETTLE_S)
     return EpisodeResult(
         seed=seed,
@@ -177,7 +155,7 @@ def run_episode(
         fell=bool(terminated),
         episode_return=total,
         gait=gait,
-        traces=traces,
+        trajectory=trajectory,
         frames=frames,
     )
 

@@ -74,7 +74,7 @@ class WalkerConfig:
     contact forces at the end of the step: v_slip the sliding speed of a foot carrying more than
     10 % BW implied by the friction law (m/s, :func:`envs.task.foot_slip`), F_y a foot's vertical
     force (:func:`envs.task.shaping_penalty`); a foot is in contact while its vertical force exceeds
-    5 % BW (:data:`sspinn.data.gait_events.CONTACT_THRESHOLD_BW`), :func:`envs.task.next_phase`.
+    10 % BW (:data:`sspinn.data.gait_events.CONTACT_THRESHOLD_BW`), :func:`envs.task.next_phase`.
 
     Attributes:
         height: body height, m (Winter scaling; 0.5–2.5). Default 1.75.

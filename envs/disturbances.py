@@ -56,7 +56,7 @@ class Disturbances:
         push_phase: ``"midstance_r"`` or ``"midstance_l"``: start the push at the first mid-stance
             of that foot at or after ``push_after`` s. Mid-stance is detected from the contact
             forces at the start of a control step: the foot carries more than
-            :data:`sspinn.data.gait_events.CONTACT_THRESHOLD_BW` (5 % BW) of vertical force while the
+            :data:`sspinn.data.gait_events.CONTACT_THRESHOLD_BW` (10 % BW) of vertical force while the
             other foot carries less (single support), and the foot's horizontal force has turned from
             braking (< 0 at the previous control step) to propulsive (≥ 0). A gait that never shows
             this transition is never pushed (``info["push_force"]`` stays 0).

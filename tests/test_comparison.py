@@ -12,26 +12,30 @@ from predictive.experiments.controller_comparison import (
     ComparisonConfig,
     MethodSpec,
     executed_kane_residual,
-    normalised_cycle,
+    mean_right_cycle,
     run_comparison,
     winter_rmsd,
 )
 from predictive.generator.gait_generator import GeneratorConfig, GeneratorTrainer
 from predictive.ocp.gait_analysis import ReferenceGait
+from sspinn.model.trajectory import Trajectory
 
 
-def _traces(n_cycles: int = 5, period: int = 100, bw: float = 700.0) -> dict[str, np.ndarray]:
-    n = n_cycles * period
+def _episode(n_cycles: int = 5, period: int = 100, bw: float = 700.0, steps: int | None = None) -> Trajectory:
+    """An episode as the rollout gives it: the reset state, then the state after each step."""
+    n = n_cycles * period if steps is None else steps
     phase = (np.arange(n) % period) / period
-    angles = np.stack([np.sin(2 * np.pi * phase), -np.abs(np.sin(np.pi * phase)), 0.1 * phase], axis=1)
-    grf = np.zeros((n, 4))
-    grf[:, 1] = np.where(phase < 0.6, bw, 0.0)
-    return {"angles": angles, "grf": grf}
+    q = np.zeros((n + 1, 9))
+    q[1:, 3:6] = np.stack([np.sin(2 * np.pi * phase), -np.abs(np.sin(np.pi * phase)), 0.1 * phase], axis=1)
+    grf = np.zeros((n + 1, 4))
+    grf[1:, 1] = np.where(phase < 0.6, bw, 0.0)
+    zeros = np.zeros_like(q)
+    return Trajectory(time=0.01 * np.arange(n + 1), q=q, u=zeros, qdd=zeros, tau=np.zeros((n + 1, 6)), grf=grf,
+                      w=np.zeros((n + 1, 2)))
 
 
-def test_normalised_cycle_and_rmsd_recover_a_known_cycle() -> None:
-    tr = _traces()
-    cyc = normalised_cycle(tr, 700.0, 0.01)
+def test_mean_right_cycle_and_rmsd_recover_a_known_cycle() -> None:
+    cyc = mean_right_cycle(_episode(), 700.0, 0.01)
     assert cyc is not None
     pct = cyc["percent"]
     np.testing.assert_allclose(cyc["hip"], np.sin(2 * np.pi * pct / 100), atol=1e-9)
@@ -40,22 +44,27 @@ def test_normalised_cycle_and_rmsd_recover_a_known_cycle() -> None:
     assert all(v == pytest.approx(0.0, abs=1e-9) for v in winter_rmsd(cyc, ref).values())
     shifted = ReferenceGait(pct, cyc["hip"] + np.radians(5), cyc["knee"], cyc["ankle"], cyc["grf_x"], cyc["grf_y"], 1.3, 1.0)
     assert winter_rmsd(cyc, shifted)["rmsd_hip_deg"] == pytest.approx(5.0)
-    assert normalised_cycle({k: v[:150] for k, v in tr.items()}, 700.0, 0.01) is None  # < 2 strikes after 2 s
+    assert mean_right_cycle(_episode(steps=150), 700.0, 0.01) is None  # < 2 strikes after 2 s
 
 
 def test_executed_kane_residual_is_small_for_the_simulation_and_large_for_a_fake() -> None:
     env = SagittalWalkerEnv()
     env.reset(seed=0)
-    qs, us, taus = [], [], []
+    q0, u0 = env.state
+    qs, us, taus = [q0], [u0], []
     for _ in range(60):
         _, _, _, _, info = env.step(np.zeros(6, np.float32))  # the body sags onto the feet
         q, u = env.state
         qs.append(q), us.append(u), taus.append(info["torques"])
-    tr = {"q": np.array(qs), "u": np.array(us), "torques": np.array(taus)}
-    real = executed_kane_residual(tr, env)
-    lifted = tr["q"].copy()
+    q, u = np.array(qs), np.array(us)
+    tau = np.vstack([taus, np.zeros((1, 6))])
+    episode = Trajectory(time=0.01 * np.arange(len(q)), q=q, u=u, qdd=np.zeros_like(q), tau=tau, grf=np.zeros((len(q), 4)),
+                         w=np.zeros((len(q), 2)))
+    real = executed_kane_residual(episode, env)
+    lifted = q.copy()
     lifted[:, 1] += 0.01  # the same motion 1 cm higher: the contact forces no longer match it
-    fake = executed_kane_residual({**tr, "q": lifted}, env)
+    fake = executed_kane_residual(Trajectory(time=episode.time, q=lifted, u=u, qdd=episode.qdd, tau=tau, grf=episode.grf,
+                                             w=episode.w), env)
     assert real < 0.01 and fake > 10 * real  # measured 0.0023 BW
 
 

@@ -52,6 +52,7 @@ from predictive.generator.closed_loop import TrackerSettings
 from predictive.generator.controllers import GeneratorControllers, OCPControllers
 from predictive.ocp.collocation import OCPError
 from predictive.ocp.gait_analysis import load_winter
+from sspinn.data.gait_events import contact_onsets
 from sspinn.estimator.evaluation import angle_jitter
 from sspinn.model.body import BodyParameters
 from sspinn.model.drawing import draw_stick_figure, save_figure
@@ -59,8 +60,6 @@ from sspinn.model.trajectory import Trajectory
 from sspinn.run_folder import atomic_write_json, atomic_write_text
 from sspinn.yaml_config import load_config
 
-#: Vertical force (BW) above which a foot counts as loaded (heel strike detection).
-CONTACT_THRESHOLD_BW = 0.1
 #: Samples of the normalised gait cycle.
 CYCLE_POINTS = 100
 #: Episodes start with this much simulated time (s) excluded from the gait-cycle average.
@@ -223,14 +222,14 @@ BUILDERS = {"generator": generator_controller, "ocp": ocp_controller, "sb3": sb3
 
 
 # ------------------------------------------------------------------------------------------ metrics
-def executed_trajectory(traces: dict[str, np.ndarray], env: Any) -> Trajectory | None:
-    """The executed motion of an episode's ``traces`` (q, u, actuator torques after each step) as
-    a :class:`~sspinn.model.trajectory.Trajectory` at its interior samples 1 … n−2: q̈ by central
-    differences of u, τ the actuator torque averaged over the two intervals around the sample
-    plus the passive joint moments, GRF and w of the environment's contact model. None with
-    fewer than three samples."""
+def executed_trajectory(episode: Trajectory, env: Any) -> Trajectory | None:
+    """The executed motion of an episode (the rollout's :class:`~sspinn.model.trajectory.Trajectory`:
+    states after each step, the actuator torque of each step) with the dynamics' own terms, at its
+    interior samples 1 … n−2 of the steps: q̈ by central differences of u, τ the actuator torque
+    averaged over the two intervals around the sample plus the passive joint moments, GRF and w of
+    the environment's contact model. None with fewer than three samples."""
     e = env.unwrapped
-    q, u, tau = traces["q"], traces["u"], traces["torques"]
+    q, u, tau = episode.q[1:], episode.u[1:], episode.tau[:-1]
     if len(q) < 3:
         return None
     dt = float(e.dt)
@@ -241,27 +240,28 @@ def executed_trajectory(traces: dict[str, np.ndarray], env: Any) -> Trajectory |
     return Trajectory.from_contact_model(dt * np.arange(1, len(q) - 1), qm, um, qdd, tau_total, e.body, e.contact)
 
 
-def executed_kane_residual(traces: dict[str, np.ndarray], env: Any) -> float:
+def executed_kane_residual(episode: Trajectory, env: Any) -> float:
     """Mean |Kane residual| (BW) of the pelvis translation rows over the episode (module
     docstring): :meth:`~sspinn.model.trajectory.Trajectory.kane_residual` of :func:`executed_trajectory`."""
-    executed = executed_trajectory(traces, env)
+    executed = executed_trajectory(episode, env)
     if executed is None:
         return float("nan")
     return float(np.mean(np.abs(executed.kane_residual(env.unwrapped.body)[:, :2])))
 
 
-def normalised_cycle(traces: dict[str, np.ndarray], body_weight: float, dt: float) -> dict[str, np.ndarray] | None:
+def mean_right_cycle(episode: Trajectory, body_weight: float, dt: float) -> dict[str, np.ndarray] | None:
     """Mean right-leg cycle (hip, knee, ankle in rad; GRF x, y in BW; CYCLE_POINTS samples from
-    right heel strike) over the complete cycles after SETTLE_S, or None without two strikes."""
-    fy = traces["grf"][:, 1] / body_weight
-    loaded = fy > CONTACT_THRESHOLD_BW
-    strikes = np.flatnonzero(loaded[1:] & ~loaded[:-1]) + 1
+    right heel strike, :func:`sspinn.data.gait_events.contact_onsets`) over the complete cycles
+    after SETTLE_S, or None without two strikes."""
+    q, grf = episode.q[1:], episode.grf[1:]
+    fy = grf[:, 1] / body_weight
+    strikes = contact_onsets(fy)
     strikes = strikes[strikes * dt >= SETTLE_S]
     if len(strikes) < 2:
         return None
     signals = {
-        "hip": traces["angles"][:, 0], "knee": traces["angles"][:, 1], "ankle": traces["angles"][:, 2],
-        "grf_x": traces["grf"][:, 0] / body_weight, "grf_y": fy,
+        "hip": q[:, 3], "knee": q[:, 4], "ankle": q[:, 5],
+        "grf_x": grf[:, 0] / body_weight, "grf_y": fy,
     }
     frac = np.arange(CYCLE_POINTS) / CYCLE_POINTS
     out = {}
@@ -331,16 +331,16 @@ def evaluate_controller(
     controller = built.controller
     rows, cycle, states = [], None, None
     for seed in seeds:
-        res = run_episode(episode_policy(controller), env, seed, speed, record_traces=True,
-                          reset_options=start_options(controller))
+        res = run_episode(episode_policy(controller), env, seed, speed, reset_options=start_options(controller))
+        assert res.trajectory is not None
         m = res.metrics()
-        m["kane_residual_bw"] = executed_kane_residual(res.traces, env)
-        m["jitter_rad_s3"] = angle_jitter(res.traces["angles"], 1.0 / e.dt)
-        c = normalised_cycle(res.traces, e.body.body_weight, e.dt) if not res.fell else None
+        m["kane_residual_bw"] = executed_kane_residual(res.trajectory, env)
+        m["jitter_rad_s3"] = angle_jitter(res.trajectory.q[1:, 3:], 1.0 / e.dt)
+        c = mean_right_cycle(res.trajectory, e.body.body_weight, e.dt) if not res.fell else None
         m.update(winter_rmsd(c, reference) if speed < 2.0 else {})
         rows.append(m)
         if c is not None and cycle is None:
-            cycle, states = c, res.traces["q"]
+            cycle, states = c, res.trajectory.q[1:]
     return rows, cycle, states
 
 
@@ -524,5 +524,5 @@ def _json_default(obj: Any) -> Any:
 
 __all__ = [
     "BuiltController", "CellResult", "ComparisonConfig", "MethodSpec", "SB3Controller", "evaluate_controller", "executed_kane_residual",
-    "executed_trajectory", "learning_curves", "normalised_cycle", "run_comparison", "winter_rmsd", "write_report",
+    "executed_trajectory", "learning_curves", "mean_right_cycle", "run_comparison", "winter_rmsd", "write_report",
 ]
