@@ -49,13 +49,13 @@ class Case:
 
     def episodes(self, weights: Any, phase: str, prior: float, seeds: list[int]) -> Iterator[int]:
         """Episode lengths (control steps; < max_episode_steps: a fall) over ``seeds``."""
-        from predictive.controller import run_episode
+        from predictive.controller import run_controller_episode
         from predictive.generator.closed_loop import GaitTracker, periodic_lqr
 
         Q, R = weights.matrices()
         tracker = GaitTracker(self.ref, periodic_lqr(self.A, self.B, Q, R), np.sqrt(np.diag(Q)), phase, prior)
         for seed in seeds:
-            ep = run_episode(tracker, self.env, seed)
+            ep = run_controller_episode(tracker, self.env, seed)
             yield ep.steps if not ep.fell else -ep.steps
 
 

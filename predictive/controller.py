@@ -18,7 +18,7 @@ same way, through SB3's ``predict`` convention::
   pose.
 
 A new speed or body is one call on a :class:`ControllerSource` (``controller_for(speed=1.3,
-body=...)``), not a script. :func:`run_episode` runs one episode of any controller with reset
+body=...)``), not a script. :func:`run_controller_episode` runs one episode of any controller with reset
 options and returns what happened; :func:`episode_policy` adapts a controller to the plain
 ``observation → action`` functions of :mod:`agents.rollout`.
 """
@@ -122,7 +122,7 @@ class Episode:
     states: np.ndarray | None = field(default=None, repr=False)
 
 
-def run_episode(
+def run_controller_episode(
     controller: Controller, env: Any, seed: int, reset_options: dict[str, Any] | None = None, record: bool = False
 ) -> Episode:
     """One episode of ``controller`` in ``env`` from ``env.reset(seed=seed, options=...)`` (the
@@ -149,4 +149,4 @@ def run_episode(
     )
 
 
-__all__ = ["Controller", "ControllerSource", "Episode", "episode_policy", "episode_starts", "run_episode", "start_options"]
+__all__ = ["Controller", "ControllerSource", "Episode", "episode_policy", "episode_starts", "run_controller_episode", "start_options"]

@@ -7,7 +7,7 @@ import pytest
 import scipy.linalg
 
 from envs.sagittal_walker import SagittalWalkerEnv
-from predictive.controller import run_episode
+from predictive.controller import run_controller_episode
 from predictive.generator.closed_loop import (
     N_Z,
     GaitReference,
@@ -148,10 +148,10 @@ def test_lqr_tracks_a_small_ocp_walking_cycle_for_two_seconds() -> None:
     Q, R = LQRWeights().matrices()
     gains, metric = periodic_lqr(A, B, Q, R), np.sqrt(np.diag(Q))
     tracker = GaitTracker(ref, gains, metric, phase="state")
-    episode = run_episode(tracker, env, seed=0)
+    episode = run_controller_episode(tracker, env, seed=0)
     assert episode.steps == 200 and not episode.fell
     assert episode.distance_m == pytest.approx(2.0 * 1.3, rel=0.1)
     # started a third of a cycle later on the cycle: the state-based phase re-synchronises, a clock does not
     later = {"initial_state": (ref.q[ref.n // 3], ref.u[ref.n // 3])}
-    assert not run_episode(tracker, env, seed=0, reset_options=later).fell
-    assert run_episode(GaitTracker(ref, gains, metric, phase="clock"), env, seed=0, reset_options=later).fell
+    assert not run_controller_episode(tracker, env, seed=0, reset_options=later).fell
+    assert run_controller_episode(GaitTracker(ref, gains, metric, phase="clock"), env, seed=0, reset_options=later).fell

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from envs.sagittal_walker import SagittalWalkerEnv
-from predictive.controller import Controller, ControllerSource, episode_policy, run_episode, start_options
+from predictive.controller import Controller, ControllerSource, episode_policy, run_controller_episode, start_options
 from predictive.generator.closed_loop import TrackerSettings
 from predictive.generator.controllers import GeneratorControllers
 from predictive.generator.gait_generator import GeneratorConfig, GeneratorTrainer
@@ -27,9 +27,9 @@ def test_reusing_a_controller_gives_the_episode_of_a_fresh_one(source, phase) ->
     used = source.controller_for(1.3)
     assert isinstance(used, Controller) and isinstance(source, ControllerSource)
     env = SagittalWalkerEnv(target_speed=1.3, max_episode_steps=80)
-    first = run_episode(used, env, seed=1, record=True)
-    again = run_episode(used, env, seed=2, record=True)
-    fresh = run_episode(source.controller_for(1.3), env, seed=2, record=True)
+    first = run_controller_episode(used, env, seed=1, record=True)
+    again = run_controller_episode(used, env, seed=2, record=True)
+    fresh = run_controller_episode(source.controller_for(1.3), env, seed=2, record=True)
     assert again.steps == fresh.steps > 5
     np.testing.assert_array_equal(again.actions, fresh.actions)
     np.testing.assert_array_equal(again.states, fresh.states)
@@ -62,4 +62,4 @@ def test_start_options_merge_the_controllers_start_and_the_callers_options() -> 
     assert start_options(Standing()) is None
     assert start_options(Standing(), {"target_speed": 2.0}) == {"target_speed": 2.0}
     env = SagittalWalkerEnv(max_episode_steps=3)
-    assert run_episode(Standing(), env, seed=0).steps == 3
+    assert run_controller_episode(Standing(), env, seed=0).steps == 3

@@ -33,7 +33,7 @@ import numpy as np
 
 from envs.config import WalkerConfig
 from envs.sagittal_walker import SagittalWalkerEnv
-from predictive.controller import ControllerSource, run_episode
+from predictive.controller import ControllerSource, run_controller_episode
 from predictive.generator.closed_loop import GaitTracker, TrackerSettings
 from predictive.generator.controllers import GeneratorControllers
 from sspinn.model.body import BodyParameters
@@ -102,7 +102,7 @@ def evaluate(
         build_s = time.perf_counter() - start
         sim = evaluation_env(speed, body, env)
         for seed in seeds:
-            ep = run_episode(controller, sim, seed, reset_options)
+            ep = run_controller_episode(controller, sim, seed, reset_options)
             rows.append({"speed": float(speed), "seed": int(seed), "fell": ep.fell, "steps": ep.steps,
                          "distance_m": ep.distance_m, "build_s": build_s})
     return rows

@@ -85,7 +85,7 @@ class TrainConfig:
         seed: seed of the window draws, the noise and the initial weights.
         device: cpu, cuda or auto.
         threads: torch intra-op threads on CPU; 0 = the CPUs not busy with other work, re-measured
-            every ``checkpoint_every`` steps (:class:`~sspinn.estimator.cpu_share.ThreadShare`).
+            every 1,000 steps (or ``checkpoint_every`` if larger) (:class:`~sspinn.estimator.cpu_share.ThreadShare`).
         log_every: steps between TensorBoard/progress logs.
         checkpoint_every: steps between checkpoints.
         time_limit_s: safety net: stop (with a checkpoint and a loud TimeLimitWarning) after
@@ -448,7 +448,7 @@ class Trainer:
         random.seed(cfg.seed)
         np.random.seed(cfg.seed)
         torch.manual_seed(cfg.seed)  # identical initial weights on every rank
-        self.threads = ThreadShare(cfg.threads, every=cfg.checkpoint_every)
+        self.threads = ThreadShare(cfg.threads, every=max(cfg.checkpoint_every, 1000))
         self.rng = np.random.default_rng([cfg.seed, self.rank])  # but different windows
         self.data = prepare(train, self.segments, grf=cfg.network.grf)
         #: names of the recordings whose IMU signals this model's training saw (with init_from,
