@@ -1,4 +1,4 @@
-"""Try every bad-input case of issue #12 (and the bad IMU files of issue #13) and print the
+"""Try every documented bad-input case (bad recordings, bad IMU files, bad options and files) and print the
 Markdown table of ``docs/bad_input.md``: the case, what was run, the exit status (or
 exception/warning) and the exact message the user sees.
 
@@ -482,7 +482,7 @@ def main() -> None:
              "this is a file where a folder is expected", lambda: below_a_file(generator(), tmp, predictive_cli.main)),
         Case("4", "disk full while writing (file-size limit 4 kB)", "python -m predictive generate (RLIMIT_FSIZE 4096)", "exit 2",
              "walk.npz: File too large", lambda: disk_full(generator(), tmp)),
-        # issue #13: bad IMU files (sspinn import of edited copies of a real CMU OpenSense export)
+        # bad IMU files (sspinn import of edited copies of a real CMU OpenSense export)
         Case("13a", "thighs' sensors swapped between the sides in the map", "sspinn import --sensor-map thighs_swapped.yaml",
              "exit 0", "'femur_l_imu_offset_imu' (femur_r) leads 'tibia_r_imu_offset_imu' (tibia_r)",
              lambda: imu_import(smap=sensor_map_edited(CMU_MAP, legs[:2]))),
