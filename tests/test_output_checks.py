@@ -104,3 +104,18 @@ def test_a_physically_impossible_estimate_is_an_error(tiny_run, monkeypatch, tmp
     assert main(["infer", "--model", str(run / "model.pt"), "--data", str(data), "--out", str(tmp_path / "o")]) == 2
     assert "no human movement reaches; nothing written" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_labels_with_a_negative_vertical_force_are_refused() -> None:
+    import numpy as np
+
+    from sspinn.estimator.evaluation import EvaluationError, check_evaluable
+    from sspinn.testing import walking_recording
+
+    rec = walking_recording()
+    assert rec.labels is not None and rec.labels.grf is not None
+    rec.labels.grf[:, 1] *= -1.0  # the vertical force negated
+    with pytest.raises(EvaluationError, match="vertical GRF labels reach -1.02 BW"):
+        check_evaluable([], [rec], 0)
+    rec.labels.grf[:, 1] = np.abs(rec.labels.grf[:, 1])
+    check_evaluable([], [rec], 0)

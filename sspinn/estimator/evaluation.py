@@ -39,6 +39,7 @@ from sspinn.errors import UserError
 from sspinn.estimator.inference import GaitEstimate
 from sspinn.model.body import BodyParameters
 from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, JOINTS
+from sspinn.run_folder import atomic_write_text
 
 if TYPE_CHECKING:
     from sspinn.estimator.sspinnpose import SSPINNpose
@@ -192,15 +193,30 @@ def compare_with_baseline(
     return out
 
 
+#: Most negative vertical GRF label (BW) taken as force-plate noise rather than a sign or unit error.
+NEGATIVE_GRF_TOLERANCE_BW = 0.1
+
+
 def check_evaluable(estimates: list[GaitEstimate], recordings: list[Recording], skip: int) -> None:
     """Raise :class:`EvaluationError` (or NonFiniteEstimateError) unless every estimate is finite
-    and every recording has labels and samples left after ``skip``."""
-    for est, rec in zip(estimates, recordings):
+    and every recording has labels, samples left after ``skip`` and no vertical GRF label below
+    −:data:`NEGATIVE_GRF_TOLERANCE_BW` (a negated or mis-scaled force channel)."""
+    for est in estimates:
         est.check_finite()
+    for rec in recordings:
         if rec.labels is None:
             raise EvaluationError(f"{rec.name}: no labels to evaluate against (use `sspinn infer` for recordings without labels)")
         if not 0 <= skip < rec.n_samples:
             raise EvaluationError(f"{rec.name}: --skip {skip} leaves no samples of its {rec.n_samples} to evaluate")
+        grf = rec.labels.grf
+        if grf is not None:
+            body_weight = rec.mass * GRAVITY
+            low = float(np.nanmin(grf[:, [1, 3]])) / body_weight
+            if low < -NEGATIVE_GRF_TOLERANCE_BW:
+                raise EvaluationError(
+                    f"{rec.name}: its vertical GRF labels reach {low:.2f} BW; the ground only pushes (allowed noise "
+                    f"−{NEGATIVE_GRF_TOLERANCE_BW:g} BW): check the force sign, the units and the body mass"
+                )
 
 
 def baseline_lines(comparison: dict[str, dict], source: str) -> list[str]:
@@ -299,14 +315,14 @@ def write_report(
         fig.suptitle(f"{title}: {est.name}")
         save_figure(fig, out / f"{est.name}.png", dpi=90)
         lines.append(f"\n![{est.name}]({est.name}.png)")
-    (out / "report.md").write_text("\n".join(lines) + "\n")
+    atomic_write_text(out / "report.md", "\n".join(lines) + "\n")
     result = {"title": title, "mean": mean.as_dict(), "recordings": {k: v.as_dict() for k, v in per.items()}, **(extra or {})}
     if comparison is not None:
         assert baseline is not None
         result["baseline_source"] = baseline.source
         result["by_program"] = comparison
     # a metric without the labels it needs is NaN: written as null (valid JSON), never as NaN
-    (out / "metrics.json").write_text(json.dumps(finite_or_null(result), indent=2, allow_nan=False))
+    atomic_write_text(out / "metrics.json", json.dumps(finite_or_null(result), indent=2, allow_nan=False))
     return result
 
 

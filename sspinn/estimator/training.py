@@ -674,7 +674,7 @@ class Trainer:
                 "stopped_by": self.stopped_by,
                 "wall_s_this_run": round(time.perf_counter() - start_time, 1),
             }
-            (self.out / "training_summary.json").write_text(json.dumps(summary, indent=2))
+            atomic_write_text(self.out / "training_summary.json", json.dumps(summary, indent=2))
         return self.model
 
     def _best_start(self, train: list[Recording]) -> Path:

@@ -55,6 +55,7 @@ from sspinn.imu.stream import ANTI_ALIAS_HZ, DEFAULT_MAX_GAP_S, RATE_HZ, IMUImpo
 from sspinn.imu.time_alignment import Alignment, align_to_grf, walking_direction_sign
 from sspinn.imu.vendor_readers import read_imu_files, read_treadmill_grf_columns
 from sspinn.model.conventions import GRF
+from sspinn.run_folder import atomic_write_text
 
 #: Version of the import procedure, stored in the provenance.
 IMPORTER_VERSION: Final = 3
@@ -163,8 +164,8 @@ def import_imu(
     context = {"files": ", ".join(str(f) for f in files), "sensor map": smap.source,
                "subject": f"{subject}, {height} m, {mass} kg", "recording": f"{csv} ({rec.n_samples} samples, {rec.duration:.2f} s)"}
     report = out / f"{name}_calibration.md"
-    report.write_text(calibration_markdown(name, cal, alignment, context, notes), encoding="utf-8")
-    (out / f"{name}_calibration.json").write_text(json.dumps(
+    atomic_write_text(report, calibration_markdown(name, cal, alignment, context, notes))
+    atomic_write_text(out / f"{name}_calibration.json", json.dumps(
         {"sensors": provenance["calibration"], "alignment": provenance.get("grf_alignment"), "warnings": provenance["warnings"],
          "notes": provenance["notes"]}, indent=2))
     figure = plot_calibration(out / f"{name}_calibration.png", name, cal, projected, {s: v[1] for s, v in signals.items()})

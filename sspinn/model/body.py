@@ -24,6 +24,7 @@ import numpy as np
 import yaml
 
 from sspinn.model.conventions import GRAVITY, JOINTS, SEGMENTS, SIDES
+from sspinn.run_folder import atomic_write_text
 from sspinn.yaml_config import check_keys, config_from_mapping, read_yaml
 
 # --------------------------------------------------------------------------------------------
@@ -239,7 +240,7 @@ class BodyParameters:
         return cls.from_dict(read_yaml(path, "body"), source=str(path))
 
     def to_yaml(self, path: str | Path) -> None:
-        Path(path).write_text(yaml.safe_dump({"body": _plain(self.to_dict())}, sort_keys=False))
+        atomic_write_text(path, yaml.safe_dump({"body": _plain(self.to_dict())}, sort_keys=False))
 
 
 def _plain(obj: Any) -> Any:
