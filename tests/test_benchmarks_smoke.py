@@ -68,6 +68,9 @@ def test_bench_sspinn(tmp_path: Path, capsys: pytest.CaptureFixture[str], torch_
     assert sorted(p["compiled"] for p in result["profile"].values()) == [False, False, True, True]
     for prof in result["profile"].values():  # the phases partition the step
         assert sum(prof["share"].values()) == pytest.approx(1.0) and min(prof["ms"].values()) > 0
+    sharing = result["sharing"]  # alone and beside a busy process, fixed and automatic thread counts
+    assert set(sharing) == {"2", "1", "auto"} and sharing["1"]["threads_beside"] == 1
+    assert all(r["alone"] > 0 and r["beside"] > 0 for r in sharing.values()) and "training beside a busy neighbour" in out
     assert json.loads((tmp_path / "r.json").read_text())["quick"] is True
 
 
