@@ -83,12 +83,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--passes", type=int, default=2, help="coordinate-descent passes over the weights")
     parser.add_argument("--factor", type=float, default=3.0, help="multiplicative step of a weight")
     parser.add_argument("--start", default="joint_rate=3", help="start weights, name=value,...")
+    parser.add_argument("--start-from", type=Path, default=None,
+                        help="a robustness config: start each speed from its tracker's scheduled weights instead")
     parser.add_argument("--out", type=Path, default=Path("results/tracker_study.json"))
     args = parser.parse_args(argv)
 
+    from predictive.experiments.robustness import RobustnessConfig
     from predictive.generator.closed_loop import LQRWeights
 
-    start_weights = LQRWeights(**{k: float(v) for k, v in (p.split("=") for p in args.start.split(",") if p)})
+    given = LQRWeights(**{k: float(v) for k, v in (p.split("=") for p in args.start.split(",") if p)})
+    schedule = RobustnessConfig.from_yaml(args.start_from).tracker if args.start_from else None
     names = [f.name for f in dataclasses.fields(LQRWeights)]
     log: list[dict] = []
     chosen = {}
@@ -96,6 +100,7 @@ def main(argv: list[str] | None = None) -> int:
     n_episodes = len(args.generators) * len(args.seeds)
     for speed in args.speeds:
         cases = [Case(g, speed, args.noise) for g in args.generators]
+        start_weights = schedule.weights_at(speed) if schedule else given
 
         def trial(kind: str, weights: Any, phase: str, prior: float, limit: int | None = None) -> tuple[int, float]:
             result = score(cases, weights, phase, prior, args.seeds, limit)  # noqa: B023 (used in this iteration only)

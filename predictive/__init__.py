@@ -5,7 +5,8 @@ Builds on :mod:`sspinn` (never the other way round). Rooms: :mod:`predictive.ocp
 collocation with CasADi/IPOPT, tracking, the stride NLP, solutions and their analysis),
 :mod:`predictive.synth` (physically exact synthetic datasets), :mod:`predictive.generator` (the
 self-supervised gait generator and closed-loop deployment) and :mod:`predictive.experiments`
-(comparison harness, solutions against labels). Main entry point: :func:`solve_predictive`;
+(comparison harness, robustness, solutions against labels); :mod:`predictive.controller` is the
+one controller protocol (SB3's ``predict`` convention) they all share. Main entry point: :func:`solve_predictive`;
 results are :class:`GaitSolution` objects. Command line:
 ``python -m predictive solve --speed 1.3 --out results/ocp/walk_1.3`` (``--help`` lists the others).
 """

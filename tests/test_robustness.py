@@ -66,3 +66,18 @@ def test_run_robustness_writes_per_seed_outcomes(tmp_path) -> None:
     ok = sum(not r["fell"] for r in results["tracked"][path])
     assert f"| {path} | {ok}/2 (" in text and "open loop" in text
     assert json.loads((tmp_path / "out" / "results.json").read_text())["config"]["env"]["reset_noise_scale"] == 0.05
+
+
+def test_shipped_configs_load() -> None:
+    from pathlib import Path
+
+    from predictive.experiments.controller_comparison import ComparisonConfig
+    from predictive.generator.gait_generator import GeneratorConfig
+
+    root = Path(__file__).resolve().parents[1] / "configs" / "predictive"
+    robustness = RobustnessConfig.from_yaml(root / "robustness.yaml")
+    compare = ComparisonConfig.from_yaml(root / "compare.yaml")
+    assert robustness.tracker == compare.tracker and robustness.tracker.phase == "state"
+    assert [w.speed for w in robustness.tracker.lqr] == [1.3, 2.2, 3.5] and robustness.env == {"reset_noise_scale": 0.05}
+    generator = GeneratorConfig.from_yaml(root / "generator.yaml")
+    assert generator.weights.clearance > 0 and generator.polish_iterations > 0

@@ -3,6 +3,9 @@
 * :mod:`~predictive.generator.gait_generator` — the self-supervised gait generator (one network,
   (speed, height, mass) → a periodic gait cycle);
 * :mod:`~predictive.generator.closed_loop` — feedforward + periodic LQR tracking of any gait
-  cycle (generator or OCP) in the Gymnasium environment;
+  cycle (generator or OCP) in the Gymnasium environment, with the gait phase estimated from the
+  state and a gain schedule over speed;
+* :mod:`~predictive.generator.controllers` — ``controller_for(speed, body)`` of the generator and
+  of the OCP (:class:`predictive.controller.ControllerSource`);
 * :mod:`~predictive.generator.cli` — ``python -m predictive train-generator`` and ``generate``.
 """
