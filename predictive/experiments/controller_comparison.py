@@ -52,6 +52,7 @@ from predictive.generator.closed_loop import TrackerSettings
 from predictive.generator.controllers import GeneratorControllers, OCPControllers
 from predictive.ocp.collocation import OCPError
 from predictive.ocp.gait_analysis import load_winter
+from predictive.synth.cache import jsonable
 from sspinn.data.gait_events import contact_onsets
 from sspinn.estimator.evaluation import angle_jitter
 from sspinn.model.body import BodyParameters
@@ -414,7 +415,7 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
     summaries = [c.summary() for c in cells]
     atomic_write_json(  # NaN (a method not run at a speed) → null
         out / "results.json",
-        {"config": _plain(asdict(config)), "summary": summaries, "episodes": {f"{c.method}@{c.speed}": c.episodes for c in cells}},
+        {"config": jsonable(asdict(config)), "summary": summaries, "episodes": {f"{c.method}@{c.speed}": c.episodes for c in cells}},
         default=_json_default, non_finite="null",
     )
     # learning curves vs wall time
@@ -505,13 +506,6 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
     path = out / "report.md"
     return atomic_write_text(path, "\n".join(lines) + "\n")
 
-
-def _plain(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _plain(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_plain(v) for v in obj]
-    return obj
 
 
 def _json_default(obj: Any) -> Any:

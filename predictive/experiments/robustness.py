@@ -36,6 +36,7 @@ from envs.sagittal_walker import SagittalWalkerEnv
 from predictive.controller import ControllerSource, run_controller_episode
 from predictive.generator.closed_loop import GaitTracker, TrackerSettings
 from predictive.generator.controllers import GeneratorControllers
+from predictive.synth.cache import jsonable
 from sspinn.model.body import BodyParameters
 from sspinn.run_folder import atomic_write_text
 from sspinn.yaml_config import load_config
@@ -124,7 +125,7 @@ def run_robustness(config: RobustnessConfig, out: str | Path) -> dict[str, Any]:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     body = BodyParameters.from_anthropometry(config.height, config.mass)
-    results: dict[str, Any] = {"config": _plain(dataclasses.asdict(config)), "tracked": {}, "open_loop": {}}
+    results: dict[str, Any] = {"config": jsonable(dataclasses.asdict(config)), "tracked": {}, "open_loop": {}}
     for path in config.generators:
         source = GeneratorControllers.from_file(path, tracker=config.tracker, refine_iterations=config.refine_iterations,
                                                 refine_kane_factor=config.refine_kane_factor)
@@ -165,13 +166,6 @@ def report(config: RobustnessConfig, results: dict[str, Any]) -> str:
     lines.append("| all | " + " | ".join(f"{ok}/{n}" for ok, n in totals.values()) + " | |")
     return "\n".join(lines) + "\n"
 
-
-def _plain(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _plain(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_plain(v) for v in obj]
-    return obj
 
 
 __all__ = ["OpenLoop", "RobustnessConfig", "evaluate", "evaluation_env", "report", "run_robustness"]
