@@ -88,12 +88,14 @@ def _evaluate(args: argparse.Namespace) -> int:
     from sspinn.estimator.evaluation import EvaluationError, evaluate
     from sspinn.estimator.sspinnpose import SSPINNpose
 
-    recs = open_recordings(args.data, args.split, args.periods, args.height, args.mass)
     reference = None
-    if (args.data / "dataset.json").exists():
+    if (args.data / "dataset.json").exists():  # one read of the index for both splits
         dataset = Dataset.open(args.data)
+        recs = dataset.load(args.split)
         if "train" in dataset.splits:
             reference = recs if args.split == "train" else dataset.load("train")
+    else:
+        recs = open_recordings(args.data, args.split, args.periods, args.height, args.mass)
     est = SSPINNpose.load(args.model)
     try:
         result = evaluate(est, recs, args.out, reference=reference, reference_where=str(args.data),
