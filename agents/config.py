@@ -1,6 +1,6 @@
 """Typed configuration of an agent run, loaded from YAML (``configs/agents/*.yaml``).
 
-A configuration file has five sections; every key is optional except ``algo``::
+A configuration file has six sections; every key is optional except ``algo``::
 
     algo: ppo                      # ppo | sac | td3
     seed: 0                        # seeds SB3 (torch, numpy, random) and the environments
@@ -10,6 +10,7 @@ A configuration file has five sections; every key is optional except ``algo``::
       n_envs: 8
       vec_env: native              # native (one compiled step for all) | dummy | subproc
       kwargs: {target_speed: 1.3}  # SagittalWalkerEnv constructor arguments
+    prior: {gait: configs/agents/gaits/walk_1.3.npz}   # GaitPriorConfig (training reward, optional)
     normalize:                     # NormalizeConfig (VecNormalize)
       obs: true
       reward: true
@@ -163,6 +164,24 @@ class LoggingConfig:
 
 
 @dataclass(frozen=True)
+class GaitPriorConfig:
+    """The optional training reward for staying near a reference stride (:mod:`agents.gait_prior`).
+
+    Attributes:
+        gait: a :class:`sspinn.model.trajectory.Trajectory` file (``.npz``) of one full stride
+            (relative paths: the working directory, then the repository); None: no prior.
+        weight: reward per step at zero distance to the nearest reference sample.
+        angle_scale: σ of pelvis tilt and joint angles, rad.
+        speed_scale: σ of their speeds, rad/s.
+    """
+
+    gait: str | None = None
+    weight: float = option(1.0, gt=0)
+    angle_scale: float = option(0.1, gt=0, unit="rad")
+    speed_scale: float = option(1.5, gt=0, unit="rad/s")
+
+
+@dataclass(frozen=True)
 class AgentConfig:
     """A complete agent run: algorithm, seed, budget, environment, normalisation, network,
     SB3 hyperparameters and logging (see the module docstring for the YAML layout).
@@ -177,6 +196,7 @@ class AgentConfig:
     seed: int = option(0, ge=0, le=2**32 - 1)
     total_timesteps: int = option(1_000_000, gt=0, le=10**11)
     env: EnvConfig = field(default_factory=EnvConfig)
+    prior: GaitPriorConfig = field(default_factory=GaitPriorConfig)
     normalize: NormalizeConfig = field(default_factory=NormalizeConfig)
     policy: PolicyConfig = field(default_factory=PolicyConfig)
     hyperparameters: dict[str, Any] = field(default_factory=dict)

@@ -43,6 +43,7 @@ from agents.checkpoints import (
 )
 from agents.config import AgentConfig, save_config
 from agents.rollout import SUMMARY_GAIT_KEYS, run_episode, summarize
+from agents.gait_prior import GaitPrior, GaitPriorReward
 from agents.vec_env import PerEnvVecMonitor, WalkerVecEnv
 from sspinn.data.gait_metrics import winter_or_none
 from sspinn.run_folder import RunLock, atomic_write_text
@@ -65,16 +66,25 @@ def make_training_envs(config: AgentConfig, run_dir: Path, seed: int, append_mon
             numba.set_num_threads(min(config.env.threads, numba.config.NUMBA_NUM_THREADS))
         venv: VecEnv = WalkerVecEnv(config.env.n_envs, **env_kwargs(config))
         venv.seed(seed)
-        return PerEnvVecMonitor(venv, run_dir / "monitor", MONITOR_INFO_KEYS, append=append_monitor)
+        return with_prior(config, PerEnvVecMonitor(venv, run_dir / "monitor", MONITOR_INFO_KEYS, append=append_monitor))
     vec_cls = SubprocVecEnv if config.env.vec_env == "subproc" else DummyVecEnv
-    return make_vec_env(
+    return with_prior(config, make_vec_env(
         lambda: make_env(config),
         n_envs=config.env.n_envs,
         seed=seed,
         vec_env_cls=vec_cls,
         monitor_dir=str(run_dir / "monitor"),
         monitor_kwargs={"info_keywords": MONITOR_INFO_KEYS, "override_existing": not append_monitor},
-    )
+    ))
+
+
+def with_prior(config: AgentConfig, venv: VecEnv) -> VecEnv:
+    """``venv`` with the gait-prior training reward of ``config.prior`` (:mod:`agents.gait_prior`), if
+    set, outside the Monitor logs (which keep the environment's own episode returns)."""
+    p = config.prior
+    if p.gait is None:
+        return venv
+    return GaitPriorReward(venv, GaitPrior.from_file(p.gait, p.weight, p.angle_scale, p.speed_scale))
 
 
 class PeriodicCheckpoint(BaseCallback):

@@ -1,0 +1,122 @@
+"""A reward for staying on a reference gait's state manifold, added to the environment's reward
+during training.
+
+Why: speed tracking, effort, slip, impact and phase penalties alone leave PPO in gaits that
+score well and look nothing like walking — one leg held forward while the other does all the
+stepping, or hopping on one leg (docs/agents.md). A motion-imitation term (Peng et al. 2018,
+*DeepMimic*, ACM TOG 37:143) fixes this but usually needs a phase clock in the observation, which
+is a hidden step counter the policy depends on. This term needs none: at every step it rewards the
+distance to the **nearest** sample of one full reference stride, in pelvis tilt, both legs' six
+joint angles and their seven speeds,
+
+    r_prior = w · exp(−min_k mean_j ((s_j − s_ref[k]_j) / σ_j)²),
+
+with σ_j = ``angle_scale`` (rad) for angles and ``speed_scale`` (rad/s) for speeds. The reference
+stride contains both legs (the right leg's stance is the left leg's swing), so holding one leg
+still, hopping on one leg or dragging a foot is far from every reference sample, while walking
+through the stride at any pace stays near it; the speed-tracking reward still sets the pace. The
+reference is any :class:`sspinn.model.trajectory.Trajectory` file of one full stride, e.g. a
+periodic optimal-control gait (``python -m predictive solve --speed 1.3 --cycle full --rate-hz
+100 --out configs/agents/gaits/walk_1.3``).
+
+The term is a wrapper of the training environments only (:class:`GaitPriorReward`, an SB3
+``VecEnvWrapper`` applied inside ``VecNormalize``): observations, episodes and the environment's
+own rewards and metrics are unchanged, so evaluations, ``agents evaluate`` and the controller
+comparison judge the agent on the environment's task alone. The episode's summed term is in the
+``info`` key ``reward_prior`` of every step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Final
+
+import numpy as np
+from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
+from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
+
+from envs.task import OBS_INDEX
+from sspinn.errors import UserError
+from sspinn.model.conventions import COORDINATES
+from sspinn.model.trajectory import Trajectory
+from sspinn.yaml_config import shipped_path
+
+#: Coordinates compared: pelvis tilt and the six joint angles (indices into q), with their speeds.
+PRIOR_COORDINATES: Final[tuple[str, ...]] = COORDINATES[2:]
+_Q_COLUMNS: Final = tuple(COORDINATES.index(name) for name in PRIOR_COORDINATES)
+_OBS_COLUMNS: Final = tuple(OBS_INDEX[name] for name in PRIOR_COORDINATES) + tuple(
+    OBS_INDEX[f"d_{name}"] for name in PRIOR_COORDINATES)
+
+
+@dataclass(frozen=True)
+class GaitPrior:
+    """The reference states of one stride and the scales of the distance to them.
+
+    Attributes:
+        states: (K, 14) pelvis tilt and joint angles (rad), then their speeds (rad/s), one row per sample.
+        scales: (14,) σ of each column (rad, then rad/s).
+        weight: w, reward per step at zero distance (the environment's tracking term is at most
+            ``tracking_weight``, 1 by default).
+        source: the reference file, for messages.
+    """
+
+    states: np.ndarray
+    scales: np.ndarray
+    weight: float
+    source: str
+
+    @classmethod
+    def from_file(cls, path: str | Path, weight: float, angle_scale: float, speed_scale: float) -> GaitPrior:
+        """Read a :class:`~sspinn.model.trajectory.Trajectory` file (``.npz``; a relative path is
+        looked up in the working directory, then in the repository); its samples are the reference."""
+        file = Path(path)
+        if not file.is_absolute() and not file.exists() and shipped_path(file).exists():
+            file = shipped_path(file)
+        if not file.is_file():
+            raise UserError(f"{file}: no such reference stride for the gait prior (prior.gait); make one with "
+                            "`python -m predictive solve --speed V --cycle full --rate-hz 100 --out PATH`")
+        trajectory = Trajectory.load(file)
+        if trajectory.n_samples < 10:
+            raise UserError(f"{file}: a gait prior needs one stride of ≥ 10 samples, got {trajectory.n_samples}")
+        for name, value in (("weight", weight), ("angle_scale", angle_scale), ("speed_scale", speed_scale)):
+            if not (np.isfinite(value) and value > 0):
+                raise UserError(f"{file}: gait prior {name} must be a positive number, got {value}")
+        states = np.concatenate([trajectory.q[:, _Q_COLUMNS], trajectory.u[:, _Q_COLUMNS]], axis=1)
+        n = len(_Q_COLUMNS)
+        scales = np.concatenate([np.full(n, angle_scale), np.full(n, speed_scale)])
+        return cls(states=states.astype(np.float64), scales=scales, weight=float(weight), source=str(file))
+
+    def reward(self, obs: np.ndarray) -> np.ndarray:
+        """r_prior of each row of raw observations ``obs`` (N, 22) (module docstring), (N,)."""
+        s = np.asarray(obs, dtype=np.float64)[:, _OBS_COLUMNS]
+        d = (s[:, None, :] - self.states[None, :, :]) / self.scales
+        nearest = np.min(np.mean(d * d, axis=2), axis=1)
+        return self.weight * np.exp(-nearest)
+
+
+class GaitPriorReward(VecEnvWrapper):
+    """Adds :meth:`GaitPrior.reward` of each step's resulting observation (for an episode's last
+    step, its final observation) to the reward of a vectorised environment (module docstring)."""
+
+    def __init__(self, venv: VecEnv, prior: GaitPrior) -> None:
+        super().__init__(venv)
+        self.prior = prior
+
+    def reset(self) -> np.ndarray:
+        return self.venv.reset()
+
+    def step_wait(self) -> VecEnvStepReturn:
+        obs, rewards, dones, infos = self.venv.step_wait()
+        seen = np.array(obs, dtype=np.float64, copy=True)
+        for i in np.flatnonzero(dones):
+            final = infos[i].get("terminal_observation")
+            if final is not None:
+                seen[i] = final
+        prior = self.prior.reward(seen)
+        for i, info in enumerate(infos):
+            info["reward_prior"] = float(prior[i])
+        return obs, rewards + prior.astype(rewards.dtype), dones, infos
+
+
+__all__ = ["PRIOR_COORDINATES", "GaitPrior", "GaitPriorReward"]

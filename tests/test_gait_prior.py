@@ -1,0 +1,99 @@
+"""The gait-prior training reward (agents.gait_prior): its value on known states, the wrapper's
+reward and info, the shipped reference strides and configurations, and a tiny training run with it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+from agents.config import config_from_dict, load_config  # noqa: E402
+from agents.gait_prior import GaitPrior, GaitPriorReward  # noqa: E402
+from agents.train import train  # noqa: E402
+from agents.vec_env import WalkerVecEnv  # noqa: E402
+from envs.task import observation  # noqa: E402
+from sspinn.errors import UserError  # noqa: E402
+from sspinn.model.trajectory import Trajectory  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+WALK = ROOT / "configs" / "agents" / "gaits" / "walk_1.3.npz"
+RUN = ROOT / "configs" / "agents" / "gaits" / "run_3.5.npz"
+
+
+def _obs(q: np.ndarray, u: np.ndarray) -> np.ndarray:
+    return observation(q, u, np.zeros((len(q), 4)), np.full(len(q), 1.3), 700.0)
+
+
+def _mirrored(x: np.ndarray) -> np.ndarray:
+    m = x.copy()
+    m[:, 3:6], m[:, 6:9] = x[:, 6:9], x[:, 3:6]
+    return m
+
+
+def test_prior_is_its_weight_on_the_stride_and_its_mirror_and_low_off_it() -> None:
+    prior = GaitPrior.from_file(WALK, weight=2.0, angle_scale=0.1, speed_scale=1.5)
+    t = Trajectory.load(WALK)
+    np.testing.assert_allclose(prior.reward(_obs(t.q, t.u)), 2.0)
+    # the stride holds both legs: the left/right mirror of a sample is (close to) another sample
+    assert prior.reward(_obs(_mirrored(t.q), _mirrored(t.u))).min() > 1.9
+    frozen_q, frozen_u = t.q.copy(), t.u.copy()
+    frozen_q[:, 6:9] = t.q[:, 6:9].mean(axis=0)
+    frozen_u[:, 6:9] = 0.0
+    assert prior.reward(_obs(frozen_q, frozen_u)).mean() < 0.8  # < 40 % of the weight
+    standing = np.zeros((1, 9))
+    standing[0, 1] = 0.93
+    assert prior.reward(_obs(standing, np.zeros((1, 9))))[0] < 0.1
+    # the running stride is far from the walking one
+    run = GaitPrior.from_file(RUN, weight=1.0, angle_scale=0.1, speed_scale=1.5)
+    assert run.reward(_obs(t.q, t.u)).mean() < 0.2
+
+
+def test_bad_prior_settings_are_user_errors(tmp_path: Path) -> None:
+    with pytest.raises(UserError, match="angle_scale must be a positive number"):
+        GaitPrior.from_file(WALK, weight=1.0, angle_scale=0.0, speed_scale=1.5)
+    with pytest.raises(UserError, match="missing.npz"):
+        GaitPrior.from_file(tmp_path / "missing.npz", weight=1.0, angle_scale=0.1, speed_scale=1.5)
+
+
+def test_wrapper_adds_the_prior_of_the_resulting_observation() -> None:
+    prior = GaitPrior.from_file(WALK, weight=1.0, angle_scale=0.1, speed_scale=1.5)
+    plain, wrapped = WalkerVecEnv(3, target_speed=1.3), GaitPriorReward(WalkerVecEnv(3, target_speed=1.3), prior)
+    plain.seed(5)
+    wrapped.seed(5)
+    np.testing.assert_array_equal(plain.reset(), wrapped.reset())
+    actions = np.random.default_rng(0).uniform(-1, 1, (60, 3, 6)).astype(np.float32)
+    ended = 0
+    for a in actions:
+        obs0, r0, d0, i0 = plain.step(a)
+        obs1, r1, d1, i1 = wrapped.step(a)
+        np.testing.assert_array_equal(obs0, obs1)
+        np.testing.assert_array_equal(d0, d1)
+        seen = np.array([i0[k]["terminal_observation"] if d0[k] else obs0[k] for k in range(3)])
+        np.testing.assert_allclose(r1 - r0, prior.reward(seen), rtol=1e-5, atol=1e-6)
+        assert [info["reward_prior"] for info in i1] == pytest.approx(prior.reward(seen).tolist())
+        ended += int(d0.sum())
+    assert ended > 0  # random actions end episodes: the terminal-observation branch ran
+
+
+@pytest.mark.parametrize("name, speed", [("ppo_prior_walk", 1.3), ("ppo_prior_run", 3.5)])
+def test_shipped_prior_configs_load(name: str, speed: float) -> None:
+    config = load_config(ROOT / "configs" / "agents" / f"{name}.yaml")
+    assert config.env.target_speed == speed
+    assert config.prior.gait is not None and (ROOT / config.prior.gait).is_file()
+
+
+def test_training_with_a_prior_runs(tmp_path: Path) -> None:
+    config = config_from_dict({
+        "algo": "ppo", "seed": 1, "total_timesteps": 128,
+        "env": {"n_envs": 2, "kwargs": {"target_speed": 1.3, "max_episode_steps": 50}},
+        "prior": {"gait": str(WALK), "weight": 1.0},
+        "policy": {"net_arch": [16]},
+        "hyperparameters": {"n_steps": 64, "batch_size": 32, "n_epochs": 1},
+        "logging": {"checkpoint_freq": 10_000, "eval_freq": 0, "tensorboard": False},
+    })
+    model = train(config, tmp_path / "run")
+    assert model.num_timesteps >= 128
+    assert (tmp_path / "run" / "final_model.zip").is_file()
