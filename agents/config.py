@@ -177,8 +177,8 @@ class GaitPriorConfig:
 
     gait: str | None = None
     weight: float = option(1.0, gt=0)
-    angle_scale: float = option(0.1, gt=0, unit="rad")
-    speed_scale: float = option(1.5, gt=0, unit="rad/s")
+    angle_scale: float = option(0.2, gt=0, unit="rad")
+    speed_scale: float = option(3.0, gt=0, unit="rad/s")
 
 
 @dataclass(frozen=True)

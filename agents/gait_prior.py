@@ -9,9 +9,12 @@ is a hidden step counter the policy depends on. This term needs none: at every s
 distance to the **nearest** sample of one full reference stride, in pelvis tilt, both legs' six
 joint angles and their seven speeds,
 
-    r_prior = w · exp(−min_k mean_j ((s_j − s_ref[k]_j) / σ_j)²),
+    r_prior = w · exp(−d),   d = min_k sqrt(mean_j ((s_j − s_ref[k]_j) / σ_j)²),
 
-with σ_j = ``angle_scale`` (rad) for angles and ``speed_scale`` (rad/s) for speeds. The reference
+with σ_j = ``angle_scale`` (rad) for angles and ``speed_scale`` (rad/s) for speeds: the exponential
+of the RMS normalised distance, not of its square — a Gaussian kernel tight enough to tell a frozen
+leg from a walking one is flat zero where an untrained policy starts (measured: a PPO walker
+hopping on one leg, d ≈ 2.2 at σ = 0.2 rad, 3 rad/s, got no gradient from exp(−d²)). The reference
 stride contains both legs (the right leg's stance is the left leg's swing), so holding one leg
 still, hopping on one leg or dragging a foot is far from every reference sample, while walking
 through the stride at any pace stays near it; the speed-tracking reward still sets the pace. The
@@ -91,7 +94,7 @@ class GaitPrior:
         """r_prior of each row of raw observations ``obs`` (N, 22) (module docstring), (N,)."""
         s = np.asarray(obs, dtype=np.float64)[:, _OBS_COLUMNS]
         d = (s[:, None, :] - self.states[None, :, :]) / self.scales
-        nearest = np.min(np.mean(d * d, axis=2), axis=1)
+        nearest = np.sqrt(np.min(np.mean(d * d, axis=2), axis=1))
         return self.weight * np.exp(-nearest)
 
 

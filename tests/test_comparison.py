@@ -87,6 +87,7 @@ def test_run_comparison_end_to_end_on_tiny_budgets(tmp_path) -> None:
             {"name": "generator", "kind": "generator", "model": str(tmp_path / "gen" / "generator.pt")},
             {"name": "PPO", "kind": "sb3", "checkpoints": {1.3: str(tmp_path / "missing.zip")}},
         ],
+        conditions={"push 20 % BW": {"disturbances": {"push_force": 20.0, "push_phase": "midstance_r"}}},
     )
     cells = run_comparison(cfg, tmp_path / "report")
     assert [c.method for c in cells] == ["generator", "PPO"]
@@ -97,6 +98,10 @@ def test_run_comparison_end_to_end_on_tiny_budgets(tmp_path) -> None:
     assert data["summary"][0]["method"] == "generator"
     text = (tmp_path / "report" / "report.md").read_text()
     assert "| generator | 1.3 |" in text and "not trained" in text
+    assert len(cells[0].conditions["push 20 % BW"]) == 1 and "condition_success" in summary
+    assert "| method | speed (m/s) | nominal | push 20 % BW |" in text
+    with pytest.raises(ValueError, match="conditions.bad"):
+        ComparisonConfig(conditions={"bad": {"target_speed": 2.0}})
     assert (tmp_path / "report" / "learning_curves.png").exists()
 
 

@@ -18,6 +18,11 @@ Start states: the gait trackers start on their reference at phase 0 (``reset(opt
 {"initial_state": ...})``) with the environment's reset noise; the SB3 agents start standing, as
 trained. The gait trackers do not learn gait initiation — a stated difference, not hidden.
 
+Disturbance conditions (``conditions``: name → ``env.reset`` options ``reset_noise_scale`` and
+``disturbances``, :class:`envs.disturbances.Disturbances`: pushes, observation noise and delay,
+actuator strength, body mismatch) rerun every controller's episodes, built for the nominal
+environment, under each condition; the report adds a table of episodes without a fall per condition.
+
 Metrics per (method, speed), over the seeds: success rate (no fall in the episode, 10 s),
 |speed error| (m/s, mean speed over the episode vs target), cost of transport (the environment's
 mechanical CoT), mean |Kane residual| of the executed motion (BW; translational rows, q̈ by
@@ -65,6 +70,11 @@ from sspinn.yaml_config import load_config
 CYCLE_POINTS = 100
 #: Episodes start with this much simulated time (s) excluded from the gait-cycle average.
 SETTLE_S = 2.0
+#: Gait-quality metrics (:class:`sspinn.data.gait_metrics.GaitMetrics`) averaged over the episodes.
+GAIT_KEYS = ("step_time_asymmetry", "step_length_asymmetry", "stance_asymmetry", "foot_slide_per_step_cm",
+             "peak_impact_bw")
+#: ``env.reset`` options a disturbance condition may set (:class:`envs.disturbances.Disturbances`).
+CONDITION_OPTIONS = ("reset_noise_scale", "disturbances")
 
 
 @dataclass
@@ -108,9 +118,14 @@ class ComparisonConfig:
     tracker: TrackerSettings = field(default_factory=TrackerSettings)
     data_dir: str | None = None
     snapshot_seeds: list[int] = field(default_factory=lambda: [0])
+    conditions: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.methods = [m if isinstance(m, MethodSpec) else MethodSpec(**m) for m in self.methods]
+        for name, options in self.conditions.items():
+            if not isinstance(options, dict) or set(options) - set(CONDITION_OPTIONS):
+                raise ValueError(f"conditions.{name}: expected a mapping of {list(CONDITION_OPTIONS)} "
+                                 f"(env.reset options), got {options!r}")
         if isinstance(self.tracker, dict):
             self.tracker = TrackerSettings(**self.tracker)
         if not self.speeds or any(not (0 < v <= 12) for v in self.speeds):
@@ -299,6 +314,7 @@ class CellResult:
     episodes: list[dict[str, Any]] = field(default_factory=list)
     cycle: dict[str, list[float]] | None = None
     stick_q: list[list[float]] | None = None
+    conditions: dict[str, list[dict[str, Any]]] = field(default_factory=dict)
 
     def summary(self) -> dict[str, Any]:
         eps = self.episodes
@@ -319,20 +335,24 @@ class CellResult:
             "rmsd_hip_deg": mean("rmsd_hip_deg"), "rmsd_knee_deg": mean("rmsd_knee_deg"),
             "rmsd_ankle_deg": mean("rmsd_ankle_deg"),
             "jitter_rad_s3": mean("jitter_rad_s3"),
+            **{key: mean(key) for key in GAIT_KEYS},
+            "condition_success": {name: float(np.mean([not e["fell"] for e in rows])) for name, rows in self.conditions.items()},
             "setup_time_s": self.setup_time_s, "per_speed_time_s": self.per_speed_time_s,
         }
 
 
 def evaluate_controller(
-    built: BuiltController, env: Any, speed: float, seeds: list[int], reference: Any
+    built: BuiltController, env: Any, speed: float, seeds: list[int], reference: Any,
+    condition: dict[str, Any] | None = None,
 ) -> tuple[list[dict[str, Any]], dict[str, np.ndarray] | None, np.ndarray | None]:
-    """Episodes over ``seeds`` → per-episode metrics, the mean cycle of the first successful
-    episode and its states (for stick figures)."""
+    """Episodes over ``seeds`` (under the ``env.reset`` options of a disturbance ``condition``) →
+    per-episode metrics, the mean cycle of the first successful episode and its states (for stick figures)."""
     e = env.unwrapped
     controller = built.controller
     rows, cycle, states = [], None, None
     for seed in seeds:
-        res = run_episode(episode_policy(controller), env, seed, speed, reset_options=start_options(controller))
+        res = run_episode(episode_policy(controller), env, seed, speed,
+                          reset_options=start_options(controller, condition))
         assert res.trajectory is not None
         m = res.metrics()
         m["kane_residual_bw"] = executed_kane_residual(res.trajectory, env)
@@ -362,9 +382,12 @@ def run_comparison(config: ComparisonConfig, out: str | Path) -> list[CellResult
                 cell.episodes = rows
                 cell.cycle = {k: v.tolist() for k, v in cycle.items()} if cycle is not None else None
                 cell.stick_q = states[:: max(1, len(states) // 400)].tolist() if states is not None else None
+                for name, options in config.conditions.items():
+                    cell.conditions[name] = evaluate_controller(ctrl, env, speed, config.seeds, reference, options)[0]
             cells.append(cell)
             s = cell.summary()
-            print(f"[compare]   success {s.get('success_rate')}, distance {s.get('mean_distance_m')}, note: {cell.note}", flush=True)
+            print(f"[compare]   success {s.get('success_rate')}, distance {s.get('mean_distance_m')}, "
+                  f"under disturbances {s.get('condition_success', {})}, note: {cell.note}", flush=True)
         env.close()
     write_report(config, cells, out, reference)
     return cells
@@ -415,7 +438,8 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
     summaries = [c.summary() for c in cells]
     atomic_write_json(  # NaN (a method not run at a speed) → null
         out / "results.json",
-        {"config": jsonable(asdict(config)), "summary": summaries, "episodes": {f"{c.method}@{c.speed}": c.episodes for c in cells}},
+        {"config": jsonable(asdict(config)), "summary": summaries, "episodes": {f"{c.method}@{c.speed}": c.episodes for c in cells},
+         "condition_episodes": {f"{c.method}@{c.speed}": c.conditions for c in cells}},
         default=_json_default, non_finite="null",
     )
     # learning curves vs wall time
@@ -470,7 +494,10 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
             ("abs_speed_error_m_s", "|speed err| (m/s)", "{:.3f}"), ("cost_of_transport", "CoT", "{:.2f}"),
             ("kane_residual_bw", "Kane res. (BW)", "{:.3f}"), ("rmsd_hip_deg", "hip RMSD (°)", "{:.1f}"),
             ("rmsd_knee_deg", "knee RMSD (°)", "{:.1f}"), ("rmsd_ankle_deg", "ankle RMSD (°)", "{:.1f}"),
-            ("jitter_rad_s3", "jitter (rad/s³)", "{:.0f}"), ("setup_time_s", "one-off time (s)", "{:.0f}"),
+            ("jitter_rad_s3", "jitter (rad/s³)", "{:.0f}"),
+            ("step_time_asymmetry", "asym. step time (%)", "{:.1f}"), ("step_length_asymmetry", "asym. step length (%)", "{:.1f}"),
+            ("stance_asymmetry", "asym. stance (%)", "{:.1f}"), ("foot_slide_per_step_cm", "slide/step (cm)", "{:.1f}"),
+            ("peak_impact_bw", "impact (BW)", "{:.2f}"), ("setup_time_s", "one-off time (s)", "{:.0f}"),
             ("per_speed_time_s", "time per speed (s)", "{:.1f}")]
     lines = [f"# Predictive simulation comparison ({config.height} m, {config.mass} kg; seeds {config.seeds})", "",
              "| method | speed (m/s) | " + " | ".join(c[1] for c in cols) + " | note |",
@@ -481,6 +508,18 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
             v = s.get(key)
             vals.append("–" if v is None or (isinstance(v, float) and not math.isfinite(v)) else fmt.format(v))
         lines.append(f"| {s['method']} | {s['speed']} | " + " | ".join(vals) + f" | {s.get('note', '')} |")
+    if config.conditions:
+        names = list(config.conditions)
+        lines += ["", "Episodes without a fall (of the reset seeds) under each disturbance condition "
+                  "(`env.reset` options; the controllers were built for the nominal environment):", "",
+                  "| method | speed (m/s) | nominal | " + " | ".join(names) + " |", "|---|---|---|" + "---|" * len(names)]
+        for c in cells:
+            if not c.episodes:
+                continue
+            counts = [f"{sum(not e['fell'] for e in c.episodes)}/{len(c.episodes)}"] + [
+                f"{sum(not e['fell'] for e in c.conditions.get(n, []))}/{len(c.conditions.get(n, []))}" for n in names]
+            lines.append(f"| {c.method} | {c.speed} | " + " | ".join(counts) + " |")
+        lines += ["", "Conditions: " + "; ".join(f"**{n}** `{config.conditions[n]}`" for n in names)]
     lines += ["", "Time until a controller first covers ≥ 90 % of the target distance in a 10 s episode",
               "(learning curves: SB3 evaluation log, 5 seeds, no falls; generator snapshots, "
               f"seeds {config.snapshot_seeds}; OCP: solve + LQR):", "",
