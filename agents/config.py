@@ -173,12 +173,17 @@ class GaitPriorConfig:
         weight: reward per step at zero distance to the nearest reference sample.
         angle_scale: σ of pelvis tilt and joint angles, rad.
         speed_scale: σ of their speeds, rad/s.
+        symmetry_weight: weight of the foot-balance term (per unit difference of the feet's
+            loaded shares; 0: none).
+        symmetry_time: time constant of the loaded shares' moving averages, s.
     """
 
     gait: str | None = None
     weight: float = option(1.0, gt=0)
     angle_scale: float = option(0.2, gt=0, unit="rad")
     speed_scale: float = option(3.0, gt=0, unit="rad/s")
+    symmetry_weight: float = option(0.0, ge=0)
+    symmetry_time: float = option(1.0, gt=0, unit="s")
 
 
 @dataclass(frozen=True)

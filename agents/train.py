@@ -84,7 +84,8 @@ def with_prior(config: AgentConfig, venv: VecEnv) -> VecEnv:
     p = config.prior
     if p.gait is None:
         return venv
-    return GaitPriorReward(venv, GaitPrior.from_file(p.gait, p.weight, p.angle_scale, p.speed_scale))
+    return GaitPriorReward(venv, GaitPrior.from_file(p.gait, p.weight, p.angle_scale, p.speed_scale,
+                                                     p.symmetry_weight, p.symmetry_time))
 
 
 class PeriodicCheckpoint(BaseCallback):

@@ -97,3 +97,26 @@ def test_training_with_a_prior_runs(tmp_path: Path) -> None:
     model = train(config, tmp_path / "run")
     assert model.num_timesteps >= 128
     assert (tmp_path / "run" / "final_model.zip").is_file()
+
+
+def test_foot_balance_term_follows_the_loaded_shares() -> None:
+    prior = GaitPrior.from_file(WALK, weight=1.0, angle_scale=0.2, speed_scale=3.0, symmetry_weight=2.0,
+                                symmetry_time=0.5)
+    env = GaitPriorReward(WalkerVecEnv(2, target_speed=1.3), prior)
+    env.seed(3)
+    env.reset()
+    share = np.ones((2, 2))
+    actions = np.random.default_rng(1).uniform(-1, 1, (80, 2, 6)).astype(np.float32)
+    penalties = []
+    for a in actions:
+        obs, _, dones, infos = env.step(a)
+        seen = np.array([infos[k]["terminal_observation"] if dones[k] else obs[k] for k in range(2)])
+        share += 0.01 / 0.5 * ((seen[:, [18, 20]] > 0.1) - share)  # grf_y_r, grf_y_l in BW
+        balance = -2.0 * np.abs(share[:, 0] - share[:, 1])
+        got = np.array([info["reward_prior"] for info in infos]) - prior.reward(seen)
+        np.testing.assert_allclose(got, balance, atol=1e-9)
+        penalties.append(balance.min())
+        share[dones] = 1.0
+    assert min(penalties) < -0.1  # random actions unload the feet unequally at some point
+    with pytest.raises(UserError, match="symmetry_weight must be ≥ 0"):
+        GaitPrior.from_file(WALK, weight=1.0, angle_scale=0.2, speed_scale=3.0, symmetry_weight=-1.0)
