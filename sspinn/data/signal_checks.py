@@ -342,9 +342,10 @@ def leg_phase_findings(rates: dict[str, np.ndarray], rate_hz: float, stride_hz: 
 
 
 # ------------------------------------------------------------------------------------ labels
-def label_findings(rec: object, source: str) -> list[str]:
+def label_findings(rec: object, source: str, mean_check: bool = True) -> list[str]:
     """Warnings about the GRF labels of ``rec`` against its body weight and its IMU (module
-    docstring); none without GRF labels."""
+    docstring; without the mean force where the caller judged it, as ``sspinn import`` does with
+    :func:`sspinn.imu.grf_checks.check_vertical_force`); none without GRF labels."""
     labels = rec.labels  # type: ignore[attr-defined]
     if labels is None or labels.grf is None or rec.imu.shape[0] < 10:  # type: ignore[attr-defined]
         return []
@@ -357,7 +358,7 @@ def label_findings(rec: object, source: str) -> list[str]:
         if low < -NEGATIVE_GRF_TOLERANCE_BW:
             found.append(f"{source}: label grf_y_{side} reaches {low:.2f} body weights ({v.min():.4g} N); the ground only pushes "
                          f"(noise down to −{NEGATIVE_GRF_TOLERANCE_BW:g}): a negated or offset force channel")
-    if len(vertical) == 2:
+    if len(vertical) == 2 and mean_check:
         mean = float(np.mean(vertical["r"] + vertical["l"])) / weight
         lo, hi = LABEL_MEAN_BW_RANGE
         if not lo <= mean <= hi:

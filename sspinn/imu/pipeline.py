@@ -159,7 +159,7 @@ def import_imu(
             provenance=provenance,
         )
         # the signal checks of every path into the estimator (leg pairing: check_mounting above)
-        findings = recording_findings(rec, stream.source, leg_pairing=False) + label_findings(rec, f"{stream.source} + {grf}")
+        findings = recording_findings(rec, stream.source, leg_pairing=False) + label_findings(rec, f"{stream.source} + {grf}", mean_check=False)
     except DataFormatError as exc:
         raise IMUImportError(f"{stream.source} after calibration: {exc}") from None
     cal.warnings += findings
