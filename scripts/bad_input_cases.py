@@ -9,7 +9,9 @@ line on stderr, 1 with one ``FAILED`` line for a rejected solution, or the docum
 or warning) and the message contains what it must name (the file, column, field or value).
 For a command that succeeds, what it prints on stdout matching the case's pattern (a ``WARNING``
 line, a gap note) is the message. The ``sspinn import`` cases edit copies of the first 12 s of a
-real CMU OpenSense export (``../shared/data/cmu_treadmill_imu_grf``; "not run" when absent).
+real CMU OpenSense export (``../shared/data/cmu_treadmill_imu_grf``, or below
+``$SSPINN_SHARED_DATA``; "not run" when absent); the signal-check cases (item 14) use that trial
+imported with ``sspinn import``, saved as a recording CSV + sidecar with its IMU columns edited.
 
 Usage::
 
@@ -58,7 +60,9 @@ from sspinn.testing import (  # noqa: E402
 from sspinn.testing.perturbations import perturb  # noqa: E402
 
 #: The real OpenSense export whose copies the ``sspinn import`` cases edit, and its sensor map.
-CMU_TRIAL = Path(os.environ.get("SSPINN_SHARED_DATA") or ROOT.parent / "shared" / "data") / "cmu_treadmill_imu_grf" / "Sub01" / "CSBaseline"
+#: ../shared/data (or $SSPINN_SHARED_DATA, as for the tests).
+SHARED = Path(os.environ.get("SSPINN_SHARED_DATA") or ROOT.parent / "shared" / "data")
+CMU_TRIAL = SHARED / "cmu_treadmill_imu_grf" / "Sub01" / "CSBaseline"
 CMU_ACCEL = CMU_TRIAL / "OpenSim_Sub01_CSBaseline_Accel.trc.gz"
 CMU_MAP = ROOT / "configs" / "sensor_maps" / "cmu_treadmill.yaml"
 
@@ -797,7 +801,7 @@ def _load_statistics(tmp: Path, payload: object) -> object:
 
 
 def _corrupt_stride(tmp: Path) -> Path:
-    source = ROOT.parent / "shared" / "data" / "dorschky_P03_walking"
+    source = SHARED / "dorschky_P03_walking"
     folder = tmp / "corrupt_stride"
     folder.mkdir(exist_ok=True)
     if not source.exists():
