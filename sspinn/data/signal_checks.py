@@ -68,7 +68,7 @@ import weakref
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from itertools import combinations
-from typing import Final
+from typing import TYPE_CHECKING, Final
 
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
@@ -76,6 +76,9 @@ from scipy.stats import skew
 
 from sspinn.errors import DataFormatError, InputWarning
 from sspinn.model.conventions import GRAVITY
+
+if TYPE_CHECKING:  # dataset.py calls this module
+    from sspinn.data.dataset import Recording
 
 #: Sample rate of a recording, Hz.
 RATE_HZ: Final = 100.0
@@ -151,12 +154,12 @@ def warn(findings: Iterable[str]) -> None:
 _CHECKED: weakref.WeakValueDictionary[int, np.ndarray] = weakref.WeakValueDictionary()
 
 
-def check_recording(rec: object, source: str) -> None:
+def check_recording(rec: Recording, source: str) -> None:
     """The checks of the module docstring on a :class:`~sspinn.data.dataset.Recording` (labels
     included): raise :class:`ImpossibleSignalError` or warn. Nothing is changed; a recording
     whose IMU array was checked already (read from a file, then given to ``predict``) is not
     checked again."""
-    imu = rec.imu  # type: ignore[attr-defined]
+    imu = rec.imu
     if _CHECKED.get(id(imu)) is imu:
         return
     findings = [*recording_findings(rec, source), *label_findings(rec, source)]
@@ -164,13 +167,13 @@ def check_recording(rec: object, source: str) -> None:
     warn(findings)
 
 
-def recording_findings(rec: object, source: str, leg_pairing: bool = True) -> list[str]:
+def recording_findings(rec: Recording, source: str, leg_pairing: bool = True) -> list[str]:
     """Warnings about the IMU signals of ``rec`` (module docstring; without the leg pairing
     where the caller ran :func:`leg_phase_findings` itself); raises for the impossible."""
-    imu, segments = rec.imu, tuple(rec.segments)  # type: ignore[attr-defined]
+    imu, segments = rec.imu, tuple(rec.segments)
     if imu.shape[0] < 10:
         return []
-    angles = rec.placement.angles  # type: ignore[attr-defined]
+    angles = rec.placement.angles
     found = _gravity_findings(imu, segments, angles, source)
     rhythm = gait_rhythm(imu, segments)
     if rhythm is None:
@@ -342,14 +345,14 @@ def leg_phase_findings(rates: dict[str, np.ndarray], rate_hz: float, stride_hz: 
 
 
 # ------------------------------------------------------------------------------------ labels
-def label_findings(rec: object, source: str, mean_check: bool = True) -> list[str]:
+def label_findings(rec: Recording, source: str, mean_check: bool = True) -> list[str]:
     """Warnings about the GRF labels of ``rec`` against its body weight and its IMU (module
     docstring; without the mean force where the caller judged it, as ``sspinn import`` does with
     :func:`sspinn.imu.grf_checks.check_vertical_force`); none without GRF labels."""
-    labels = rec.labels  # type: ignore[attr-defined]
-    if labels is None or labels.grf is None or rec.imu.shape[0] < 10:  # type: ignore[attr-defined]
+    labels = rec.labels
+    if labels is None or labels.grf is None or rec.imu.shape[0] < 10:
         return []
-    weight = rec.mass * GRAVITY  # type: ignore[attr-defined]
+    weight = rec.mass * GRAVITY
     grf = np.asarray(labels.grf, dtype=float)
     found = []
     vertical = {side: grf[:, k] for side, k in (("r", 1), ("l", 3)) if np.isfinite(grf[:, k]).all()}
@@ -362,9 +365,9 @@ def label_findings(rec: object, source: str, mean_check: bool = True) -> list[st
         mean = float(np.mean(vertical["r"] + vertical["l"])) / weight
         lo, hi = LABEL_MEAN_BW_RANGE
         if not lo <= mean <= hi:
-            found.append(f"{source}: labels grf_y_r + grf_y_l average {mean:.2f} body weights ({rec.mass:g} kg) over the recording, "  # type: ignore[attr-defined]
+            found.append(f"{source}: labels grf_y_r + grf_y_l average {mean:.2f} body weights ({rec.mass:g} kg) over the recording, "
                          f"outside {lo:g}–{hi:g} (periodic gait averages 1): a wrong mass or unit, or a missing plate")
-    imu, segments = rec.imu, tuple(rec.segments)  # type: ignore[attr-defined]
+    imu, segments = rec.imu, tuple(rec.segments)
     rhythm = gait_rhythm(imu, segments)
     if rhythm is None or not vertical:
         return found
