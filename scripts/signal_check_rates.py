@@ -55,6 +55,9 @@ def main() -> None:
     parser.add_argument("--data", type=Path, required=True, help="dataset folder of the imported CMU trials")
     parser.add_argument("--draws", type=int, default=200)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--model", type=Path, default=None,
+                        help="also show the estimate checks' findings with this model on the first trial with every "
+                        "accelerometer negated, acc_x/acc_y swapped or every gyroscope negated (input checks bypassed)")
     parser.add_argument("--factors", type=float, nargs="*", default=[0.1, 0.2, 0.25, 0.4, 0.6, 1.67, 2.0, 2.5, 3.0, 5.0, 10.0])
     args = parser.parse_args()
     warnings.simplefilter("ignore")
@@ -93,6 +96,28 @@ def main() -> None:
     for f in args.factors:
         n = sum(bool(detected(r, perturb(r.imu, r.segments, "rate", rng, factor=f)[0])) for r in recs)
         print(f"| × {f:g} ({100 / f:.4g} Hz) | {n} of {len(recs)} |")
+    if args.model is not None:
+        estimate_table(args.model, recs[0])
+
+
+def estimate_table(model: Path, rec: Recording) -> None:
+    """The estimate checks on ``rec`` with global mistakes, the input checks bypassed."""
+    from sspinn.data.signal_checks import estimate_findings
+    from sspinn.estimator.inference import estimate_recording
+    from sspinn.estimator.sspinnpose import SSPINNpose
+    from sspinn.model.conventions import GRAVITY
+
+    est = SSPINNpose.load(model)
+    print(f"\n| {rec.name}, {model} | mean vertical GRF (BW) | mean speed (m/s) | estimate warning |\n|---|---|---|---|")
+    for name, scale in (("untouched", [1, 1, 1]), ("every accelerometer negated", [-1, -1, 1]),
+                        ("every acc_x/acc_y swapped", None), ("every gyroscope negated", [1, 1, -1])):
+        imu = rec.imu[:, :, [1, 0, 2]] if scale is None else rec.imu * scale
+        changed = Recording(name=name, imu=imu, segments=rec.segments, height=rec.height, mass=rec.mass, placement=rec.placement)
+        e = estimate_recording(est.network_, changed, est.segments_)
+        vertical = e.grf[:, 1] + e.grf[:, 3]
+        found = estimate_findings(name, vertical, e.u[:, 0], imu, rec.segments, rec.height, rec.mass)
+        print(f"| {name} | {vertical.mean() / (rec.mass * GRAVITY):.2f} | {e.u[:, 0].mean():.2f} | "
+              f"{'yes' if found else 'no'} |")
 
 
 if __name__ == "__main__":
