@@ -24,10 +24,11 @@ Gait checks (recordings of ≥ :data:`MIN_GAIT_S` with a periodic leg movement, 
 
 * **Cadence at the stated rate** — the stride period is the lag of the strongest peak of the
   leg gyroscopes' autocorrelation. Steps per second outside :data:`CADENCE_STEPS_HZ` (slow walking
-  ≈ 0.7, sprinting ≈ 5 steps/s is the edge) at 100 Hz mean the stated rate is wrong (a 10 Hz or
-  1 kHz recording stamped as 100 Hz); the message names the rate that would give a typical
-  cadence. A mislabel by less than ≈ 2× (60 Hz as 100 Hz) moves walking into the running range and
-  is *not* detectable from the cadence.
+  ≈ 0.7 to fast running ≈ 3.3 steps/s; a sprint at 4–5 steps/s would be warned about too) at
+  100 Hz mean the stated rate is wrong (a 10 Hz or 1 kHz recording stamped as 100 Hz); the
+  message names the rate that would give a typical cadence. More than ten times outside the band
+  is an error. A mislabel by less than ≈ 2× (60 Hz as 100 Hz) moves walking into the running range
+  and is *not* detectable from the cadence.
 * **Dead but noisy / not on a moving body** — while the legs walk, a sensor whose angular rate
   has the flat spectrum of noise (correlation between neighbouring samples below
   :data:`MIN_SMOOTHNESS`) or, on a leg, does not repeat with the stride (normalised
@@ -259,6 +260,11 @@ def _cadence_findings(rhythm: GaitRhythm, source: str) -> list[str]:
     if lo <= steps <= hi:
         return []
     rate = RATE_HZ * 1.8 / steps  # the rate at which the cadence would be 1.8 steps/s (walking)
+    if not lo / 10 <= steps <= hi * 10:
+        raise ImpossibleSignalError(
+            f"{source}: the legs repeat every {rhythm.period_s:.3g} s at the stated {RATE_HZ:g} Hz: {steps:.3g} steps/s, "
+            f"more than ten times outside {lo:g}–{hi:g} steps/s of human gait: the sample rate is wrong (recorded at "
+            f"≈ {rate:.3g} Hz?): resample to 100 Hz with the true rate")
     return [f"{source}: the legs repeat every {rhythm.period_s:.3g} s at the stated {RATE_HZ:g} Hz: {steps:.3g} steps/s, outside "
             f"{lo:g}–{hi:g} steps/s of human gait: the sample rate is likely wrong (recorded at ≈ {rate:.3g} Hz?): "
             "resample to 100 Hz with the true rate"]
