@@ -9,7 +9,9 @@ line on stderr, 1 with one ``FAILED`` line for a rejected solution, or the docum
 or warning) and the message contains what it must name (the file, column, field or value).
 For a command that succeeds, what it prints on stdout matching the case's pattern (a ``WARNING``
 line, a gap note) is the message. The ``sspinn import`` cases edit copies of the first 12 s of a
-real CMU OpenSense export (``../shared/data/cmu_treadmill_imu_grf``; "not run" when absent).
+real CMU OpenSense export (``../shared/data/cmu_treadmill_imu_grf``, or below
+``$SSPINN_SHARED_DATA``; "not run" when absent); the signal-check cases (item 14) use that trial
+imported with ``sspinn import``, saved as a recording CSV + sidecar with its IMU columns edited.
 
 Usage::
 
@@ -40,8 +42,8 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from sspinn.data.dataset import Dataset, Recording  # noqa: E402
-from sspinn.model.conventions import SEGMENTS  # noqa: E402
+from sspinn.data.dataset import Dataset, Labels, Recording  # noqa: E402
+from sspinn.model.conventions import GRF, SEGMENTS  # noqa: E402
 from sspinn.testing import (  # noqa: E402
     OpenSenseEdit,
     axis_constant,
@@ -55,9 +57,12 @@ from sspinn.testing import (  # noqa: E402
     walking_recording,
     write_opensense,
 )
+from sspinn.testing.perturbations import perturb  # noqa: E402
 
 #: The real OpenSense export whose copies the ``sspinn import`` cases edit, and its sensor map.
-CMU_TRIAL = ROOT.parent / "shared" / "data" / "cmu_treadmill_imu_grf" / "Sub01" / "CSBaseline"
+#: ../shared/data (or $SSPINN_SHARED_DATA, as for the tests).
+SHARED = Path(os.environ.get("SSPINN_SHARED_DATA") or ROOT.parent / "shared" / "data")
+CMU_TRIAL = SHARED / "cmu_treadmill_imu_grf" / "Sub01" / "CSBaseline"
 CMU_ACCEL = CMU_TRIAL / "OpenSim_Sub01_CSBaseline_Accel.trc.gz"
 CMU_MAP = ROOT / "configs" / "sensor_maps" / "cmu_treadmill.yaml"
 
@@ -88,6 +93,8 @@ def cli(main: Callable[[list[str]], int], argv: list[str], shown: str | None = N
         except SystemExit as exc:  # argparse
             code = exc.code
     lines = [line for line in err.getvalue().splitlines() if line.strip()]
+    if code == 0 and lines and all(line.startswith("WARNING: ") for line in lines):  # warnings of a run that succeeds
+        return Outcome("exit 0", " / ".join(lines))
     status = f"exit {code}" + ("" if len(lines) == 1 or (code == 0 and not lines) else f" ({len(lines)} lines)")
     printed = [line.strip() for line in out.getvalue().splitlines() if shown and re.search(shown, line)]
     return Outcome(status, " / ".join(printed) if code == 0 and printed else lines[-1] if lines else "")
@@ -306,6 +313,80 @@ def main() -> None:
             save_generator(GaitGenerator(2, 8, 1).double(), path, GeneratorConfig(speeds=(1.0, 1.5), harmonics=2, hidden=8, layers=1))
         return path
 
+    # signal checks: edited copies of the real CMU excerpt imported to a recording CSV + sidecar
+    real = real_recordings(tmp) if cmu is not None else None
+
+    def real_infer(edit: Callable[[np.ndarray, tuple[str, ...]], np.ndarray] | None = None, meta: Callable[[dict], object] | None = None,
+                   seconds: float = 20.0, name: str = "walk") -> Outcome:
+        """``sspinn infer`` of the first ``seconds`` of the imported excerpt with its IMU array edited."""
+        if real is None:
+            return Outcome("not run", f"{CMU_ACCEL} absent")
+        rec = real["whole"]
+        imu = rec.imu[: int(seconds * 100)]
+        imu = edit(imu, rec.segments) if edit else imu
+        folder = tmp / f"real{len(list(tmp.glob('real*')))}"
+        csv = Recording(name=name, imu=imu, segments=rec.segments, height=rec.height, mass=rec.mass,
+                        placement=rec.placement).save(folder)
+        if meta:
+            sidecar_path = csv.with_suffix(".json")
+            content = json.loads(sidecar_path.read_text())
+            meta(content)
+            sidecar_path.write_text(json.dumps(content))
+        return infer_rec(csv)
+
+    def columns_of(segment: str, channels: list[int], fn: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarray, tuple[str, ...]], np.ndarray]:
+        def edit(imu: np.ndarray, segments: tuple[str, ...]) -> np.ndarray:
+            out = imu.copy()
+            idx = list(range(len(segments))) if segment == "all" else [segments.index(segment)]
+            for i in idx:
+                out[:, i, channels] = fn(imu[:, i, channels])
+            return out
+        return edit
+
+    def swapped(a: str, b: str) -> Callable[[np.ndarray, tuple[str, ...]], np.ndarray]:
+        def edit(imu: np.ndarray, segments: tuple[str, ...]) -> np.ndarray:
+            out = imu.copy()
+            i, j = segments.index(a), segments.index(b)
+            out[:, [i, j]] = imu[:, [j, i]]
+            return out
+        return edit
+
+    def rate(factor: float) -> Callable[[np.ndarray, tuple[str, ...]], np.ndarray]:
+        return lambda imu, segments: perturb(imu, segments, "rate", np.random.default_rng(0), factor=factor)[0]
+
+    def on_table(segment: str) -> Callable[[np.ndarray, tuple[str, ...]], np.ndarray]:
+        def edit(imu: np.ndarray, segments: tuple[str, ...]) -> np.ndarray:
+            rng, out = np.random.default_rng(1), imu.copy()
+            i = segments.index(segment)
+            out[:, i] = [0.3, 9.8, 0.0] + rng.normal(0, [0.02, 0.02, 0.005], size=(len(imu), 3))
+            return out
+        return edit
+
+    def labelled(edit: Callable[[Recording], Recording]) -> Outcome:
+        """``Recording.load`` of the imported excerpt with GRF labels, edited."""
+        if real is None:
+            return Outcome("not run", f"{CMU_ACCEL} absent")
+        folder = tmp / f"lab{len(list(tmp.glob('lab*')))}"
+        csv = edit(real["labelled"]).save(folder)
+        return raises(lambda: Recording.load(csv))
+
+    def relabel(rec: Recording, grf: np.ndarray | None = None, mass: float | None = None) -> Recording:
+        labels = Labels.from_columns({c: (grf if grf is not None else rec.labels.grf)[:, k] for k, c in enumerate(GRF)},
+                                     rec.n_samples)
+        return Recording(name="walk_grf", imu=rec.imu, segments=rec.segments, height=rec.height, mass=mass or rec.mass,
+                         placement=rec.placement, labels=labels)
+
+    def imu3d(name: str, fn: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]) -> OpenSenseEdit:
+        return lambda time, sensors: (time, {**sensors, name: fn(*sensors[name])})
+
+    def table3d(name: str) -> OpenSenseEdit:
+        def edit(time: np.ndarray, sensors: dict) -> tuple[np.ndarray, dict]:
+            rng = np.random.default_rng(2)
+            acc = np.array([0.2, 9.8, 0.3]) + rng.normal(0, 0.02, (len(time), 3))
+            return time, {**sensors, name: (acc, rng.normal(0, 0.005, (len(time), 3)))}
+        return edit
+
+    noise = np.random.default_rng(3)
     legs = tuple(f"{k}_{s}_imu_offset_imu" for k in ("femur", "tibia", "toes") for s in "rl")
     acc = [f"pelvis_acc_{a}" for a in "xy"]
     cases = [
@@ -482,6 +563,60 @@ def main() -> None:
              "this is a file where a folder is expected", lambda: below_a_file(generator(), tmp, predictive_cli.main)),
         Case("4", "disk full while writing (file-size limit 4 kB)", "python -m predictive generate (RLIMIT_FSIZE 4096)", "exit 2",
              "walk.npz: File too large", lambda: disk_full(generator(), tmp)),
+        # signal checks on the CSV path (sspinn infer of a recording CSV + sidecar: 20 s of imported real walking)
+        Case("14", "real walking, untouched (no finding)", "sspinn infer --data walk.csv", "exit 0", "", lambda: real_infer()),
+        Case("14", "all accelerometers negated", "sspinn infer --data walk.csv (acc × −1)", "exit 2",
+             "the accelerometers are negated", lambda: real_infer(columns_of("all", [0, 1], np.negative))),
+        Case("14", "acc_x/acc_y swapped on one sensor", "sspinn infer --data walk.csv (tibia_r acc_x ↔ acc_y)", "exit 0",
+             "sensor tibia_r: the mean specific force (gravity) points +96°", lambda: real_infer(
+                 columns_of("tibia_r", [0, 1], lambda a: a[:, ::-1]))),
+        Case("14", "all gyroscopes negated", "sspinn infer --data walk.csv (gyr_z × −1)", "exit 0",
+             "the gyroscopes look negated", lambda: real_infer(columns_of("all", [2], np.negative))),
+        Case("14", "one shank's gyroscope negated", "sspinn infer --data walk.csv (tibia_l gyr_z × −1)", "exit 0",
+             "left-leg sensors do not move like one leg", lambda: real_infer(columns_of("tibia_l", [2], np.negative))),
+        Case("14", "left/right thigh columns swapped", "sspinn infer --data walk.csv (femur_r ↔ femur_l)", "exit 0",
+             "femur_r leads tibia_r", lambda: real_infer(swapped("femur_r", "femur_l"))),
+        Case("14", "thigh/shank columns swapped (right leg)", "sspinn infer --data walk.csv (femur_r ↔ tibia_r)", "exit 0",
+             "right-leg sensors do not move like one leg", lambda: real_infer(swapped("femur_r", "tibia_r"))),
+        Case("14", "60 Hz data stamped as 100 Hz (not detectable from the cadence: × 1.67 is running's cadence)",
+             "sspinn infer --data walk.csv (60 Hz rows)", "exit 0", "sample rate is likely wrong", lambda: real_infer(rate(100 / 60))),
+        Case("14", "10 Hz data stamped as 100 Hz", "sspinn infer --data walk.csv (10 Hz rows, 59 s of walking)", "exit 0",
+             "steps/s, outside 0.5–3.5 steps/s", lambda: real_infer(rate(10.0), seconds=59.0)),
+        Case("14", "1 kHz data stamped as 100 Hz", "sspinn infer --data walk.csv (1 kHz rows)", "exit 0",
+             "the sample rate is likely wrong (recorded at", lambda: real_infer(rate(0.1), seconds=10.0)),
+        Case("14", "dead but noisy gyroscope", "sspinn infer --data walk.csv (foot_r gyr_z white noise, σ 0.3 rad/s)", "exit 0",
+             "sensor foot_r: gyr_z does not move with", lambda: real_infer(columns_of(
+                 "foot_r", [2], lambda g: noise.normal(0, 0.3, g.shape)))),
+        Case("14", "a foot sensor lying on a table", "sspinn infer --data walk.csv (foot_l still)", "exit 0",
+             "sensor foot_l is not on a moving body", lambda: real_infer(on_table("foot_l"))),
+        Case("14", "sidecar placement angle in degrees", "sspinn infer --data walk.csv (imu.placement.femur_r.angle_rad: 90)",
+             "exit 0", "sensor femur_r: the mean specific force (gravity) points", lambda: real_infer(
+                 meta=lambda m: m["imu"]["placement"]["femur_r"].update(angle_rad=90))),
+        # signal checks of GRF labels (a labelled recording read for sspinn evaluate)
+        Case("14", "GRF labels' sides swapped", "Recording.load(walk_grf.csv) (grf_*_r ↔ grf_*_l)", "SignalWarning",
+             "the GRF labels' sides look swapped", lambda: labelled(lambda r: relabel(r, r.labels.grf[:, [2, 3, 0, 1]]))),
+        Case("14", "GRF labels for another body mass", "Recording.load(walk_grf.csv) (mass 90 kg, labels of 66.7 kg)",
+             "SignalWarning", "average 0.74 body weights (90 kg)", lambda: labelled(lambda r: relabel(r, mass=90.0))),
+        Case("14", "GRF labels at another time base", "Recording.load(walk_grf.csv) (labels 2× slower)", "SignalWarning",
+             "the labels' time base or rate differs", lambda: labelled(lambda r: relabel(
+                 r, np.repeat(r.labels.grf, 2, axis=0)[: r.n_samples]))),
+        # signal checks on sspinn import
+        Case("14", "import: one gyroscope negated (the calibration keeps gyr_z right but mirrors acc_x: not detected)",
+             "sspinn import --imu <copy, tibia_r gyro × −1>", "exit 0", "sensor tibia_r",
+             lambda: imu_import(imu3d("tibia_r_imu_offset_imu", lambda a, g: (a, -g)))),
+        Case("14", "import: one gyroscope × 0.5 (not detected: a scale keeps signs, phases and gravity)",
+             "sspinn import --imu <copy, femur_l gyro × 0.5>", "exit 0", "sensor femur_l",
+             lambda: imu_import(imu3d("femur_l_imu_offset_imu", lambda a, g: (a, 0.5 * g)))),
+        Case("14", "import: dead but noisy gyroscope", "sspinn import --imu <copy, toes_r gyro white noise>", "exit 0",
+             "sensor foot_r: gyr_z does not move with", lambda: imu_import(imu3d(
+                 "toes_r_imu_offset_imu", lambda a, g: (a, noise.normal(0, 0.3, g.shape))))),
+        Case("14", "import: acc Y/Z swapped on one sensor (calibrated to a mirrored acc_x: not detected)",
+             "sspinn import --imu <copy, femur_r acc Y ↔ Z>", "exit 0", "sensor femur_r",
+             lambda: imu_import(imu3d("femur_r_imu_offset_imu", lambda a, g: (a[:, [0, 2, 1]], g)))),
+        Case("14", "import: a shank sensor on a table", "sspinn import --imu <copy, tibia_l still>", "exit 0",
+             "sensor tibia_l is not on a moving body", lambda: imu_import(table3d("tibia_l_imu_offset_imu"))),
+        Case("14", "import: the torso sensor mapped as the pelvis (not detected: trunk and pelvis move alike in the "
+             "sagittal plane)", "sspinn import --sensor-map pelvis_torso.yaml", "exit 0", "sensor pelvis", lambda: imu_import(smap=pelvis_torso_map())),
         # bad IMU files (sspinn import of edited copies of a real CMU OpenSense export)
         Case("13a", "thighs' sensors swapped between the sides in the map", "sspinn import --sensor-map thighs_swapped.yaml",
              "exit 0", "'femur_l_imu_offset_imu' (femur_r) leads 'tibia_r_imu_offset_imu' (tibia_r)",
@@ -523,6 +658,33 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|")
     print("\n".join(rows))
     print(f"\n**{clear} of {len(cases)} cases → a clear error (or the documented correct behaviour).**")
+
+
+def real_recordings(tmp: Path) -> dict[str, Recording]:
+    """The whole CMU trial imported without GRF (``whole``) and its first 20 s with GRF labels
+    (``labelled``), no figures."""
+    from sspinn.imu import pipeline
+
+    real = pipeline.plot_calibration
+    pipeline.plot_calibration = lambda path, *a, **k: Path(path)
+    try:
+        with contextlib.redirect_stdout(io.StringIO()), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            whole = pipeline.import_imu([CMU_ACCEL], CMU_MAP, 1.81, 66.7, tmp / "cmu_whole").recording
+            labelled = pipeline.import_imu([CMU_ACCEL], CMU_MAP, 1.81, 66.7, tmp / "cmu_grf", end_s=20.0,
+                                           grf=CMU_TRIAL / "OpenSim_Sub01_CSBaseline_GRF.mot.gz").recording
+    finally:
+        pipeline.plot_calibration = real
+    return {"whole": whole, "labelled": labelled}
+
+
+def pelvis_torso_map() -> dict:
+    """The CMU sensor map with the torso sensor as the pelvis's and the pelvis sensor ignored."""
+    data = sensor_map_edited(CMU_MAP)
+    del data["sensors"]["pelvis_imu_offset_imu"]
+    data["sensors"]["torso_imu_offset_imu"] = "pelvis"
+    data["ignore"] = ["pelvis_imu_offset_imu"]
+    return data
 
 
 def crafted_agent(tmp: Path, payload: object, agents_main: Callable[[list[str]], int]) -> Outcome:
@@ -639,7 +801,7 @@ def _load_statistics(tmp: Path, payload: object) -> object:
 
 
 def _corrupt_stride(tmp: Path) -> Path:
-    source = ROOT.parent / "shared" / "data" / "dorschky_P03_walking"
+    source = SHARED / "dorschky_P03_walking"
     folder = tmp / "corrupt_stride"
     folder.mkdir(exist_ok=True)
     if not source.exists():

@@ -23,6 +23,7 @@ import errno
 import math
 import os
 import sys
+import warnings
 from collections.abc import Callable, Sequence
 from typing import Final, NoReturn
 
@@ -38,6 +39,19 @@ DEBUG_FLAG: Final = "--debug"
 
 class UserError(ValueError):
     """Bad input that the user can fix; the message names the file, field or value and what to do."""
+
+
+class InputWarning(UserWarning):
+    """Input that is accepted but probably wrong (a sensor's sign, the stated rate, ...); the CLIs
+    under :func:`run_cli` print it as one ``WARNING: <message>`` line on stderr."""
+
+
+def _show_input_warning(message, category, filename, lineno, file=None, line=None, _default=warnings.showwarning):  # noqa: ANN001
+    """``warnings.showwarning`` that prints :class:`InputWarning` s as ``WARNING: <message>``."""
+    if issubclass(category, InputWarning):
+        print(f"WARNING: {one_line(message)}", file=sys.stderr if file is None else file)
+    else:
+        _default(message, category, filename, lineno, file, line)
 
 
 class DataFormatError(UserError):
@@ -136,7 +150,9 @@ def run_cli(
     debug = DEBUG_FLAG in args or os.environ.get("SSPINN_DEBUG", "") not in ("", "0")
     args = [a for a in args if a != DEBUG_FLAG]
     try:
-        return main(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_input_warning
+            return main(args)
     except (UserError, *_PATH_ERRORS, *user_errors) as exc:
         if debug:
             raise

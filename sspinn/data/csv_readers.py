@@ -20,6 +20,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from sspinn.data.dataset import SAMPLE_RATE_HZ, DataFormatError, Labels, Recording, read_csv_table
+from sspinn.data.signal_checks import check_recording
 from sspinn.model.body import IMUPlacement
 from sspinn.model.conventions import GRAVITY, GRF, IMU_CHANNELS, JOINTS, SEGMENTS
 
@@ -133,7 +134,7 @@ def read_averaged_stride(
                 raise DataFormatError(f"{meta_path}: imu_position_in_segment_frame_m must map segments to [x, y, ...] "
                                       f"in metres ({type(exc).__name__}: {exc})") from None
     with _named(folder / "signals.csv", folder.name):
-        return Recording(
+        rec = Recording(
             name=folder.name,
             imu=imu,
             segments=segments,
@@ -145,6 +146,8 @@ def read_averaged_stride(
             provenance={"source": str(folder), "kind": "averaged stride", "periods": periods, "stride_duration_s": duration,
                         "assumed_height_m": height, "assumed_mass_kg": mass, "original": meta.get("source", "")},
         )
+    check_recording(rec, f"{folder / 'signals.csv'} (as 100 Hz samples)")
+    return rec
 
 
 def read_csv_recording(
@@ -194,8 +197,10 @@ def read_csv_recording(
             x = data[:, col[column_map[f"{s}_{c}"]]] * (gyro_scale if c == "gyr_z" else acc_scale)
             imu[:, i, j] = CubicSpline(t_in, x)(t_out) if sample_rate_hz != SAMPLE_RATE_HZ else x
     with _named(path, path.stem):
-        return Recording(
+        rec = Recording(
             name=path.stem, imu=imu, segments=segments, height=height, mass=mass, subject=subject,
             placement=placement or IMUPlacement.default(height),
             provenance={"source": str(path), "sample_rate_hz_original": sample_rate_hz, "column_map": column_map},
         )
+    check_recording(rec, f"{path} (as 100 Hz samples)")
+    return rec

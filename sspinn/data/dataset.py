@@ -41,6 +41,7 @@ from typing import Any, Final
 import numpy as np
 
 from sspinn.data.plausibility import check_imu_plausibility
+from sspinn.data.signal_checks import check_recording
 from sspinn.errors import DataFormatError
 from sspinn.model.body import IMUPlacement, ParameterError
 from sspinn.model.conventions import GRAVITY, IMU_CHANNELS, SEGMENTS
@@ -303,13 +304,15 @@ class Recording:
                                       "{segment: {position_m: [x, y], angle_rad: a}} for every segment") from None
         subject = meta["subject"]
         try:
-            return cls(
+            rec = cls(
                 name=csv.stem, imu=imu, segments=segments, height=float(subject["height_m"]), mass=float(subject["mass_kg"]),
                 subject=str(subject.get("id", "unknown")), placement=placement, labels=labels,
                 provenance=meta.get("provenance", {}),
             )
         except DataFormatError as exc:
             raise DataFormatError(f"{csv}: {str(exc).removeprefix(csv.stem + ': ')}") from None
+        check_recording(rec, str(csv))
+        return rec
 
 
 def _read_sidecar(path: Path) -> dict[str, Any]:

@@ -28,6 +28,7 @@ from typing import Any
 import torch
 
 from sspinn.data.dataset import Recording
+from sspinn.data.signal_checks import check_recording, estimate_findings, warn
 from sspinn.errors import UserError
 from sspinn.estimator.inference import GaitEstimate, StreamingEstimator, estimate_recording
 from sspinn.estimator.model_store import StoredModel, export_streaming, load_model, save_model
@@ -143,6 +144,8 @@ class SSPINNpose:
 
     def _train(self, config: TrainConfig, recordings: Sequence[Recording], out: str | Path | None, resume: bool,
                init_from: StoredModel | None) -> SSPINNpose:
+        for rec in recordings:
+            check_recording(rec, rec.name)
         with tempfile.TemporaryDirectory(prefix="sspinn-run-") if out is None else contextlib.nullcontext(out) as folder:
             trainer = Trainer(config, folder)
             network = trainer.fit(list(recordings), resume=resume, init_from=init_from)
@@ -158,9 +161,14 @@ class SSPINNpose:
     def predict(self, recording: Recording) -> GaitEstimate:
         """Estimates of one recording: coordinates, rates, accelerations, joint torques, GRFs,
         contact (:class:`~sspinn.estimator.inference.GaitEstimate`; the forward speed is
-        ``u[:, 0]``). Raises a one-line error for missing IMUs or non-finite/implausible output."""
+        ``u[:, 0]``). Raises a one-line error for missing IMUs or non-finite/implausible output; warns
+        (:mod:`sspinn.data.signal_checks`) about implausible input signals and an implausible estimate."""
         self._check_fitted()
-        return estimate_recording(self.network_, recording, self.segments_)
+        check_recording(recording, recording.name)
+        estimate = estimate_recording(self.network_, recording, self.segments_)
+        warn(estimate_findings(recording.name, estimate.grf[:, 1] + estimate.grf[:, 3], estimate.u[:, 0], recording.imu,
+                               recording.segments, recording.height, recording.mass))
+        return estimate
 
     def stream(self, height: float, mass: float) -> StreamingEstimator:
         """A sample-by-sample estimator for one subject (height m, mass kg) with a carried LSTM

@@ -65,6 +65,7 @@ import numpy as np
 from scipy.signal import butter, sosfiltfilt
 from scipy.stats import skew
 
+from sspinn.data.signal_checks import cross_spectrum
 from sspinn.errors import UserError
 from sspinn.imu.sensor_map import SensorAssignment
 from sspinn.model.conventions import GRAVITY
@@ -236,23 +237,6 @@ def stride_period(signal: np.ndarray, rate_hz: float, step: bool = False) -> flo
 
 
 # ---------------------------------------------------------------------------------- features
-def cross_spectrum(a: np.ndarray, b: np.ndarray, rate_hz: float, freq_hz: float, runs: list[tuple[int, int]],
-                    window_s: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """(Σ A·conj(B), Σ|A|², Σ|B|²) at ``freq_hz`` of ``a`` (n, k) against ``b`` (n,), summed over Hann
-    windows of ``window_s`` (half overlap) inside the walking ``runs`` (each window's mean removed)."""
-    n = int(window_s * rate_hz)
-    kernel = np.hanning(n) * np.exp(-2j * np.pi * freq_hz * np.arange(n) / rate_hz)
-    sab, saa, sbb = np.zeros(a.shape[1], complex), np.zeros(a.shape[1]), 0.0
-    for start, stop in runs:
-        for k in range(start, stop - n + 1, max(1, n // 2)):
-            x, y = a[k:k + n], b[k:k + n]
-            A, B = (x - x.mean(axis=0)).T @ kernel, np.dot(y - y.mean(), kernel)
-            sab += A * np.conj(B)
-            saa += np.abs(A) ** 2
-            sbb += abs(B) ** 2
-    return sab, saa, sbb
-
-
 def harmonic_phase(ax: np.ndarray, ay: np.ndarray, rate_hz: float, freq_hz: float, runs: list[tuple[int, int]],
                    window_s: float) -> float:
     """sin of the phase lead of ``ax`` over ``ay`` at ``freq_hz``: Im(Σ X·conj(Y)) / √(Σ|X|² Σ|Y|²)

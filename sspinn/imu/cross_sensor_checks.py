@@ -16,7 +16,7 @@ on the wrong segment gives that segment another segment's (correctly calibrated)
 * **Legs mixed up** (:func:`leg_pairing_warnings`): the thigh, shank and foot of one leg swing
   nearly in phase; sensors of the two legs half a stride apart. The phase at the stride frequency
   between two calibrated sagittal rates of one mapped side must lie within 90° of
-  :data:`LEG_PHASE_DEG` (thigh → shank +45°, shank → foot +15°, thigh → foot +65°; measured on
+  :data:`sspinn.data.signal_checks.LEG_PHASE_DEG` (thigh → shank +45°, shank → foot +15°, thigh → foot +65°; measured on
   the twelve CMU treadmill trials: +3…+83°, +4…+22°, +57…+104°, and +41°, +12°, +53° in a
   predicted 1.3 m/s gait; the other leg's sensors: −96…−143°). A sensor map that swaps one
   segment's sensors between the sides, or the thigh and shank of one leg, fails it (as would a
@@ -34,22 +34,17 @@ on the wrong segment gives that segment another segment's (correctly calibrated)
 from __future__ import annotations
 
 from collections.abc import Iterable
-from itertools import combinations
 from typing import Final
 
 import numpy as np
 
-from sspinn.imu.calibration import Calibration, cross_spectrum, moving_mean
+from sspinn.data.signal_checks import leg_phase_findings
+from sspinn.imu.calibration import Calibration, moving_mean
 from sspinn.imu.sensor_map import SensorAssignment
 
 #: A sensor counts as mounted along its segment when its reference axis lies within this angle
 #: of the segment's long axis, deg.
 ALONG_SEGMENT_DEG: Final = 45.0
-#: Expected phase lead (deg) at the stride frequency of the first segment's calibrated sagittal
-#: rate over the second's, within one leg (module docstring); more than 90° off is flagged.
-LEG_PHASE_DEG: Final[dict[tuple[str, str], float]] = {("femur", "tibia"): 45.0, ("tibia", "foot"): 15.0, ("femur", "foot"): 65.0}
-#: Pairs whose coherence at the stride frequency is below this are not judged.
-MIN_COHERENCE: Final = 0.5
 #: Correlation of the pelvis's medio-lateral force with the right-minus-left stance above which
 #: the sides look swapped (real walking: −0.5 to −0.9).
 SIDE_CORRELATION_WARN: Final = 0.3
@@ -121,11 +116,6 @@ def _walking_mask(cal: Calibration, n: int) -> np.ndarray:
     return mask
 
 
-def _wrap_deg(angle: float) -> float:
-    """An angle in deg wrapped into [−180, 180)."""
-    return (angle + 180.0) % 360.0 - 180.0
-
-
 def leg_pairing_warnings(signals: dict[str, tuple[np.ndarray, np.ndarray]], cal: Calibration,
                          sources: dict[str, str]) -> list[str]:
     """One warning per mapped side whose sensors do not move like the segments of one leg
@@ -136,16 +126,7 @@ def leg_pairing_warnings(signals: dict[str, tuple[np.ndarray, np.ndarray]], cal:
     period = cal.stride_period_s
     window = min(max(4 * period, 2.0), max(b - a for a, b in cal.walking_runs) / cal.rate_hz)
     warnings = []
-    for side, name in (("r", "right"), ("l", "left")):
-        bad = []
-        for a, b in combinations([k for k in _KINDS if f"{k}_{side}" in rate], 2):
-            sa, sb = f"{a}_{side}", f"{b}_{side}"
-            sab, saa, sbb = cross_spectrum(rate[sa][:, None], rate[sb], cal.rate_hz, 1 / period, cal.walking_runs, window)
-            if saa[0] * sbb == 0 or abs(sab[0]) / np.sqrt(saa[0] * sbb) < MIN_COHERENCE:
-                continue
-            phase, expected = float(np.degrees(np.angle(sab[0]))), LEG_PHASE_DEG[(a, b)]
-            if abs(_wrap_deg(phase - expected)) > 90.0:
-                bad.append((sa, sb, phase, expected))
+    for name, bad in leg_phase_findings(rate, cal.rate_hz, 1 / period, cal.walking_runs, window).items():
         if bad:
             segs = [s for sa, sb, _, _ in bad for s in (sa, sb)]
             pairs = "; ".join(f"{_who(cal, sa)} leads {_who(cal, sb)} by {phase:+.0f}° (one leg: {expected:+.0f}° ± 90°)"

@@ -46,6 +46,7 @@ import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
 from sspinn.data.dataset import FORMAT, SPLITS, DataFormatError, Dataset, Labels, Recording
+from sspinn.data.signal_checks import label_findings, recording_findings
 from sspinn.imu.calibration import Calibration, calibrate
 from sspinn.imu.calibration_report import calibration_markdown, plot_calibration
 from sspinn.imu.cross_sensor_checks import check_mounting
@@ -157,8 +158,12 @@ def import_imu(
             placement=smap.placement(height), labels=Labels.from_columns(labels, int(keep.sum())) if labels else None,
             provenance=provenance,
         )
+        # the signal checks of every path into the estimator (leg pairing: check_mounting above)
+        findings = recording_findings(rec, stream.source, leg_pairing=False) + label_findings(rec, f"{stream.source} + {grf}", mean_check=False)
     except DataFormatError as exc:
         raise IMUImportError(f"{stream.source} after calibration: {exc}") from None
+    cal.warnings += findings
+    provenance["warnings"] += findings
     out = Path(out)
     csv = add_to_index(out, rec, split)
     context = {"files": ", ".join(str(f) for f in files), "sensor map": smap.source,

@@ -1,0 +1,426 @@
+"""Signal-level physics checks of a 2D recording (acc_x, acc_y, gyr_z per segment at 100 Hz) that
+need no labels, of its GRF labels and of an estimate: the one module every path into the
+estimator calls (a recording CSV + sidecar, a dataset folder, an averaged stride, a CSV read with
+a column map, ``sspinn import``, and :meth:`SSPINNpose.fit` / ``predict``).
+
+:mod:`sspinn.data.plausibility` refuses what no working sensor gives (units, ranges, constant or
+clipped channels); this module judges whether working sensors are *where and how* the recording
+says: signs, axes, sides, the sample rate. Findings are :class:`SignalWarning` s (the CLIs print
+them as ``WARNING: ...``) naming the source, the sensor and the number; only what is physically
+impossible is an error (:class:`ImpossibleSignalError`).
+
+Per sensor (every recording of ≥ 10 samples):
+
+* **Gravity direction** — the mean specific force of a sensor points along its segment's long axis
+  rotated by the placement angle (standing, walking and running keep the segments within ≈ 30° of
+  upright on average; the mean over a recording is gravity plus centripetal terms along the
+  segment). The angle between the measured mean direction and the stated placement angle above
+  :data:`GRAVITY_ANGLE_WARN_DEG` is a warning (an accelerometer axis negated, x/y swapped, a
+  sensor mounted or declared at another angle, ``angle_rad`` given in degrees). Gravity pointing
+  more than :data:`GRAVITY_ANGLE_ERROR_DEG` away on *every* sensor is an error (accelerometers
+  negated: acceleration instead of specific force).
+
+Gait checks (recordings of ≥ :data:`MIN_GAIT_S` with a periodic leg movement, :func:`gait_rhythm`):
+
+* **Cadence at the stated rate** — the stride period is the lag of the strongest peak of the
+  leg gyroscopes' autocorrelation. Steps per second outside :data:`CADENCE_STEPS_HZ` (slow walking
+  ≈ 0.7 to fast running ≈ 3.3 steps/s; a sprint at 4–5 steps/s would be warned about too) at
+  100 Hz mean the stated rate is wrong (a 10 Hz or 1 kHz recording stamped as 100 Hz); the
+  message names the rate that would give a typical cadence. More than ten times outside the band
+  is an error. A mislabel by less than ≈ 2× (60 Hz as 100 Hz) moves walking into the running range
+  and is *not* detectable from the cadence.
+* **Dead but noisy / not on a moving body** — while the legs walk, a sensor whose angular rate
+  has the flat spectrum of noise (correlation between neighbouring samples below
+  :data:`MIN_SMOOTHNESS`) or, on a leg, does not repeat with the stride (normalised
+  autocorrelation at the stride period below :data:`MIN_PERIODICITY`; the pelvis's sagittal
+  rate is too small and irregular in running for that): a noise-only gyroscope, or a sensor
+  lying on a table (then its rate is also below :data:`STILL_GYRO_RMS_RAD_S`).
+* **Leg pairing** (:func:`leg_phase_findings`, also used by ``sspinn import``): the thigh, shank and
+  foot of one leg swing nearly in phase, the two legs half a stride apart; a stride-frequency
+  phase more than 90° from :data:`LEG_PHASE_DEG` means a sensor of another leg (a left/right
+  swap of one segment) or a negated gyroscope on one sensor.
+* **Gyroscope sign** — the knee angle (shank minus thigh rate, integrated and high-passed) is
+  skewed towards flexion in any gait (knee flexion is negative here, and the knee is near
+  extension most of the stride): skewness above :data:`KNEE_SKEW_WARN` on every side with a thigh
+  and a shank means the gyroscopes are negated (the twelve CMU trials: −1.3…−0.5; predicted
+  walking and running: −0.6…+0.1).
+* Not detectable without labels and thus not claimed: swapping *all* sensors of the two legs (the
+  sagittal signals are the same up to half a stride; ``sspinn import`` judges it from the
+  medio-lateral force, and GRF labels from the stance, below), and thigh/shank swaps that keep
+  the phases within 90°.
+
+GRF labels (:func:`label_findings`; ``sspinn import --grf`` and a labelled dataset): vertical force
+≥ −:data:`NEGATIVE_GRF_TOLERANCE_BW` body weights (noise), the mean summed vertical force over the
+recording within :data:`LABEL_MEAN_BW_RANGE` of body weight when both feet are labelled, the
+stride period of the vertical force equal to the IMU's (a time unit or rate of the labels), and
+the labelled stance of each foot when its sensor is still (left/right labels swapped).
+
+Estimates (:func:`estimate_findings`): the mean vertical GRF over whole strides below
+:data:`MIN_MEAN_VERTICAL_BW` of body weight, and a stride length (speed / stride frequency)
+outside a factor :data:`STRIDE_LENGTH_FACTOR` of Alexander's relation λ/h = 2.3 (v²/(g h))^0.3
+(R. McN. Alexander, "The gaits of bipedal and quadrupedal animals", Int J Robotics Res 3(2):49–59,
+1984; h the leg length, 0.53 × height after Winter).
+"""
+
+from __future__ import annotations
+
+import warnings
+import weakref
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from itertools import combinations
+from typing import TYPE_CHECKING, Final
+
+import numpy as np
+from scipy.signal import butter, sosfiltfilt
+from scipy.stats import skew
+
+from sspinn.errors import DataFormatError, InputWarning
+from sspinn.model.conventions import GRAVITY
+
+if TYPE_CHECKING:  # dataset.py calls this module
+    from sspinn.data.dataset import Recording
+
+#: Sample rate of a recording, Hz.
+RATE_HZ: Final = 100.0
+#: Mean specific force more than this far from the stated placement angle: a warning, deg.
+GRAVITY_ANGLE_WARN_DEG: Final = 60.0
+#: Mean specific force more than this far from the placement angle on every sensor: an error, deg.
+GRAVITY_ANGLE_ERROR_DEG: Final = 120.0
+#: Shortest recording the gait checks judge, s (four slow strides).
+MIN_GAIT_S: Final = 5.0
+#: Largest normalised autocorrelation of the leg rates at the stride lag below which there is no gait.
+MIN_GAIT_PERIODICITY: Final = 0.3
+#: RMS angular rate of the most moving leg sensor below which the subject does not walk, rad/s.
+MIN_GAIT_GYRO_RMS: Final = 0.5
+#: Plausible steps per second at the stated rate (slow walking to sprinting).
+CADENCE_STEPS_HZ: Final = (0.5, 3.5)
+#: A sensor whose rate's normalised autocorrelation at the stride period is below this does not move with the gait.
+MIN_PERIODICITY: Final = 0.2
+#: A rate whose correlation between neighbouring samples (10 ms) is below this has the flat
+#: spectrum of sensor noise (body rates are smooth at 100 Hz: above 0.85 on every sensor of the
+#: CMU and predicted recordings).
+MIN_SMOOTHNESS: Final = 0.5
+#: Below this RMS angular rate a sensor lies still, rad/s.
+STILL_GYRO_RMS_RAD_S: Final = 0.05
+#: Expected phase lead (deg) at the stride frequency of the first segment's sagittal rate over
+#: the second's, within one leg (measured on the twelve CMU trials: +3…+83°, +4…+22°, +57…+104°;
+#: a predicted 1.3 m/s gait: +41°, +12°, +53°); more than 90° off is flagged.
+LEG_PHASE_DEG: Final[dict[tuple[str, str], float]] = {("femur", "tibia"): 45.0, ("tibia", "foot"): 15.0, ("femur", "foot"): 65.0}
+#: Pairs whose coherence at the stride frequency is below this are not judged.
+MIN_COHERENCE: Final = 0.5
+#: Knee-angle skewness above which the gyroscopes look negated.
+KNEE_SKEW_WARN: Final = 0.5
+#: Vertical GRF label tolerated below zero, body weights.
+NEGATIVE_GRF_TOLERANCE_BW: Final = 0.1
+#: Accepted mean summed vertical GRF label over a recording, body weights.
+LABEL_MEAN_BW_RANGE: Final = (0.85, 1.15)
+#: Label and IMU stride periods differing by more than this fraction: a warning.
+PERIOD_MISMATCH: Final = 0.2
+#: Mean estimated vertical GRF below this fraction of body weight: a warning.
+MIN_MEAN_VERTICAL_BW: Final = 0.7
+#: Accepted factor between the estimated stride length and Alexander's relation.
+STRIDE_LENGTH_FACTOR: Final = 2.0
+#: Leg length / body height (Winter).
+LEG_PER_HEIGHT: Final = 0.53
+_KINDS: Final = ("femur", "tibia", "foot")
+
+
+class SignalWarning(InputWarning):
+    """A recording, its labels or an estimate that working sensors on the stated segments would
+    hardly give; the message names the source, the sensor and the number."""
+
+
+class ImpossibleSignalError(DataFormatError):
+    """Signals no sensor on a human gives at the stated rate and orientation."""
+
+
+@dataclass(frozen=True)
+class GaitRhythm:
+    """The stride of a recording's leg sensors: ``period_s`` (s, at the stated rate), the mean
+    normalised autocorrelation at that lag of the leg rates (``periodicity``) and per segment."""
+
+    period_s: float
+    periodicity: float
+    by_segment: dict[str, float]
+
+
+def warn(findings: Iterable[str]) -> None:
+    """Issue every finding as a :class:`SignalWarning`."""
+    for text in findings:
+        warnings.warn(text, SignalWarning, stacklevel=2)
+
+
+#: IMU arrays already checked (by id; weak, so a freed array's id may be reused by a new one).
+_CHECKED: weakref.WeakValueDictionary[int, np.ndarray] = weakref.WeakValueDictionary()
+
+
+def check_recording(rec: Recording, source: str) -> None:
+    """The checks of the module docstring on a :class:`~sspinn.data.dataset.Recording` (labels
+    included): raise :class:`ImpossibleSignalError` or warn. Nothing is changed; a recording
+    whose IMU array was checked already (read from a file, then given to ``predict``) is not
+    checked again."""
+    imu = rec.imu
+    if _CHECKED.get(id(imu)) is imu:
+        return
+    findings = [*recording_findings(rec, source), *label_findings(rec, source)]
+    _CHECKED[id(imu)] = imu
+    warn(findings)
+
+
+def recording_findings(rec: Recording, source: str, leg_pairing: bool = True) -> list[str]:
+    """Warnings about the IMU signals of ``rec`` (module docstring; without the leg pairing
+    where the caller ran :func:`leg_phase_findings` itself); raises for the impossible."""
+    imu, segments = rec.imu, tuple(rec.segments)
+    if imu.shape[0] < 10:
+        return []
+    angles = rec.placement.angles
+    found = _gravity_findings(imu, segments, angles, source)
+    rhythm = gait_rhythm(imu, segments)
+    if rhythm is None:
+        return found
+    cadence = _cadence_findings(rhythm, source)
+    if cadence:  # at a wrong rate the other gait checks judge nonsense
+        return found + cadence
+    found += _periodicity_findings(imu, segments, rhythm, source)
+    rates = {s: imu[:, i, 2] for i, s in enumerate(segments)} if leg_pairing else {}
+    window = min(max(4 * rhythm.period_s, 2.0), imu.shape[0] / RATE_HZ)
+    for side, bad in leg_phase_findings(rates, RATE_HZ, 1 / rhythm.period_s, [(0, imu.shape[0])], window).items():
+        pairs = "; ".join(f"{a} leads {b} by {phase:+.0f}° (one leg: {expected:+.0f}° ± 90°)" for a, b, phase, expected in bad)
+        found.append(f"{source}: the {side}-leg sensors do not move like one leg (stride-frequency phase of their gyr_z: "
+                     f"{pairs}): a sensor of the other leg (left/right columns swapped) or a negated gyroscope")
+    return found + _knee_skew_findings(imu, segments, source)
+
+
+def _gravity_findings(imu: np.ndarray, segments: tuple[str, ...], angles: dict[str, float], source: str) -> list[str]:
+    off = {}
+    for i, s in enumerate(segments):
+        mx, my = imu[:, i, 0].mean(), imu[:, i, 1].mean()
+        measured = float(np.degrees(np.arctan2(mx, my)))
+        stated = float(np.degrees(angles.get(s, 0.0)))
+        off[s] = (measured, stated, abs(_wrap_deg(measured - stated)), float(np.hypot(mx, my)))
+    if len(off) > 1 and all(d > GRAVITY_ANGLE_ERROR_DEG for _, _, d, _ in off.values()):
+        worst = ", ".join(f"{s} {m:+.0f}°" for s, (m, _, _, _) in off.items())
+        raise ImpossibleSignalError(
+            f"{source}: on every sensor the mean specific force points away from the segment's upward axis "
+            f"(atan2(acc_x, acc_y): {worst}; upright ≈ the placement angle): the accelerometers are negated "
+            "(acceleration instead of specific force, or an axis convention with y down): negate acc_x and acc_y")
+    return [f"{source}: sensor {s}: the mean specific force (gravity) points {measured:+.0f}° from the sensor's y axis "
+            f"(atan2(mean acc_x, mean acc_y), |mean| {norm:.1f} m/s²) but the placement angle says {stated:+.0f}°: "
+            f"{d:.0f}° apart (> {GRAVITY_ANGLE_WARN_DEG:.0f}°): an accelerometer axis negated or acc_x/acc_y swapped, "
+            "or the placement angle wrong (in rad, not degrees)"
+            for s, (measured, stated, d, norm) in off.items() if d > GRAVITY_ANGLE_WARN_DEG]
+
+
+def _autocorr(x: np.ndarray) -> np.ndarray:
+    """Normalised (biased) autocorrelation of ``x`` minus its mean."""
+    x = x - x.mean()
+    f = np.fft.rfft(x, 2 * len(x))
+    r = np.fft.irfft(f * np.conj(f))[: len(x)]
+    return r / r[0] if r[0] > 0 else np.zeros(len(x))
+
+
+def _unbiased_at(r: np.ndarray, lag: int) -> float:
+    """The biased autocorrelation ``r`` at ``lag`` corrected for the overlap (n / (n − lag))."""
+    return float(r[lag] * len(r) / (len(r) - lag)) if 0 < lag < len(r) else 0.0
+
+
+def gait_rhythm(imu: np.ndarray, segments: tuple[str, ...], rate_hz: float = RATE_HZ) -> GaitRhythm | None:
+    """The stride period of the leg sensors (the lag of the strongest autocorrelation peak of the
+    summed autocorrelations of the leg rates, between 0.05 s and half the recording), or None for
+    a recording shorter than :data:`MIN_GAIT_S` or without gait (the strongest leg rate below
+    :data:`MIN_GAIT_GYRO_RMS`, or the mean periodicity below :data:`MIN_GAIT_PERIODICITY`)."""
+    n = imu.shape[0]
+    legs = [i for i, s in enumerate(segments) if s != "pelvis"]
+    if n < MIN_GAIT_S * rate_hz or not legs or max(float(np.std(imu[:, i, 2])) for i in legs) < MIN_GAIT_GYRO_RMS:
+        return None
+    r = {segments[i]: _autocorr(imu[:, i, 2]) for i in legs}
+    mean = np.mean(list(r.values()), axis=0)
+    lo, hi = max(2, int(0.05 * rate_hz)), n // 2
+    peaks = [k for k in range(lo, hi) if mean[k] > mean[k - 1] and mean[k] >= mean[k + 1] and mean[k] > 0]
+    if not peaks:
+        return None
+    lag = max(peaks, key=lambda k: mean[k])
+    # a stride's multiples are nearly as strong; the shortest lag within 10 % of the best is the stride
+    lag = min(k for k in peaks if mean[k] >= 0.9 * mean[lag])
+    by_segment = {s: _unbiased_at(v, lag) for s, v in r.items()}
+    periodicity = float(np.mean(list(by_segment.values())))
+    if periodicity < MIN_GAIT_PERIODICITY:
+        return None
+    for i, s in enumerate(segments):
+        if s not in by_segment:  # the trunk repeats with every step
+            r_s = _autocorr(imu[:, i, 2])
+            by_segment[s] = max(_unbiased_at(r_s, lag), _unbiased_at(r_s, int(round(lag / 2))))
+    return GaitRhythm(lag / rate_hz, periodicity, by_segment)
+
+
+def _cadence_findings(rhythm: GaitRhythm, source: str) -> list[str]:
+    steps = 2.0 / rhythm.period_s
+    lo, hi = CADENCE_STEPS_HZ
+    if lo <= steps <= hi:
+        return []
+    rate = RATE_HZ * 1.8 / steps  # the rate at which the cadence would be 1.8 steps/s (walking)
+    if not lo / 10 <= steps <= hi * 10:
+        raise ImpossibleSignalError(
+            f"{source}: the legs repeat every {rhythm.period_s:.3g} s at the stated {RATE_HZ:g} Hz: {steps:.3g} steps/s, "
+            f"more than ten times outside {lo:g}–{hi:g} steps/s of human gait: the sample rate is wrong (recorded at "
+            f"≈ {rate:.3g} Hz?): resample to 100 Hz with the true rate")
+    return [f"{source}: the legs repeat every {rhythm.period_s:.3g} s at the stated {RATE_HZ:g} Hz: {steps:.3g} steps/s, outside "
+            f"{lo:g}–{hi:g} steps/s of human gait: the sample rate is likely wrong (recorded at ≈ {rate:.3g} Hz?): "
+            "resample to 100 Hz with the true rate"]
+
+
+def _periodicity_findings(imu: np.ndarray, segments: tuple[str, ...], rhythm: GaitRhythm, source: str) -> list[str]:
+    found = []
+    for i, s in enumerate(segments):
+        p = rhythm.by_segment[s]
+        smooth = _unbiased_at(_autocorr(imu[:, i, 2]), 1)
+        if smooth >= MIN_SMOOTHNESS and (p >= MIN_PERIODICITY or s == "pelvis"):
+            continue
+        rms = float(np.std(imu[:, i, 2]))
+        acc_rms = float(np.std(np.hypot(imu[:, i, 0], imu[:, i, 1])))
+        if rms < STILL_GYRO_RMS_RAD_S:
+            found.append(f"{source}: sensor {s} is not on a moving body: gyr_z RMS {rms:.3g} rad/s and |acc| RMS {acc_rms:.3g} m/s² "
+                         f"while the legs walk with a {rhythm.period_s:.2f} s stride: a sensor lying still (on a table?)")
+        else:
+            why = (f"sample-to-sample correlation {smooth:.2f} < {MIN_SMOOTHNESS:g}: a flat rate spectrum, noise"
+                   if smooth < MIN_SMOOTHNESS else f"autocorrelation {p:.2f} at that lag, < {MIN_PERIODICITY:g}")
+            found.append(f"{source}: sensor {s}: gyr_z does not move with the {rhythm.period_s:.2f} s stride of the legs "
+                         f"({why}; RMS {rms:.3g} rad/s): a dead but noisy gyroscope, or a sensor not on the body")
+    return found
+
+
+def _knee_skew_findings(imu: np.ndarray, segments: tuple[str, ...], source: str) -> list[str]:
+    sos = butter(2, 0.3, btype="high", fs=RATE_HZ, output="sos")
+    skews = {}
+    for side in ("r", "l"):
+        if f"femur_{side}" in segments and f"tibia_{side}" in segments:
+            i, j = segments.index(f"femur_{side}"), segments.index(f"tibia_{side}")
+            knee = sosfiltfilt(sos, np.cumsum(imu[:, j, 2] - imu[:, i, 2]) / RATE_HZ)
+            skews[side] = float(skew(knee))
+    if skews and all(v > KNEE_SKEW_WARN for v in skews.values()):
+        values = ", ".join(f"{'right' if k == 'r' else 'left'} {v:+.2f}" for k, v in skews.items())
+        return [f"{source}: sensors femur/tibia: the knee angle from gyr_z (shank minus thigh, integrated) is skewed towards "
+                f"extension (skewness {values}; gait: below {KNEE_SKEW_WARN:+g}, knee flexion negative): the gyroscopes look "
+                "negated (gyr_z must be positive counter-clockwise seen from the right)"]
+    return []
+
+
+def _wrap_deg(angle: float) -> float:
+    """An angle in deg wrapped into [−180, 180)."""
+    return (angle + 180.0) % 360.0 - 180.0
+
+
+def cross_spectrum(a: np.ndarray, b: np.ndarray, rate_hz: float, freq_hz: float, runs: list[tuple[int, int]],
+                   window_s: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """(Σ A·conj(B), Σ|A|², Σ|B|²) at ``freq_hz`` of ``a`` (n, k) against ``b`` (n,), summed over Hann
+    windows of ``window_s`` (half overlap) inside the walking ``runs`` (each window's mean removed)."""
+    n = int(window_s * rate_hz)
+    kernel = np.hanning(n) * np.exp(-2j * np.pi * freq_hz * np.arange(n) / rate_hz)
+    sab, saa, sbb = np.zeros(a.shape[1], complex), np.zeros(a.shape[1]), 0.0
+    for start, stop in runs:
+        for k in range(start, stop - n + 1, max(1, n // 2)):
+            x, y = a[k:k + n], b[k:k + n]
+            A, B = (x - x.mean(axis=0)).T @ kernel, np.dot(y - y.mean(), kernel)
+            sab += A * np.conj(B)
+            saa += np.abs(A) ** 2
+            sbb += abs(B) ** 2
+    return sab, saa, sbb
+
+
+def leg_phase_findings(rates: dict[str, np.ndarray], rate_hz: float, stride_hz: float, runs: list[tuple[int, int]],
+                       window_s: float) -> dict[str, list[tuple[str, str, float, float]]]:
+    """Per side ("right"/"left"), the pairs of that side's leg segments whose sagittal rates
+    (``rates``: segment → (n,) rad/s) have a stride-frequency phase more than 90° from
+    :data:`LEG_PHASE_DEG`: (segment a, segment b, phase of a over b, expected), deg; pairs with a
+    coherence below :data:`MIN_COHERENCE` are not judged."""
+    out = {}
+    for side, name in (("r", "right"), ("l", "left")):
+        bad = []
+        for a, b in combinations([k for k in _KINDS if f"{k}_{side}" in rates], 2):
+            sa, sb = f"{a}_{side}", f"{b}_{side}"
+            sab, saa, sbb = cross_spectrum(rates[sa][:, None], rates[sb], rate_hz, stride_hz, runs, window_s)
+            if saa[0] * sbb == 0 or abs(sab[0]) / np.sqrt(saa[0] * sbb) < MIN_COHERENCE:
+                continue
+            phase, expected = float(np.degrees(np.angle(sab[0]))), LEG_PHASE_DEG[(a, b)]
+            if abs(_wrap_deg(phase - expected)) > 90.0:
+                bad.append((sa, sb, phase, expected))
+        if bad:
+            out[name] = bad
+    return out
+
+
+# ------------------------------------------------------------------------------------ labels
+def label_findings(rec: Recording, source: str, mean_check: bool = True) -> list[str]:
+    """Warnings about the GRF labels of ``rec`` against its body weight and its IMU (module
+    docstring; without the mean force where the caller judged it, as ``sspinn import`` does with
+    :func:`sspinn.imu.grf_checks.check_vertical_force`); none without GRF labels."""
+    labels = rec.labels
+    if labels is None or labels.grf is None or rec.imu.shape[0] < 10:
+        return []
+    weight = rec.mass * GRAVITY
+    grf = np.asarray(labels.grf, dtype=float)
+    found = []
+    vertical = {side: grf[:, k] for side, k in (("r", 1), ("l", 3)) if np.isfinite(grf[:, k]).all()}
+    for side, v in vertical.items():
+        low = float(v.min()) / weight
+        if low < -NEGATIVE_GRF_TOLERANCE_BW:
+            found.append(f"{source}: label grf_y_{side} reaches {low:.2f} body weights ({v.min():.4g} N); the ground only pushes "
+                         f"(noise down to −{NEGATIVE_GRF_TOLERANCE_BW:g}): a negated or offset force channel")
+    if len(vertical) == 2 and mean_check:
+        mean = float(np.mean(vertical["r"] + vertical["l"])) / weight
+        lo, hi = LABEL_MEAN_BW_RANGE
+        if not lo <= mean <= hi:
+            found.append(f"{source}: labels grf_y_r + grf_y_l average {mean:.2f} body weights ({rec.mass:g} kg) over the recording, "
+                         f"outside {lo:g}–{hi:g} (periodic gait averages 1): a wrong mass or unit, or a missing plate")
+    imu, segments = rec.imu, tuple(rec.segments)
+    rhythm = gait_rhythm(imu, segments)
+    if rhythm is None or not vertical:
+        return found
+    side, v = next(iter(vertical.items()))
+    r = _autocorr(v)
+    lag = int(round(rhythm.period_s * RATE_HZ))
+    lags = np.arange(max(2, int(0.5 * lag)), min(len(r) - 1, int(2.2 * lag)))
+    if len(lags) > 2:
+        best = int(lags[np.argmax(r[lags])])
+        if abs(best - lag) > PERIOD_MISMATCH * lag and r[best] > r[lag] + 0.2:
+            found.append(f"{source}: label grf_y_{side} repeats every {best / RATE_HZ:.3g} s but the IMU's stride is "
+                         f"{rhythm.period_s:.3g} s: the labels' time base or rate differs from the IMU's")
+    feet = [s for s in ("foot_r", "foot_l") if s in segments]
+    if len(vertical) == 2 and len(feet) == 2:
+        still = {s[-1]: -np.abs(imu[:, segments.index(s), 2]) for s in feet}
+        corr = float(np.corrcoef(vertical["r"] - vertical["l"], still["r"] - still["l"])[0, 1])
+        if corr < -0.2:
+            found.append(f"{source}: labels grf_y_r/grf_y_l: the right label is loaded while the left foot sensor is still "
+                         f"(correlation of the right-minus-left force with the right-minus-left stillness {corr:+.2f}, "
+                         "gait: > 0): the GRF labels' sides look swapped")
+    return found
+
+
+# ------------------------------------------------------------------------------------ estimates
+def estimate_findings(name: str, vertical_grf: np.ndarray, speed: np.ndarray, imu: np.ndarray, segments: Sequence[str],
+                      height: float, mass: float) -> list[str]:
+    """Warnings about an estimate of the recording ``name``: the summed vertical GRF (T,) N and
+    forward speed (T,) m/s against the body weight (``mass`` kg) and the IMU's stride (module
+    docstring); none for a recording without gait (:func:`gait_rhythm`)."""
+    rhythm = gait_rhythm(imu, tuple(segments))
+    if rhythm is None:
+        return []
+    n = int(round(rhythm.period_s * RATE_HZ))
+    whole = (len(vertical_grf) // n) * n
+    found = []
+    mean = float(np.mean(vertical_grf[:whole])) / (mass * GRAVITY)
+    if mean < MIN_MEAN_VERTICAL_BW:
+        found.append(f"{name}: the estimated vertical GRF averages {mean:.2f} body weights over {whole // n} whole strides, "
+                     f"below {MIN_MEAN_VERTICAL_BW:g} (the feet carry the body: ≈ 1 over a stride): the estimate is not "
+                     "trustworthy; check the input signals' signs and axes")
+    v = float(abs(np.mean(speed[:whole])))
+    leg = LEG_PER_HEIGHT * height
+    stride = v * rhythm.period_s
+    expected = 2.3 * (v**2 / (GRAVITY * leg)) ** 0.3 * leg if v > 0 else 0.0
+    if v > 0.3 and not expected / STRIDE_LENGTH_FACTOR <= stride <= expected * STRIDE_LENGTH_FACTOR:
+        found.append(f"{name}: the estimated speed {v:.2f} m/s with the IMU's {rhythm.period_s:.2f} s stride gives a stride of "
+                     f"{stride:.2f} m, but a {height:g} m person at that speed strides ≈ {expected:.2f} m (Alexander 1984; "
+                     f"accepted ×/÷ {STRIDE_LENGTH_FACTOR:g}): the speed estimate is implausible")
+    return found
+
