@@ -18,6 +18,7 @@ from sspinn.estimator.paper_experiments import EXPERIMENTS, list_arms, true_plac
 from sspinn.model.body import IMUPlacement
 from sspinn.model.conventions import JOINTS, SEGMENTS
 from sspinn.testing import make_recording
+from sspinn.yaml_config import shipped_path
 
 
 def _truth(rng: np.random.Generator) -> dict:
@@ -137,7 +138,10 @@ def test_arms_are_overrides_of_the_shipped_config():
     assert not ablations["two_contact_points"].built
     weights = {a.name: a for a in list_arms("loss-weights")}
     assert weights["imu_half"].settings == ("weights.imu=1",) and weights["imu_double"].settings == ("weights.imu=4",)
-    assert "gyro_half" not in weights  # a term that is off is not varied
+    assert "gyro_half" not in weights and "slide_half" not in weights  # off, or zero with demo.yaml's direct GRFs
+    assert ablations["no_slide"].settings == ("weights.stance=0",)  # L_S carries the no-sliding condition there
+    paper = {a.name: a for a in list_arms("ablations", config=shipped_path("configs/sspinn/paper.yaml"))}
+    assert paper["no_slide"].settings == ("weights.slide=0",)  # the paper's contact model
     assert [a.name for a in list_arms("finetune", steps=4000)] == ["base", "finetuned"]
     assert "finetune_last=1000" in list_arms("finetune", steps=4000)[1].settings
     assert set(EXPERIMENTS) == {"sensor-sets", "finetune", "placement", "ablations", "loss-weights"}

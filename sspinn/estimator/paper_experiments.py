@@ -121,7 +121,10 @@ def _ablations(base: TrainConfig, steps: int) -> list[Arm]:
              "no_slide": (9.5, 3.9, 18.8, 0.86), "no_foot_speed": (9.4, 3.9, 14.9, 0.28)}
     arms = [Arm("full", "the configuration as it is", (), PAPER_ALL),
             Arm("no_input_noise", "no input noise (η = 0)", ("input_noise=0",), paper["no_input_noise"])]
-    for name, term, symbol in (("no_bounds", "bounds", "L_B"), ("no_torque", "torque", "L_τ"), ("no_slide", "slide", "L_slide"),
+    # with direct GRF outputs L_slide is zero by construction; L_S carries the no-sliding condition there
+    slide, slide_symbol = ("stance", "L_S (no sliding, floating or sinking of a loaded foot; L_slide is 0 with direct GRFs)") \
+        if base.network.grf == "direct" else ("slide", "L_slide")
+    for name, term, symbol in (("no_bounds", "bounds", "L_B"), ("no_torque", "torque", "L_τ"), ("no_slide", slide, slide_symbol),
                                ("no_foot_speed", "foot_speed", "L_FS")):
         settings = [f"weights.{term}=0"]
         if term in base.weights_after_starts:
@@ -134,8 +137,9 @@ def _ablations(base: TrainConfig, steps: int) -> list[Arm]:
 
 def _loss_weights(base: TrainConfig, steps: int) -> list[Arm]:
     arms = [Arm("base", "the configuration's loss weights")]
+    inactive = {"contact", "slide"} if base.network.grf == "direct" else set()  # zero by construction with direct GRFs
     for term, value in base.weights.as_dict().items():
-        if value == 0:
+        if value == 0 or term in inactive:
             continue  # halving or doubling a term that is off changes nothing
         for tag, factor in (("half", 0.5), ("double", 2.0)):
             settings = [f"weights.{term}={value * factor:g}"]
