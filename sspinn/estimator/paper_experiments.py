@@ -213,7 +213,7 @@ def base_config(request: Request, arm: Arm | None = None) -> TrainConfig:
     try:
         return resolve_train_config(request.config, settings, steps=request.steps)
     except ConfigError as exc:
-        if "start_steps" not in str(exc):
+        if "must be fewer than steps" not in str(exc):
             raise
         raise ExperimentError(f"--steps {request.steps}: {exc}; give more steps, or fewer or shorter starts "
                               "(--set starts=1, --set start_steps=K)") from None
@@ -260,9 +260,9 @@ def run(request: Request, log: Callable[[str], None] = print) -> dict[str, Any]:
     arms = arms_of(request)
     chosen = selected_arms(request, arms)
     out = Path(request.out)
+    train, test = load_splits(request.data)  # before the folder is claimed: a wrong --data leaves nothing behind
     with RunLock(out):
         _claim_folder(request, out, arms, chosen, log)
-        train, test = load_splits(request.data)
         for arm in chosen:
             _run_arm(request, arm, train, test, out / arm.name, log)
         results = collect(request, arms, train, test)
