@@ -154,6 +154,7 @@ def test_bad_requests_are_one_line_errors(tiny, tmp_path, capsys):
     assert "not built" in capsys.readouterr().err
     assert main(["experiment", "placement", "--data", str(tmp_path), "--out", str(tmp_path / "y"), "--steps", "600"]) == 2
     assert "no dataset.json" in capsys.readouterr().err
+    assert not (tmp_path / "y").exists()  # a wrong --data claims no folder
     assert main(["experiment", "finetune", "--out", str(tmp_path / "z"), "--steps", "100"]) == 2  # demo.yaml's 500-step starts
     assert "--set starts=1" in capsys.readouterr().err
 
@@ -163,3 +164,25 @@ def test_true_placement_is_read_from_the_provenance():
     assert true_placement(rec) is None
     rec.provenance = {"ground_truth": {"imu_placement": _truth(np.random.default_rng(0))}}
     assert true_placement(rec).shape == (len(SEGMENTS), 3)
+
+
+def test_a_partly_trained_arm_continues_from_its_step(tiny, tmp_path, capsys):
+    """An arm stopped at step 2 of 4 (its checkpoint) resumes there: 4 steps in all, not 2 + 4."""
+    import dataclasses
+
+    from sspinn.estimator.paper_experiments import Request, base_config, load_splits
+    from sspinn.estimator.sspinnpose import SSPINNpose
+
+    data, cfg = tiny
+    out = tmp_path / "partial"
+    request = Request("placement", out, data, cfg, steps=4, arms=("learned",))
+    arm = next(a for a in list_arms("placement", cfg, 4) if a.name == "learned")
+    config = dataclasses.replace(base_config(request, arm), steps=2)
+    SSPINNpose(config).fit(load_splits(data)[0], out / "learned")
+    capsys.readouterr()
+    assert _run(tiny, out, "placement", "learned", "--steps", "4") == 0
+    assert "learned: resuming 4 steps" in capsys.readouterr().out
+    results = json.loads((out / "results.json").read_text())
+    assert results["arms"]["learned"]["steps"] == 4
+    summary = json.loads((out / "learned" / "training_summary.json").read_text())
+    assert summary["steps"] == 4
