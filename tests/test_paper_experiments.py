@@ -90,7 +90,7 @@ def test_sensor_sets_run_resume_and_overwrite(tiny, tmp_path, capsys):
 
     assert _run(tiny, out, "sensor-sets", "all", "--steps", "3", "--overwrite") == 0
     results = json.loads((out / "results.json").read_text())
-    assert results["arms"]["all"]["steps"] == 3
+    assert results["arms"]["all"]["steps"] == 3 and results["steps_in_all_per_arm"] == 3
     assert results["arms"]["feet_shanks"]["status"] == "not run"  # made with the old budget: removed
 
 

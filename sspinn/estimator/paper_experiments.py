@@ -396,9 +396,11 @@ def collect(request: Request, arms: list[Arm], train: list[Recording], test: lis
         else:
             entry["status"] = "not run"
         rows[arm.name] = entry
-    experiment = EXPERIMENTS[request.experiment]
+    experiment, config = EXPERIMENTS[request.experiment], base_config(request)
+    starts = config.starts if config.starts > 1 else 1
     return {"experiment": request.experiment, "claim": experiment.claim, "paper_source": f"{PAPER}, {experiment.source}",
-            "steps_per_arm": request.steps, "data": str(request.data), "config": str(request.config),
+            "steps_per_arm": request.steps, "starts": starts, "start_steps": config.start_steps if starts > 1 else 0,
+            "steps_in_all_per_arm": request.steps + (starts - 1) * config.start_steps if starts > 1 else request.steps, "data": str(request.data), "config": str(request.config),
             "settings": list(request.settings), "train_recordings": len(train), "test_recordings": len(test),
             "skip_samples": SKIP, "arms": rows}
 
@@ -432,7 +434,10 @@ def report(results: dict[str, Any]) -> str:
     heads = list(METRICS.values())
     lines = [f"# Experiment `{results['experiment']}`", "",
              f"The paper's claim: {results['claim']}.", "",
-             f"Budget: {results['steps_per_arm']} optimiser steps per arm; configuration {results['config']}"
+             f"Budget: {results['steps_per_arm']} optimiser steps per arm"
+             + (f" ({results['starts']} starts of {results['start_steps']} steps, the most physical one continuing: "
+                f"{results['steps_in_all_per_arm']} steps in all)" if results["starts"] > 1 else "")
+             + f"; configuration {results['config']}"
              + (f" with {' '.join('--set ' + s for s in results['settings'])}" if results["settings"] else "")
              + f"; trained on the {results['train_recordings']} recordings of the training split of {results['data']}, "
              f"scored on its {results['test_recordings']} test recordings (first {results['skip_samples']} samples of each left "
