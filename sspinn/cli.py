@@ -2,7 +2,8 @@
 
 Commands: ``showcase`` (a physics showcase; the main job, ``make demo``, chains ``python -m
 predictive synth`` → ``sspinn train`` → ``sspinn evaluate`` → ``sspinn adapt`` → ``sspinn
-evaluate``), ``train``, ``finetune``, ``adapt``, ``evaluate``, ``infer``, ``export``. ``--data``
+evaluate``), ``train``, ``finetune``, ``adapt``, ``evaluate``, ``infer``, ``export``,
+``experiment`` (the paper's claims, :mod:`sspinn.estimator.paper_experiments`). ``--data``
 accepts a dataset folder (with ``dataset.json``), a folder with an averaged stride
 (``signals.csv`` + ``meta.json``) or a single recording ``.csv``.
 """
@@ -219,6 +220,9 @@ def _main(argv: list[str]) -> int:
     from sspinn.imu import pipeline as imu_import  # sspinn import: vendor IMU files + sensor map → calibrated recording
 
     imu_import.add_parser(sub)
+    from sspinn.estimator import paper_experiments  # sspinn experiment: the paper's claims, arm by arm
+
+    paper_experiments.add_parser(sub)
 
     args = parser.parse_args(argv)
     if args.command == "showcase":
@@ -238,6 +242,8 @@ def _main(argv: list[str]) -> int:
         return _export(args)
     if args.command == "import":
         return imu_import.run(args)
+    if args.command == "experiment":
+        return paper_experiments.run_command(args)
     raise AssertionError(args.command)  # argparse enforces the sub-commands
 
 
