@@ -176,6 +176,8 @@ class GaitPriorConfig:
         symmetry_weight: weight of the foot-balance term (per unit difference of the feet's
             loaded shares; 0: none).
         symmetry_time: time constant of the loaded shares' moving averages, s.
+        mirror_weight: weight of the half-stride mirror term (RMS left/right joint-angle
+            difference half a reference stride apart, in units of ``angle_scale``; 0: none).
     """
 
     gait: str | None = None
@@ -184,6 +186,7 @@ class GaitPriorConfig:
     speed_scale: float = option(3.0, gt=0, unit="rad/s")
     symmetry_weight: float = option(0.0, ge=0)
     symmetry_time: float = option(1.0, gt=0, unit="s")
+    mirror_weight: float = option(0.0, ge=0)
 
 
 @dataclass(frozen=True)

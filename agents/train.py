@@ -85,7 +85,7 @@ def with_prior(config: AgentConfig, venv: VecEnv) -> VecEnv:
     if p.gait is None:
         return venv
     return GaitPriorReward(venv, GaitPrior.from_file(p.gait, p.weight, p.angle_scale, p.speed_scale,
-                                                     p.symmetry_weight, p.symmetry_time))
+                                                     p.symmetry_weight, p.symmetry_time, p.mirror_weight))
 
 
 class PeriodicCheckpoint(BaseCallback):

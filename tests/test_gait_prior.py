@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import gymnasium
 import numpy as np
 import pytest
 
@@ -120,3 +121,45 @@ def test_foot_balance_term_follows_the_loaded_shares() -> None:
     assert min(penalties) < -0.1  # random actions unload the feet unequally at some point
     with pytest.raises(UserError, match="symmetry_weight must be ≥ 0"):
         GaitPrior.from_file(WALK, weight=1.0, angle_scale=0.2, speed_scale=3.0, symmetry_weight=-1.0)
+
+
+class _Replay(gymnasium.Env):
+    """Replays fixed observations (a reference stride, possibly altered) with zero reward."""
+
+    observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (22,), np.float32)
+    action_space = gymnasium.spaces.Box(-1.0, 1.0, (6,), np.float32)
+
+    def __init__(self, observations: np.ndarray) -> None:
+        self.observations, self.k = observations.astype(np.float32), 0
+
+    def reset(self, *, seed=None, options=None):  # type: ignore[no-untyped-def]
+        self.k = 0
+        return self.observations[0], {}
+
+    def step(self, action):  # type: ignore[no-untyped-def]
+        self.k += 1
+        return self.observations[self.k % len(self.observations)], 0.0, False, False, {}
+
+
+def test_mirror_term_is_zero_on_the_stride_and_charges_a_frozen_leg() -> None:
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    t = Trajectory.load(WALK)
+    prior = GaitPrior.from_file(WALK, weight=1.0, angle_scale=0.2, speed_scale=3.0, mirror_weight=1.0)
+    assert prior.half_stride_steps == round(len(t.q) / 2)
+    frozen_q = t.q.copy()
+    frozen_q[:, 6:9] = t.q[:, 6:9].mean(axis=0)
+    penalties = {}
+    for name, q in (("stride", t.q), ("frozen", frozen_q)):
+        obs = _obs(q, t.u)
+        env = GaitPriorReward(DummyVecEnv([lambda obs=obs: _Replay(obs)]), prior)
+        env.reset()
+        added = []
+        for _ in range(3 * len(obs)):
+            o, _, _, infos = env.step(np.zeros((1, 6), np.float32))
+            added.append(infos[0]["reward_prior"] - prior.reward(o)[0])
+        added = np.array(added)
+        assert np.all(added[: prior.half_stride_steps - 1] == 0.0)  # no history yet
+        penalties[name] = -added[prior.half_stride_steps:].mean()
+    assert penalties["stride"] < 1e-4
+    assert penalties["frozen"] > 0.5
