@@ -173,11 +173,11 @@ class GaitPriorConfig:
         weight: reward per step at zero distance to the nearest reference sample.
         angle_scale: σ of pelvis tilt and joint angles, rad.
         speed_scale: σ of their speeds, rad/s.
-        symmetry_weight: weight of the foot-balance term (per unit difference of the feet's
+        symmetry_weight: weight of the foot-balance bonus (× 1 − the difference of the feet's
             loaded shares; 0: none).
         symmetry_time: time constant of the loaded shares' moving averages, s.
-        mirror_weight: weight of the half-stride mirror term (RMS left/right joint-angle
-            difference half a reference stride apart, in units of ``angle_scale``; 0: none).
+        mirror_weight: weight of the half-stride mirror bonus (× exp(−RMS left/right joint-angle
+            difference half a reference stride apart, in units of ``angle_scale``); 0: none).
     """
 
     gait: str | None = None
