@@ -88,6 +88,7 @@ def test_run_comparison_end_to_end_on_tiny_budgets(tmp_path) -> None:
             {"name": "PPO", "kind": "sb3", "checkpoints": {1.3: str(tmp_path / "missing.zip")}},
         ],
         conditions={"push 20 % BW": {"disturbances": {"push_force": 20.0, "push_phase": "midstance_r"}}},
+        animation_s=0.2,
     )
     cells = run_comparison(cfg, tmp_path / "report")
     assert [c.method for c in cells] == ["generator", "PPO"]
@@ -100,6 +101,7 @@ def test_run_comparison_end_to_end_on_tiny_budgets(tmp_path) -> None:
     assert "| generator | 1.3 |" in text and "not trained" in text
     assert len(cells[0].conditions["push 20 % BW"]) == 1 and "condition_success" in summary
     assert "| method | speed (m/s) | nominal | push 20 % BW |" in text
+    assert (tmp_path / "report" / "gait_generator_1.3.gif").stat().st_size > 0
     with pytest.raises(ValueError, match="conditions.bad"):
         ComparisonConfig(conditions={"bad": {"target_speed": 2.0}})
     assert (tmp_path / "report" / "learning_curves.png").exists()

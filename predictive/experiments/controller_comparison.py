@@ -22,6 +22,8 @@ Disturbance conditions (``conditions``: name → ``env.reset`` options ``reset_n
 ``disturbances``, :class:`envs.disturbances.Disturbances`: pushes, observation noise and delay,
 actuator strength, body mismatch) rerun every controller's episodes, built for the nominal
 environment, under each condition; the report adds a table of episodes without a fall per condition.
+With ``animation_s`` > 0, each controller's first seconds at each speed are written as
+``gait_<method>_<speed>.gif``.
 
 Metrics per (method, speed), over the seeds: success rate (no fall in the episode, 10 s),
 |speed error| (m/s, mean speed over the episode vs target), cost of transport (the environment's
@@ -49,6 +51,7 @@ import numpy as np
 
 import envs  # noqa: F401  (registers the environment)
 from agents.checkpoints import checkpoint_steps, load_agent
+from agents.evaluate import write_animation
 from agents.plot_learning_curve import read_evaluations
 from agents.rollout import run_episode
 from predictive.controller import Controller as ControllerProtocol
@@ -119,6 +122,7 @@ class ComparisonConfig:
     data_dir: str | None = None
     snapshot_seeds: list[int] = field(default_factory=lambda: [0])
     conditions: dict[str, dict[str, Any]] = field(default_factory=dict)
+    animation_s: float = 0.0
 
     def __post_init__(self) -> None:
         self.methods = [m if isinstance(m, MethodSpec) else MethodSpec(**m) for m in self.methods]
@@ -132,6 +136,8 @@ class ComparisonConfig:
             raise ValueError(f"speeds must be a non-empty list of m/s in (0, 12], got {self.speeds}")
         if not self.seeds:
             raise ValueError("seeds must not be empty")
+        if not (0.0 <= self.animation_s <= 10.0):
+            raise ValueError(f"animation_s must be 0–10 s, got {self.animation_s}")
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> ComparisonConfig:
@@ -365,6 +371,25 @@ def evaluate_controller(
     return rows, cycle, states
 
 
+def slug(name: str) -> str:
+    """A file-name form of a method's name (letters, digits and underscores)."""
+    return "".join(c if c.isalnum() else "_" for c in name.lower()).strip("_")
+
+
+def write_gait_animation(built: BuiltController, config: ComparisonConfig, speed: float, path: Path) -> Path:
+    """The first ``config.animation_s`` s of the controller's nominal episode with the first reset
+    seed, rendered by the environment at 25 frames/s, as a GIF."""
+    steps = max(1, int(round(config.animation_s * 100)))
+    env = gymnasium.make("sspinn/SagittalWalker-v0", height=config.height, mass=config.mass, target_speed=speed,
+                         render_mode="rgb_array", max_episode_steps=steps)
+    try:
+        res = run_episode(episode_policy(built.controller), env, config.seeds[0], speed, frame_every=4,
+                          reset_options=start_options(built.controller))
+    finally:
+        env.close()
+    return write_animation(res.frames, path, fps=25)
+
+
 def run_comparison(config: ComparisonConfig, out: str | Path) -> list[CellResult]:
     """Run every method at every speed; write ``results.json``, ``report.md`` and plots to ``out``."""
     out = Path(out)
@@ -384,6 +409,8 @@ def run_comparison(config: ComparisonConfig, out: str | Path) -> list[CellResult
                 cell.stick_q = states[:: max(1, len(states) // 400)].tolist() if states is not None else None
                 for name, options in config.conditions.items():
                     cell.conditions[name] = evaluate_controller(ctrl, env, speed, config.seeds, reference, options)[0]
+                if config.animation_s > 0:
+                    write_gait_animation(ctrl, config, speed, out / f"gait_{slug(spec.name)}_{speed}.gif")
             cells.append(cell)
             s = cell.summary()
             print(f"[compare]   success {s.get('success_rate')}, distance {s.get('mean_distance_m')}, "
