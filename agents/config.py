@@ -178,6 +178,8 @@ class GaitPriorConfig:
         symmetry_time: time constant of the loaded shares' moving averages, s.
         mirror_weight: weight of the half-stride mirror bonus (× exp(−RMS left/right joint-angle
             difference half a reference stride apart, in units of ``angle_scale``); 0: none).
+        start_share: share of the training episodes that start at a random sample of the
+            reference stride instead of standing (0–1; evaluations always start standing).
     """
 
     gait: str | None = None
@@ -187,6 +189,7 @@ class GaitPriorConfig:
     symmetry_weight: float = option(0.0, ge=0)
     symmetry_time: float = option(1.0, gt=0, unit="s")
     mirror_weight: float = option(0.0, ge=0)
+    start_share: float = option(0.0, ge=0, le=1)
 
 
 @dataclass(frozen=True)

@@ -36,13 +36,22 @@ stride (stance asymmetry ≤ 10 %), hopping loads one foot only.
 A third optional term asks for a left/right symmetric gait at the reference's cadence: with T the
 reference stride's duration and θ_R, θ_L the three joint angles of each leg,
 
-    r_mirror = w_mirror · exp(−sqrt(mean((θ_L(t) − θ_R(t − T/2))² ∪ (θ_R(t) − θ_L(t − T/2))²) / σ_angle²)),
+    r_mirror = w_mirror · exp(−d_half) · (1 − exp(−d_same)),
+    d_half = sqrt(mean((θ_L(t) − θ_R(t − T/2))² ∪ (θ_R(t) − θ_L(t − T/2))²) / σ_angle²),
+    d_same = sqrt(mean((θ_L(t) − θ_R(t))²) / σ_angle²),
 
-from the second half stride of an episode on (0 before). Every term is a bonus in [0, w], never a
+from the second half stride of an episode on (0 before). The second factor rules out legs moving
+in step with each other (measured: with exp(−d_half) alone PPO learned to shuffle both legs in
+phase at twice the cadence, which is its own mirror half a stride later). Every term is a bonus in [0, w], never a
 penalty: with penalties the sum per step could turn negative, and PPO then learned to fall at
 once (measured: every evaluation episode fell within 0.4 s after 0.4 M steps). Why: balanced loading still allowed a
 gallop (measured at 0.4 M steps: loaded shares within 5–16 % but step times 180 % asymmetric, one
 foot landing right after the other); a symmetric gait is its own mirror image half a stride later.
+
+With ``start_share`` > 0 (configuration), that share of the training episodes starts at a random
+sample of the reference stride instead of standing (reference state initialisation, Peng et al.
+2018; the environment's ``reset_states``), so the policy meets the walking states from the first
+update on; evaluations always start standing.
 
 The terms are a wrapper of the training environments only (:class:`GaitPriorReward`, an SB3
 ``VecEnvWrapper`` applied inside ``VecNormalize``): observations, episodes and the environment's
@@ -92,6 +101,7 @@ class GaitPrior:
         symmetry_time: its averaging time constant, s.
         mirror_weight: w_mirror of the half-stride mirror term (0: none).
         half_stride_steps: T/2 in control steps (from the reference's duration).
+        trajectory: the reference stride itself.
     """
 
     states: np.ndarray
@@ -102,6 +112,7 @@ class GaitPrior:
     symmetry_time: float = 1.0
     mirror_weight: float = 0.0
     half_stride_steps: int = 1
+    trajectory: Trajectory | None = None
 
     @classmethod
     def from_file(cls, path: str | Path, weight: float, angle_scale: float, speed_scale: float,
@@ -130,7 +141,11 @@ class GaitPrior:
         return cls(states=states.astype(np.float64), scales=scales, weight=float(weight), source=str(file),
                    symmetry_weight=float(symmetry_weight), symmetry_time=float(symmetry_time),
                    mirror_weight=float(mirror_weight),
-                   half_stride_steps=max(1, round(trajectory.n_samples / 2)))
+                   half_stride_steps=max(1, round(trajectory.n_samples / 2)), trajectory=trajectory)
+
+    def stride_states(self) -> np.ndarray:
+        """The reference stride's (q, u) rows (K, 18), for ``WalkerConfig.reset_states``."""
+        return np.concatenate([self.trajectory.q, self.trajectory.u], axis=1)
 
     def reward(self, obs: np.ndarray) -> np.ndarray:
         """r_prior of each row of raw observations ``obs`` (N, 22) (module docstring), (N,)."""
@@ -188,7 +203,8 @@ class GaitPriorReward(VecEnvWrapper):
         past = self.angles[rows, slot]  # θ(t − T/2) where a half stride has passed
         diff = np.concatenate([angles[:, 3:] - past[:, :3], angles[:, :3] - past[:, 3:]], axis=1)
         scale = self.prior.scales[0]
-        bonus = self.prior.mirror_weight * np.exp(-np.sqrt(np.mean(np.square(diff / scale), axis=1)))
+        same = np.sqrt(np.mean(np.square((angles[:, 3:] - angles[:, :3]) / scale), axis=1))
+        bonus = self.prior.mirror_weight * np.exp(-np.sqrt(np.mean(np.square(diff / scale), axis=1))) * (1.0 - np.exp(-same))
         bonus[self.steps < h] = 0.0
         self.angles[rows, slot] = angles
         self.steps += 1

@@ -64,18 +64,29 @@ def make_training_envs(config: AgentConfig, run_dir: Path, seed: int, append_mon
     if config.env.vec_env == "native":
         if config.env.threads is not None:
             numba.set_num_threads(min(config.env.threads, numba.config.NUMBA_NUM_THREADS))
-        venv: VecEnv = WalkerVecEnv(config.env.n_envs, **env_kwargs(config))
+        venv: VecEnv = WalkerVecEnv(config.env.n_envs, **env_kwargs(config, **reference_starts(config)))
         venv.seed(seed)
         return with_prior(config, PerEnvVecMonitor(venv, run_dir / "monitor", MONITOR_INFO_KEYS, append=append_monitor))
     vec_cls = SubprocVecEnv if config.env.vec_env == "subproc" else DummyVecEnv
     return with_prior(config, make_vec_env(
-        lambda: make_env(config),
+        lambda: make_env(config, **reference_starts(config)),
         n_envs=config.env.n_envs,
         seed=seed,
         vec_env_cls=vec_cls,
         monitor_dir=str(run_dir / "monitor"),
         monitor_kwargs={"info_keywords": MONITOR_INFO_KEYS, "override_existing": not append_monitor},
     ))
+
+
+def reference_starts(config: AgentConfig) -> dict[str, Any]:
+    """Environment arguments that start ``config.prior.start_share`` of the training episodes at a
+    random sample of the prior's reference stride (none without a prior or share); evaluations
+    always start standing."""
+    p = config.prior
+    if p.gait is None or p.start_share == 0:
+        return {}
+    prior = GaitPrior.from_file(p.gait, p.weight, p.angle_scale, p.speed_scale)
+    return {"reset_states": prior.stride_states(), "reset_state_share": p.start_share}
 
 
 def with_prior(config: AgentConfig, venv: VecEnv) -> VecEnv:

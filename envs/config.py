@@ -26,6 +26,7 @@ from envs import task
 from envs.disturbances import Disturbances
 from sspinn.model.body import BodyParameters
 from sspinn.model.contact import ContactParameters
+from sspinn.model.conventions import N_Q
 from sspinn.model.passive import is_real
 from sspinn.model.simulation import METHODS
 from sspinn.yaml_config import config_from_mapping
@@ -114,6 +115,12 @@ class WalkerConfig:
             Default 0.2.
         contact: :class:`~sspinn.model.contact.ContactParameters` (stiffness, damping, μ, ...; its slip
             velocity is replaced by ``slip_velocity``); None → defaults.
+        reset_states: start states for a share of the episodes, (K, 18) rows (q, u) (m, rad, m/s,
+            rad/s; pelvis_tx is reset to 0), e.g. the samples of a walking stride (reference state
+            initialisation for training, Peng et al. 2018, *DeepMimic*); None: every episode
+            starts standing. A ``reset`` with ``options["initial_state"]`` ignores them.
+        reset_state_share: share of the episodes that start at a uniformly drawn row of
+            ``reset_states``, in [0, 1]. Default 0.
         disturbances: the disturbance tests of every episode, a
             :class:`~envs.disturbances.Disturbances` or a mapping of its fields (pushes, observation
             noise and delay, actuator strength, body mismatch; units there). Default: none.
@@ -139,6 +146,8 @@ class WalkerConfig:
     joint_limit_stiffness: float = task.DEFAULT_LIMIT_STIFFNESS
     joint_damping: float = task.DEFAULT_JOINT_DAMPING
     reset_noise_scale: float = 0.005
+    reset_states: Any = None
+    reset_state_share: float = 0.0
     max_episode_steps: int = 1000
     substeps: int = SUBSTEPS
     method: str = METHOD
@@ -180,6 +189,20 @@ class WalkerConfig:
         if not is_real(self.reset_noise_scale) or not 0 <= self.reset_noise_scale <= 0.1:
             raise ValueError(f"reset_noise_scale must be a number in [0, 0.1] (m, rad), got {self.reset_noise_scale!r}")
         put("reset_noise_scale", float(self.reset_noise_scale))
+        if not is_real(self.reset_state_share) or not 0 <= self.reset_state_share <= 1:
+            raise ValueError(f"reset_state_share must be a number in [0, 1], got {self.reset_state_share!r}")
+        put("reset_state_share", float(self.reset_state_share))
+        if self.reset_states is not None:
+            try:
+                states = np.array(self.reset_states, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise ValueError("reset_states must be a (K, 18) array of (q, u) rows") from None
+            if states.ndim != 2 or states.shape[1] != 2 * N_Q or len(states) == 0 or not np.isfinite(states).all():
+                raise ValueError(f"reset_states must be a finite (K, {2 * N_Q}) array of (q, u) rows, got shape {states.shape}")
+            states.flags.writeable = False
+            put("reset_states", states)
+        elif self.reset_state_share > 0:
+            raise ValueError("reset_state_share > 0 needs reset_states")
         _, substeps, method = task.check_physics(CONTROL_DT, self.substeps, self.method, METHODS)
         put("substeps", substeps)
         tau_max = task.max_torques(self.max_torque, body.segment_mass_total)

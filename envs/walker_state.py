@@ -4,7 +4,9 @@ shared by :class:`~envs.sagittal_walker.SagittalWalkerEnv` (N = 1) and
 
 A reset draws, for each walker being reset and from *that walker's* ``numpy.random.Generator``
 (the single environment's ``np_random``; one per sub-environment of the vector environment), in
-this order: the target speed (only when the configuration gives a range), 8 uniform numbers of
+this order: the target speed (only when the configuration gives a range), one uniform number and
+one integer (only with ``reset_state_share`` > 0 and no ``initial_state`` option: whether and from
+which row of ``reset_states`` the episode starts), 8 uniform numbers of
 coordinate noise, 9 of speed noise, and — only when observation noise is on — one 63-bit key of
 the observation-noise generator (:mod:`envs.kernels`). The same seed therefore gives the same
 episode in both environments. The Python loop of a reset runs over the walkers being reset only;
@@ -178,6 +180,7 @@ class WalkerState:
         low, high = self.config.target_range
         noise = setup.noise_scale
         noisy_obs = bool(episode["noise_std"].any())
+        starts = self.config.reset_states if self.config.reset_state_share > 0 else None
         for n, (i, rng) in enumerate(zip(rows, rngs)):
             if setup.target_speed is not None:
                 target = float(setup.target_speed[n])
@@ -187,6 +190,9 @@ class WalkerState:
             q[1] = episode["standing"]
             if setup.initial_state is not None:
                 q, u = setup.initial_state[0].copy(), setup.initial_state[1].copy()
+            elif starts is not None and rng.uniform() < self.config.reset_state_share:
+                row = starts[int(rng.integers(len(starts)))]
+                q, u = row[:N_Q].copy(), row[N_Q:].copy()
             q[0] = 0.0
             q[1:] += rng.uniform(-noise, noise, N_Q - 1)
             u = u + rng.uniform(-noise, noise, N_Q)
