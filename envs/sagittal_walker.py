@@ -248,6 +248,8 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     joint_limit_stiffness  10000                        soft-limit stiffness, N·m/rad²
     joint_damping          1.0                          viscous joint damping, N·m·s/rad
     reset_noise_scale      0.005                        initial-state noise half-width (m, rad, /s)
+    reset_states           None                         (K, 18) start states (q, u) for a share of episodes
+    reset_state_share      0.0                          share of episodes starting at a random row of them
     max_episode_steps      1000                         truncation, control steps (0.01 s each)
     substeps               50                           physics substeps per control step
     method                 "semi_implicit_euler"        integrator ("semi_implicit_euler" or "rk4")
