@@ -107,7 +107,8 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     ``reset(options={"target_speed": v})``. ``reset(options={"initial_state": (q, u)})`` starts
     from another state instead of standing (q, u: 9 coordinates and speeds in SI units; pelvis_tx
     is set to 0 and the same noise is added) — e.g. on a gait cycle, for controllers that track one
-    (:mod:`predictive.generator.closed_loop`). ``reset(options={"reset_noise_scale": s})`` changes
+    (:mod:`predictive.generator.closed_loop`); the state is one of the announced body, so under a
+    body disturbance pelvis_ty is shifted by the difference of the standing hip heights. ``reset(options={"reset_noise_scale": s})`` changes
     the noise half-width for that episode; ``reset(options={"disturbances": {...}})`` its
     disturbances (below). Other option keys are a ``ValueError``. The random draws of a reset are
     listed in :mod:`envs.walker_state`.

@@ -39,7 +39,10 @@ class EpisodeSetup:
 
     Attributes:
         target_speed: m/s per reset walker (N_reset,), or None to use the configuration's.
-        initial_state: (q, u) SI arrays (9,) each, or None to start standing.
+        initial_state: (q, u) SI arrays (9,) each, or None to start standing. The state is one of
+            the announced body: when a body disturbance makes the simulated body's standing hip
+            height differ, pelvis_ty is shifted by that difference (the feet start as they would
+            on the announced body instead of in the ground or in the air).
         noise_scale: half-width of the uniform initial-state noise (m, rad, m/s, rad/s).
         disturbances: the episode's :class:`~envs.disturbances.Disturbances`.
     """
@@ -188,8 +191,9 @@ class WalkerState:
                 target = low if low == high else float(rng.uniform(low, high))
             q, u = np.zeros(N_Q), np.zeros(N_Q)
             q[1] = episode["standing"]
-            if setup.initial_state is not None:
+            if setup.initial_state is not None:  # given for the announced body: keep the feet where they are
                 q, u = setup.initial_state[0].copy(), setup.initial_state[1].copy()
+                q[1] += episode["standing"] - self.config.standing_height
             elif starts is not None and rng.uniform() < self.config.reset_state_share:
                 row = starts[int(rng.integers(len(starts)))]
                 q, u = row[:N_Q].copy(), row[N_Q:].copy()

@@ -152,3 +152,36 @@ def test_sb3_controller_passes_state_and_episode_start_to_the_model() -> None:
     obs, st, start, det = Agent.model.seen
     np.testing.assert_array_equal(obs, 2 * np.ones(22))
     assert st is None and start is True and det is True
+
+
+def test_leg_length_calibration_picks_a_controller_per_episode() -> None:
+    from predictive.controller import LegLengthCalibrated
+    from sspinn.model.body import BodyParameters
+
+    made = []
+
+    class Fixed:
+        def __init__(self, body):
+            self.body, self.initial_state = body, (np.array([0, 0.9 * body.height / 1.75] + [0] * 7, float), np.zeros(9))
+
+        def predict(self, obs, state=None, episode_start=None, deterministic=True):
+            return np.full(6, self.body.height, np.float32), (0 if state is None else state + 1)
+
+    class Source:
+        def controller_for(self, speed, body=None):
+            made.append(body.height)
+            return Fixed(body)
+
+    body = BodyParameters.from_anthropometry(1.75, 70.0)
+    ctrl = LegLengthCalibrated(Source(), 1.3, body)
+    obs = np.zeros(22)
+    obs[0] = 0.9 * 1.05  # legs 5 % longer than announced
+    action, state = ctrl.predict(obs, None)
+    assert action[0] == pytest.approx(1.75 * 1.05) and state[0][0] == pytest.approx(1.05)
+    action, state = ctrl.predict(obs * 0 + 0.9, state, episode_start=False)  # within an episode: kept
+    assert action[0] == pytest.approx(1.75 * 1.05) and state[1][0] == 1
+    obs[0] = 0.9 * 1.004  # within the tolerance: the nominal controller
+    action, state = ctrl.predict(obs, state, episode_start=True)
+    assert action[0] == pytest.approx(1.75) and state[0][0] == 1.0
+    ctrl.predict(np.r_[0.9 * 1.05, np.zeros(21)], state, episode_start=True)
+    assert made == pytest.approx([1.75, 1.75 * 1.05])  # made once per ratio

@@ -55,7 +55,7 @@ from agents.evaluate import write_animation
 from agents.plot_learning_curve import read_evaluations
 from agents.rollout import run_episode
 from predictive.controller import Controller as ControllerProtocol
-from predictive.controller import episode_policy, start_options
+from predictive.controller import LegLengthCalibrated, episode_policy, start_options
 from predictive.generator.closed_loop import TrackerSettings
 from predictive.generator.controllers import GeneratorControllers, OCPControllers
 from predictive.ocp.collocation import OCPError
@@ -91,6 +91,8 @@ class MethodSpec:
         n_nodes: OCP nodes per half cycle (kind ocp).
         checkpoints: target speed (m/s) → SB3 checkpoint .zip (kind sb3); speeds without one are
             reported as "not trained".
+        calibrate_legs: (kind generator) read the leg length from each episode's first observation
+            and re-plan for it (:class:`predictive.controller.LegLengthCalibrated`).
     """
 
     name: str
@@ -100,6 +102,7 @@ class MethodSpec:
     refine_kane_factor: float = 10.0
     n_nodes: int = 100
     checkpoints: dict[float, str] = field(default_factory=dict)
+    calibrate_legs: bool = False
 
     def __post_init__(self) -> None:
         if self.kind not in ("generator", "ocp", "sb3"):
@@ -190,6 +193,12 @@ def tracked(source: Any, speed: float, env: Any, setup_s: float) -> BuiltControl
 def generator_controller(spec: MethodSpec, config: ComparisonConfig, speed: float, env: Any) -> BuiltController:
     source = GeneratorControllers.from_file(spec.model, tracker=config.tracker, refine_iterations=spec.refine_iterations,
                                             refine_kane_factor=spec.refine_kane_factor)
+    if spec.calibrate_legs:
+        start = time.perf_counter()
+        calibrated = LegLengthCalibrated(source, speed, env.unwrapped.body)
+        info = calibrated.info
+        return BuiltController(calibrated, source.training_time_s, time.perf_counter() - start, info.get("plan"),
+                               info.get("note", ""))
     return tracked(source, speed, env, source.training_time_s)
 
 
