@@ -254,3 +254,19 @@ def test_phase_penalty_for_feet_that_neither_land_nor_lift_off() -> None:
         differences.append(plain.step(ZERO)[1] - r_pen)
         assert batched.step(torch.zeros(1, 6, dtype=torch.float64))[1].item() == pytest.approx(r_pen, rel=1e-6)
     np.testing.assert_allclose(differences, [0.0] * 4 + [1.0] * 4, atol=1e-12)  # 2 feet × 0.5 from 0.05 s on
+
+
+def test_an_initial_state_is_shifted_to_the_simulated_bodys_standing_height() -> None:
+    import gymnasium as gym
+
+    q0 = np.zeros(9)
+    q0[1], q0[3], q0[6] = 0.90, 0.3, -0.3  # a walking-like pose, hips ±0.3 rad
+    u0 = np.zeros(9)
+    env = gym.make("sspinn/SagittalWalker-v0").unwrapped
+    env.reset(seed=0, options={"initial_state": (q0, u0), "reset_noise_scale": 0.0})
+    nominal_y = env.state[0][1]
+    assert nominal_y == pytest.approx(0.90)
+    env.reset(seed=0, options={"initial_state": (q0, u0), "reset_noise_scale": 0.0,
+                               "disturbances": {"length_change": 5.0}})
+    longer = env.state[0][1]
+    assert longer - nominal_y == pytest.approx(0.05 * env.body.standing_hip_height, rel=0.05)

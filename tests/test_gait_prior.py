@@ -187,16 +187,3 @@ def test_reset_states_start_a_share_of_episodes_on_the_stride_in_both_environmen
     with pytest.raises(ValueError, match="reset_states must be a finite"):
         gym.make("sspinn/SagittalWalker-v0", reset_states=np.zeros((3, 5)), reset_state_share=0.5)
 
-
-def test_an_initial_state_is_shifted_to_the_simulated_bodys_standing_height() -> None:
-    import gymnasium as gym
-
-    t = Trajectory.load(WALK)
-    env = gym.make("sspinn/SagittalWalker-v0").unwrapped
-    env.reset(seed=0, options={"initial_state": (t.q[0], t.u[0]), "reset_noise_scale": 0.0})
-    nominal_y = env.state[0][1]
-    assert nominal_y == pytest.approx(t.q[0, 1])
-    env.reset(seed=0, options={"initial_state": (t.q[0], t.u[0]), "reset_noise_scale": 0.0,
-                               "disturbances": {"length_change": 5.0}})
-    longer = env.state[0][1]
-    assert longer - nominal_y == pytest.approx(0.05 * env.body.standing_hip_height, rel=0.05)
