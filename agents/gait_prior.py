@@ -89,30 +89,26 @@ _OBS_COLUMNS: Final = tuple(OBS_INDEX[name] for name in PRIOR_COORDINATES) + tup
 
 @dataclass(frozen=True)
 class GaitPrior:
-    """The reference states of one stride and the scales of the distance to them.
+    """One reference stride and the scales of the distance to it.
 
     Attributes:
-        states: (K, 14) pelvis tilt and joint angles (rad), then their speeds (rad/s), one row per sample.
-        scales: (14,) σ of each column (rad, then rad/s).
+        trajectory: the reference stride (one full cycle).
+        scales: (14,) σ of each column of :attr:`states` (rad, then rad/s).
         weight: w, reward per step at zero distance (the environment's tracking term is at most
             ``tracking_weight``, 1 by default).
         source: the reference file, for messages.
         symmetry_weight: w_sym of the foot-balance term (0: none).
         symmetry_time: its averaging time constant, s.
         mirror_weight: w_mirror of the half-stride mirror term (0: none).
-        half_stride_steps: T/2 in control steps (from the reference's duration).
-        trajectory: the reference stride itself.
     """
 
-    states: np.ndarray
+    trajectory: Trajectory
     scales: np.ndarray
     weight: float
     source: str
     symmetry_weight: float = 0.0
     symmetry_time: float = 1.0
     mirror_weight: float = 0.0
-    half_stride_steps: int = 1
-    trajectory: Trajectory | None = None
 
     @classmethod
     def from_file(cls, path: str | Path, weight: float, angle_scale: float, speed_scale: float,
@@ -135,13 +131,27 @@ class GaitPrior:
         for name, value in (("symmetry_weight", symmetry_weight), ("mirror_weight", mirror_weight)):
             if not (np.isfinite(value) and value >= 0):
                 raise UserError(f"{file}: gait prior {name} must be ≥ 0, got {value}")
-        states = np.concatenate([trajectory.q[:, _Q_COLUMNS], trajectory.u[:, _Q_COLUMNS]], axis=1)
         n = len(_Q_COLUMNS)
         scales = np.concatenate([np.full(n, angle_scale), np.full(n, speed_scale)])
-        return cls(states=states.astype(np.float64), scales=scales, weight=float(weight), source=str(file),
+        return cls(trajectory=trajectory, scales=scales, weight=float(weight), source=str(file),
                    symmetry_weight=float(symmetry_weight), symmetry_time=float(symmetry_time),
-                   mirror_weight=float(mirror_weight),
-                   half_stride_steps=max(1, round(trajectory.n_samples / 2)), trajectory=trajectory)
+                   mirror_weight=float(mirror_weight))
+
+    def __post_init__(self) -> None:
+        # the compared columns of every sample, computed once (the reward reads them at every step)
+        t = self.trajectory
+        object.__setattr__(self, "_states", np.concatenate([t.q[:, _Q_COLUMNS], t.u[:, _Q_COLUMNS]], axis=1)
+                           .astype(np.float64))
+
+    @property
+    def states(self) -> np.ndarray:
+        """(K, 14) pelvis tilt and joint angles (rad), then their speeds (rad/s), one row per sample."""
+        return self._states  # type: ignore[attr-defined,no-any-return]
+
+    @property
+    def half_stride_steps(self) -> int:
+        """T/2 in control steps (half the reference's samples, at least 1)."""
+        return max(1, round(self.trajectory.n_samples / 2))
 
     def stride_states(self) -> np.ndarray:
         """The reference stride's (q, u) rows (K, 18), for ``WalkerConfig.reset_states``."""

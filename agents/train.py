@@ -42,8 +42,8 @@ from agents.checkpoints import (
     vecnormalize_path,
 )
 from agents.config import AgentConfig, save_config
-from agents.rollout import SUMMARY_GAIT_KEYS, run_episode, summarize
 from agents.gait_prior import GaitPrior, GaitPriorReward
+from agents.rollout import SUMMARY_GAIT_KEYS, run_episode, summarize
 from agents.vec_env import PerEnvVecMonitor, WalkerVecEnv
 from sspinn.data.gait_metrics import winter_or_none
 from sspinn.run_folder import RunLock, atomic_write_text
@@ -60,43 +60,46 @@ EVAL_COLUMNS: tuple[str, ...] = (
 def make_training_envs(config: AgentConfig, run_dir: Path, seed: int, append_monitor: bool = False) -> VecEnv:
     """``n_envs`` seeded environments (seeds ``seed``, ``seed + 1``, ...) with one Monitor CSV log
     per environment (``<run>/monitor/<i>.monitor.csv``): the native vector environment
-    (``env.vec_env: native``) or SB3's ``DummyVecEnv``/``SubprocVecEnv`` of single environments."""
+    (``env.vec_env: native``) or SB3's ``DummyVecEnv``/``SubprocVecEnv`` of single environments;
+    with ``config.prior``, its training reward outside the Monitor logs (which keep the
+    environment's own episode returns) and its reference starts."""
+    prior = load_prior(config)
+    starts = reference_starts(config, prior)
     if config.env.vec_env == "native":
         if config.env.threads is not None:
             numba.set_num_threads(min(config.env.threads, numba.config.NUMBA_NUM_THREADS))
-        venv: VecEnv = WalkerVecEnv(config.env.n_envs, **env_kwargs(config, **reference_starts(config)))
+        venv: VecEnv = WalkerVecEnv(config.env.n_envs, **env_kwargs(config, **starts))
         venv.seed(seed)
-        return with_prior(config, PerEnvVecMonitor(venv, run_dir / "monitor", MONITOR_INFO_KEYS, append=append_monitor))
-    vec_cls = SubprocVecEnv if config.env.vec_env == "subproc" else DummyVecEnv
-    return with_prior(config, make_vec_env(
-        lambda: make_env(config, **reference_starts(config)),
-        n_envs=config.env.n_envs,
-        seed=seed,
-        vec_env_cls=vec_cls,
-        monitor_dir=str(run_dir / "monitor"),
-        monitor_kwargs={"info_keywords": MONITOR_INFO_KEYS, "override_existing": not append_monitor},
-    ))
+        venv = PerEnvVecMonitor(venv, run_dir / "monitor", MONITOR_INFO_KEYS, append=append_monitor)
+    else:
+        vec_cls = SubprocVecEnv if config.env.vec_env == "subproc" else DummyVecEnv
+        venv = make_vec_env(
+            lambda: make_env(config, **starts),
+            n_envs=config.env.n_envs,
+            seed=seed,
+            vec_env_cls=vec_cls,
+            monitor_dir=str(run_dir / "monitor"),
+            monitor_kwargs={"info_keywords": MONITOR_INFO_KEYS, "override_existing": not append_monitor},
+        )
+    return venv if prior is None else GaitPriorReward(venv, prior)
 
 
-def reference_starts(config: AgentConfig) -> dict[str, Any]:
+def load_prior(config: AgentConfig) -> GaitPrior | None:
+    """The gait prior of ``config.prior`` (:mod:`agents.gait_prior`), or None without a reference stride."""
+    p = config.prior
+    if p.gait is None:
+        return None
+    return GaitPrior.from_file(p.gait, p.weight, p.angle_scale, p.speed_scale, p.symmetry_weight, p.symmetry_time,
+                               p.mirror_weight)
+
+
+def reference_starts(config: AgentConfig, prior: GaitPrior | None) -> dict[str, Any]:
     """Environment arguments that start ``config.prior.start_share`` of the training episodes at a
     random sample of the prior's reference stride (none without a prior or share); evaluations
     always start standing."""
-    p = config.prior
-    if p.gait is None or p.start_share == 0:
+    if prior is None or config.prior.start_share == 0:
         return {}
-    prior = GaitPrior.from_file(p.gait, p.weight, p.angle_scale, p.speed_scale)
-    return {"reset_states": prior.stride_states(), "reset_state_share": p.start_share}
-
-
-def with_prior(config: AgentConfig, venv: VecEnv) -> VecEnv:
-    """``venv`` with the gait-prior training reward of ``config.prior`` (:mod:`agents.gait_prior`), if
-    set, outside the Monitor logs (which keep the environment's own episode returns)."""
-    p = config.prior
-    if p.gait is None:
-        return venv
-    return GaitPriorReward(venv, GaitPrior.from_file(p.gait, p.weight, p.angle_scale, p.speed_scale,
-                                                     p.symmetry_weight, p.symmetry_time, p.mirror_weight))
+    return {"reset_states": prior.stride_states(), "reset_state_share": config.prior.start_share}
 
 
 class PeriodicCheckpoint(BaseCallback):
