@@ -35,7 +35,7 @@ import re
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -43,6 +43,9 @@ from agents.builders import action_noise, algorithm_class, hyperparameter, make_
 from agents.config import AgentConfig, ConfigError, load_config
 from sspinn.errors import UserError, one_line
 from sspinn.run_folder import atomic_path
+
+if TYPE_CHECKING:  # imports stable-baselines3, which loading waits for
+    from agents.gait_prior import GaitPrior
 
 CHECKPOINT_DIR = "checkpoints"
 CHECKPOINT_PREFIX = "model"
@@ -95,7 +98,20 @@ def find_config(checkpoint: str | Path) -> AgentConfig:
 
 @dataclass
 class LoadedAgent:
-    """A saved SB3 model with its observation normalisation, callable as a deterministic policy."""
+    """A saved SB3 model with its observation normalisation, as a deterministic policy.
+
+    :meth:`predict` follows SB3's convention, ``predict(observation, state=None,
+    episode_start=None, deterministic=True) → (action, state)``: the state is the agent's memory
+    of the episode — the gait clock of an agent trained with ``prior.clock``
+    (:mod:`agents.gait_prior`), None otherwise — and starts afresh where ``episode_start`` is True
+    or ``state`` is None, so one agent drives any number of episodes. Calling the agent,
+    ``agent(observation)``, is the memoryless shortcut of agents without a clock.
+
+    Attributes:
+        model: the SB3 model. config: its run's configuration.
+        obs_mean, obs_var, clip_obs, epsilon: the VecNormalize statistics (None: not normalised).
+        prior: the gait prior whose clock the policy observes (None: no clock).
+    """
 
     model: object
     config: AgentConfig
@@ -103,6 +119,7 @@ class LoadedAgent:
     obs_var: np.ndarray | None = None
     clip_obs: float = 10.0
     epsilon: float = 1e-8
+    prior: GaitPrior | None = None
 
     def normalize(self, obs: np.ndarray) -> np.ndarray:
         """Observation as the network saw it in training (VecNormalize statistics, frozen)."""
@@ -111,9 +128,29 @@ class LoadedAgent:
         scaled = (obs - self.obs_mean) / np.sqrt(self.obs_var + self.epsilon)
         return np.clip(scaled, -self.clip_obs, self.clip_obs).astype(np.float32)
 
+    def predict(
+        self, observation: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = True
+    ) -> tuple[np.ndarray, Any]:
+        """Action(s) for an observation (22,) or a batch (n, 22), and the state to pass back next step."""
+        obs = np.asarray(observation, dtype=np.float32)
+        if self.prior is not None:
+            batch = obs.reshape(-1, obs.shape[-1])
+            n = len(batch)
+            starts = np.ones(n, dtype=bool) if state is None else np.broadcast_to(
+                np.asarray(False if episode_start is None else episode_start, dtype=bool).reshape(-1), (n,))
+            phase = np.zeros(n, dtype=np.int64) if state is None else (np.asarray(state, dtype=np.int64) + 1)
+            phase = phase % self.prior.period_steps
+            if starts.any():
+                phase[starts] = self.prior.start_phase(batch[starts])
+            obs = self.prior.with_clock(batch, phase).reshape(*obs.shape[:-1], -1)
+            state = phase
+        action, _ = self.model.predict(self.normalize(obs), deterministic=deterministic)  # type: ignore[attr-defined]
+        return action, state
+
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        action, _ = self.model.predict(self.normalize(obs), deterministic=True)  # type: ignore[attr-defined]
-        return action
+        if self.prior is not None:
+            raise TypeError("this agent observes a gait clock: drive it with predict(observation, state, episode_start)")
+        return self.predict(obs)[0]
 
 
 def load_agent(checkpoint: str | Path, config: AgentConfig | None = None, device: str = "cpu") -> LoadedAgent:
@@ -126,7 +163,10 @@ def load_agent(checkpoint: str | Path, config: AgentConfig | None = None, device
     if not path.is_file():
         raise FileNotFoundError(f"checkpoint {path} does not exist")
     config = config if config is not None else find_config(path)
-    agent = LoadedAgent(model=load_model(path, config, device=device), config=config)
+    from agents.gait_prior import GaitPrior
+
+    prior = GaitPrior.from_config(config.prior) if config.prior.clock else None
+    agent = LoadedAgent(model=load_model(path, config, device=device), config=config, prior=prior)
     stats = vecnormalize_path(path)
     if stats.is_file():
         vec_normalize = load_statistics(stats)
@@ -188,9 +228,12 @@ def safe_custom_objects(checkpoint: str | Path, config: AgentConfig) -> dict[str
         )
     from stable_baselines3.common.utils import FloatSchedule
 
+    from agents.gait_prior import clock_space
+
     env = make_env(config)
     try:
-        spaces = {"observation_space": env.observation_space, "action_space": env.action_space}
+        observation_space = clock_space(env.observation_space) if config.prior.clock else env.observation_space
+        spaces = {"observation_space": observation_space, "action_space": env.action_space}
     finally:
         env.close()
     network = policy_kwargs(config)

@@ -180,6 +180,10 @@ class GaitPriorConfig:
             difference half a reference stride apart, in units of ``angle_scale``); 0: none).
         start_share: share of the training episodes that start at a random sample of the
             reference stride instead of standing (0–1; evaluations always start standing).
+        clock: the policy observes a clock that runs through the reference stride once per
+            stride, and the prior compares with the clock's sample instead of the nearest one
+            (:mod:`agents.gait_prior`, "clock mode"); the saved agent keeps the clock as its
+            ``predict`` state.
     """
 
     gait: str | None = None
@@ -190,6 +194,7 @@ class GaitPriorConfig:
     symmetry_time: float = option(1.0, gt=0, unit="s")
     mirror_weight: float = option(0.0, ge=0)
     start_share: float = option(0.0, ge=0, le=1)
+    clock: bool = False
 
 
 @dataclass(frozen=True)

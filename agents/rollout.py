@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import gymnasium
 import numpy as np
@@ -35,6 +35,13 @@ from sspinn.model.trajectory import Trajectory
 
 #: A policy: observation (22,) float32 → action (6,) in [−1, 1].
 PolicyFn = Callable[[np.ndarray], np.ndarray]
+
+
+class Predictor(Protocol):
+    """A policy with memory, in SB3's convention (e.g. :class:`agents.checkpoints.LoadedAgent`)."""
+
+    def predict(self, observation: np.ndarray, state: Any = None, episode_start: Any = None,
+                deterministic: bool = True) -> tuple[np.ndarray, Any]: ...
 #: Gait events before this time (s after reset) are left out of the gait metrics: gait initiation.
 GAIT_SETTLE_S = 1.0
 
@@ -92,7 +99,7 @@ class EpisodeResult:
 
 
 def run_episode(
-    policy: PolicyFn,
+    policy: PolicyFn | Predictor,
     env: gymnasium.Env,
     seed: int,
     target_speed: float | None = None,
@@ -103,7 +110,8 @@ def run_episode(
     """Run one episode of ``policy`` in ``env`` from ``reset(seed=seed)`` until it ends.
 
     Args:
-        policy: deterministic map from observation to action.
+        policy: deterministic map from observation to action, or an object with SB3's
+            ``predict(observation, state, episode_start)``, whose state starts with this episode.
         env: a SagittalWalker environment (``render_mode="rgb_array"`` when ``frame_every > 0``).
         seed: reset seed (initial-state noise).
         target_speed: m/s, passed as ``reset(options={"target_speed": ...})``; None keeps the env's.
@@ -126,8 +134,15 @@ def run_episode(
     total = 0.0
     steps = 0
     terminated = truncated = False
+    predict = getattr(policy, "predict", None)
+    state, start = None, True
     while not (terminated or truncated):
-        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        if predict is not None:
+            action, state = predict(obs, state, episode_start=start)
+            start = False
+        else:
+            action = policy(obs)  # type: ignore[operator]
+        obs, reward, terminated, truncated, info = env.step(action)
         total += float(reward)
         steps += 1
         q, u = unwrapped.state

@@ -86,11 +86,7 @@ def make_training_envs(config: AgentConfig, run_dir: Path, seed: int, append_mon
 
 def load_prior(config: AgentConfig) -> GaitPrior | None:
     """The gait prior of ``config.prior`` (:mod:`agents.gait_prior`), or None without a reference stride."""
-    p = config.prior
-    if p.gait is None:
-        return None
-    return GaitPrior.from_file(p.gait, p.weight, p.angle_scale, p.speed_scale, p.symmetry_weight, p.symmetry_time,
-                               p.mirror_weight)
+    return GaitPrior.from_config(config.prior)
 
 
 def reference_starts(config: AgentConfig, prior: GaitPrior | None) -> dict[str, Any]:
@@ -139,6 +135,7 @@ class WalkerEvalCallback(BaseCallback):
         self.vec_normalize = vec_normalize
         self.eval_env = make_env(config)
         self.reference = winter_or_none() if config.env.target_speed < WALKING_BELOW_M_S else None
+        self.prior = load_prior(config) if config.prior.clock else None  # the policy's clock
         self.csv_path = run_dir / "evaluations.csv"
         self.best_return = -math.inf
         self.next_eval = 0
@@ -163,7 +160,7 @@ class WalkerEvalCallback(BaseCallback):
 
     def current_policy(self) -> LoadedAgent:
         """The model being trained with a frozen copy of the current observation statistics."""
-        agent = LoadedAgent(model=self.model, config=self.config)
+        agent = LoadedAgent(model=self.model, config=self.config, prior=self.prior)
         if self.vec_normalize is not None and self.vec_normalize.norm_obs:
             agent.obs_mean = self.vec_normalize.obs_rms.mean.copy()
             agent.obs_var = self.vec_normalize.obs_rms.var.copy()

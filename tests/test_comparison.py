@@ -130,28 +130,24 @@ def test_bench_predictive_times_a_new_speed(tmp_path, capsys) -> None:
     assert len(rows["bodies"]) == 2 and "Other bodies" in out
 
 
-def test_sb3_controller_passes_state_and_episode_start_to_the_model() -> None:
+def test_sb3_controller_is_the_agents_predict_with_state_and_episode_start() -> None:
+    from agents.checkpoints import LoadedAgent
     from predictive.controller import Controller
     from predictive.experiments.controller_comparison import SB3Controller
 
     class Model:
         def predict(self, observation, state=None, episode_start=None, deterministic=True):
-            self.seen = (observation.copy(), state, episode_start, deterministic)
-            return np.ones(6, np.float32), "memory"
+            self.seen = (observation.copy(), deterministic)
+            return np.ones(6, np.float32), None
 
-    class Agent:
-        model = Model()
-
-        def normalize(self, obs):
-            return obs * 2
-
-    ctrl = SB3Controller(Agent())
+    agent = LoadedAgent(model=Model(), config=None, obs_mean=np.full(22, 1.0), obs_var=np.full(22, 0.25))  # type: ignore[arg-type]
+    ctrl = SB3Controller(agent)
     assert isinstance(ctrl, Controller) and ctrl.initial_state is None
-    action, state = ctrl.predict(np.ones(22, np.float32), None, episode_start=True)
-    assert state == "memory" and action.shape == (6,)
-    obs, st, start, det = Agent.model.seen
-    np.testing.assert_array_equal(obs, 2 * np.ones(22))
-    assert st is None and start is True and det is True
+    action, state = ctrl.predict(np.full(22, 2.0, np.float32), None, episode_start=True)
+    assert state is None and action.shape == (6,)
+    obs, det = agent.model.seen
+    np.testing.assert_allclose(obs, 2.0, rtol=1e-6)  # normalised as in training: (2 − 1) / 0.5
+    assert det is True
 
 
 def test_leg_length_calibration_picks_a_controller_per_episode() -> None:

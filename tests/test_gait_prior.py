@@ -187,3 +187,72 @@ def test_reset_states_start_a_share_of_episodes_on_the_stride_in_both_environmen
     with pytest.raises(ValueError, match="reset_states must be a finite"):
         gym.make("sspinn/SagittalWalker-v0", reset_states=np.zeros((3, 5)), reset_state_share=0.5)
 
+
+
+def test_clock_wrapper_appends_the_clock_and_rewards_the_clock_sample() -> None:
+    prior = GaitPrior.from_file(WALK, weight=1.0, angle_scale=0.2, speed_scale=3.0, clock=True)
+    k = prior.period_steps
+    plain, wrapped = WalkerVecEnv(3, target_speed=1.3), GaitPriorReward(WalkerVecEnv(3, target_speed=1.3), prior)
+    assert wrapped.observation_space.shape == (24,)
+    plain.seed(5)
+    wrapped.seed(5)
+    raw = plain.reset()
+    obs = wrapped.reset()
+    phase = prior.start_phase(raw)
+    np.testing.assert_array_equal(obs[:, :22], raw)
+    np.testing.assert_allclose(obs[:, 22:], np.stack([np.sin(2 * np.pi * phase / k), np.cos(2 * np.pi * phase / k)], 1),
+                               atol=1e-6)
+    actions = np.random.default_rng(0).uniform(-1, 1, (60, 3, 6)).astype(np.float32)
+    ended = 0
+    for a in actions:
+        obs0, r0, d0, i0 = plain.step(a)
+        obs1, r1, d1, i1 = wrapped.step(a)
+        clock = (phase + 1) % k
+        seen = np.array([i0[j]["terminal_observation"] if d0[j] else obs0[j] for j in range(3)])
+        np.testing.assert_allclose(r1 - r0, prior.reward(seen, clock), rtol=1e-5, atol=1e-6)
+        for j in np.flatnonzero(d0):  # the final observation carries the clock of its step
+            np.testing.assert_allclose(i1[j]["terminal_observation"], prior.with_clock(seen[j:j + 1], clock[j:j + 1])[0])
+        clock[d0] = prior.start_phase(obs0[d0]) if d0.any() else clock[d0]  # a new episode restarts its clock
+        np.testing.assert_allclose(obs1, prior.with_clock(obs0, clock))
+        phase = clock
+        ended += int(d0.sum())
+    assert ended > 0
+    # on the stride, the clock's sample is the right one and the nearest one
+    t = Trajectory.load(WALK)
+    np.testing.assert_array_equal(prior.start_phase(_obs(t.q, t.u)), np.arange(k))
+    np.testing.assert_allclose(prior.reward(_obs(t.q, t.u), np.arange(k)), 1.0)
+    # half a stride off the clock, the same states score low though each is near another sample
+    assert prior.reward(_obs(t.q, t.u), np.arange(k) + k // 2).mean() < 0.3
+
+
+def test_a_clock_agent_restarts_its_clock_with_every_episode(tmp_path: Path) -> None:
+    from agents.checkpoints import load_agent
+    from agents.rollout import run_episode
+
+    config = config_from_dict({
+        "algo": "ppo", "seed": 1, "total_timesteps": 128,
+        "env": {"n_envs": 2, "kwargs": {"target_speed": 1.3, "max_episode_steps": 40}},
+        "prior": {"gait": str(WALK), "weight": 1.0, "clock": True, "start_share": 0.5},
+        "policy": {"net_arch": [16]},
+        "hyperparameters": {"n_steps": 64, "batch_size": 32, "n_epochs": 1},
+        "logging": {"checkpoint_freq": 10_000, "eval_freq": 0, "tensorboard": False},
+    })
+    train(config, tmp_path / "run")
+    agent = load_agent(tmp_path / "run" / "final_model.zip")
+    assert agent.prior is not None and agent.prior.clock
+    with pytest.raises(TypeError, match="predict"):
+        agent(np.zeros(22, np.float32))
+    env = gymnasium.make("sspinn/SagittalWalker-v0", target_speed=1.3, max_episode_steps=40)
+    first = run_episode(agent, env, seed=3)
+    run_episode(agent, env, seed=4)  # the same agent, another episode in between
+    again = run_episode(agent, env, seed=3)
+    fresh = run_episode(load_agent(tmp_path / "run" / "final_model.zip"), env, seed=3)
+    assert first.steps == again.steps == fresh.steps
+    np.testing.assert_array_equal(first.trajectory.q, again.trajectory.q)
+    np.testing.assert_array_equal(first.trajectory.q, fresh.trajectory.q)
+    # the clock is the state: it advances one sample per step and restarts at episode_start
+    obs, _ = env.reset(seed=3)
+    _, s0 = agent.predict(obs)
+    _, s1 = agent.predict(obs, s0, episode_start=False)
+    _, s2 = agent.predict(obs, s1, episode_start=True)
+    assert s1[0] == (s0[0] + 1) % agent.prior.period_steps and s2[0] == s0[0]

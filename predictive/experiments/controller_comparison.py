@@ -161,9 +161,9 @@ class BuiltController:
 
 class SB3Controller:
     """A trained stable-baselines3 agent as a :class:`predictive.controller.Controller`: the
-    observation normalised as in training, then the SB3 model's own ``predict`` (state and
-    ``episode_start`` passed through, so recurrent policies keep their convention). ``agent``: an
-    :class:`agents.checkpoints.LoadedAgent` or any object with ``normalize(obs)`` and ``model``."""
+    agent's own ``predict`` (observation normalised as in training; state and ``episode_start``
+    passed through, so an agent's gait clock restarts with the episode). ``agent``: an
+    :class:`agents.checkpoints.LoadedAgent` or any object with that ``predict``."""
 
     initial_state = None  # the agents learned to start from standing
 
@@ -173,8 +173,7 @@ class SB3Controller:
     def predict(
         self, observation: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = True
     ) -> tuple[np.ndarray, Any]:
-        return self.agent.model.predict(self.agent.normalize(observation), state=state, episode_start=episode_start,
-                                        deterministic=deterministic)
+        return self.agent.predict(observation, state=state, episode_start=episode_start, deterministic=deterministic)
 
 
 # ------------------------------------------------------------------------------------------ methods
