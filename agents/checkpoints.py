@@ -128,6 +128,12 @@ class LoadedAgent:
         scaled = (obs - self.obs_mean) / np.sqrt(self.obs_var + self.epsilon)
         return np.clip(scaled, -self.clip_obs, self.clip_obs).astype(np.float32)
 
+    @property
+    def initial_state(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(q, u) where this agent's episodes start (``env.reset(options={"initial_state": ...})``):
+        a clock agent's reference stride's first sample; None (standing) otherwise."""
+        return None if self.prior is None else self.prior.start_state()
+
     def predict(
         self, observation: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = True
     ) -> tuple[np.ndarray, Any]:

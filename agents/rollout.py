@@ -116,10 +116,14 @@ def run_episode(
         seed: reset seed (initial-state noise).
         target_speed: m/s, passed as ``reset(options={"target_speed": ...})``; None keeps the env's.
         frame_every: keep every ``frame_every``-th rendered frame (0: none).
-        reset_options: further ``reset`` options (e.g. ``{"initial_state": (q, u)}``).
+        reset_options: further ``reset`` options (e.g. ``{"initial_state": (q, u)}``; by default
+            the policy's ``initial_state`` attribute where it has one that is not None).
         reference: reference cycle for the gait metrics' angle RMSD (e.g. Winter's walking).
     """
     options = dict(reset_options or {})
+    initial = getattr(policy, "initial_state", None)
+    if initial is not None:  # a policy that starts on its own reference (agents.checkpoints.LoadedAgent)
+        options.setdefault("initial_state", initial)
     if target_speed is not None:
         options["target_speed"] = float(target_speed)
     obs, info = env.reset(seed=seed, options=options or None)

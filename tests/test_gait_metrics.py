@@ -61,6 +61,14 @@ def test_symmetric_cycle_has_no_asymmetry() -> None:
     assert m.cadence_steps_per_min == pytest.approx(60 / (T / 2))
 
 
+def test_feet_landing_together_give_no_cadence_instead_of_an_error() -> None:
+    """Both feet strike at the same sample (a two-footed hop), once after the settling time: the
+    one step lasts 0 s."""
+    m = gait_metrics(_gait(offset=0.0, strides=2), BODY, settle_s=0.5)
+    assert m.steps_l == 1 and m.step_time_l == 0.0
+    assert math.isnan(m.cadence_steps_per_min)
+
+
 def test_shifted_cycle_gives_the_known_asymmetry() -> None:
     """Left heel strike at 60 % of the right stride instead of 50 %: left steps 0.66 s, right steps
     0.44 s, SI = 100 · 0.22 / 0.55 = 40 %; left stance 70 % against 60 %: SI = 100 · 10 / 65."""

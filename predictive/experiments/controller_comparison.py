@@ -165,10 +165,14 @@ class SB3Controller:
     passed through, so an agent's gait clock restarts with the episode). ``agent``: an
     :class:`agents.checkpoints.LoadedAgent` or any object with that ``predict``."""
 
-    initial_state = None  # the agents learned to start from standing
-
     def __init__(self, agent: Any) -> None:
         self.agent = agent
+
+    @property
+    def initial_state(self) -> Any:
+        """The agent's start state: its reference stride's first sample for a clock agent, else
+        None (the agents learned to start from standing)."""
+        return getattr(self.agent, "initial_state", None)
 
     def predict(
         self, observation: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = True

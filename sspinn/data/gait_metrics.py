@@ -282,7 +282,7 @@ def gait_metrics(
         peak_impact_bw=_mean(impacts),
         max_vertical_grf_bw=float(grf[:, [1, 3]].max() / bw),
         cost_of_transport=cot,
-        cadence_steps_per_min=60.0 / _mean(times) if times else float("nan"),
+        cadence_steps_per_min=60.0 / _mean(times) if times and _mean(times) > 0 else float("nan"),
         rmsd_hip_deg=rmsd["hip"],
         rmsd_knee_deg=rmsd["knee"],
         rmsd_ankle_deg=rmsd["ankle"],
