@@ -110,7 +110,8 @@ class LoadedAgent:
     Attributes:
         model: the SB3 model. config: its run's configuration.
         obs_mean, obs_var, clip_obs, epsilon: the VecNormalize statistics (None: not normalised).
-        prior: the gait prior whose clock the policy observes (None: no clock).
+        prior: the gait prior whose clock the policy observes (None: no clock), with its
+            feedforward, if any, added to the policy's actions.
     """
 
     model: object
@@ -148,8 +149,10 @@ class LoadedAgent:
             phase = phase % self.prior.period_steps
             if starts.any():
                 phase[starts] = self.prior.start_phase(batch[starts])
-            obs = self.prior.with_clock(batch, phase).reshape(*obs.shape[:-1], -1)
-            state = phase
+            clocked = self.prior.with_clock(batch, phase)
+            action, _ = self.model.predict(self.normalize(clocked), deterministic=deterministic)  # type: ignore[attr-defined]
+            action = self.prior.act(np.asarray(action).reshape(n, -1), phase)
+            return action.reshape(*obs.shape[:-1], -1), phase
         action, _ = self.model.predict(self.normalize(obs), deterministic=deterministic)  # type: ignore[attr-defined]
         return action, state
 
@@ -171,7 +174,13 @@ def load_agent(checkpoint: str | Path, config: AgentConfig | None = None, device
     config = config if config is not None else find_config(path)
     from agents.gait_prior import GaitPrior
 
-    prior = GaitPrior.from_config(config.prior) if config.prior.clock else None
+    prior = None
+    if config.prior.clock:
+        env = make_env(config)
+        try:
+            prior = GaitPrior.from_config(config.prior, env)
+        finally:
+            env.close()
     agent = LoadedAgent(model=load_model(path, config, device=device), config=config, prior=prior)
     stats = vecnormalize_path(path)
     if stats.is_file():

@@ -184,6 +184,9 @@ class GaitPriorConfig:
             stride, and the prior compares with the clock's sample instead of the nearest one
             (:mod:`agents.gait_prior`, "clock mode"); the saved agent keeps the clock as its
             ``predict`` state.
+        feedforward: (clock only) add the reference stride's actuator torques at the clock's
+            sample to the policy's actions, so that the policy learns the feedback around the
+            stride (:mod:`agents.gait_prior`, "feedforward").
     """
 
     gait: str | None = None
@@ -195,6 +198,7 @@ class GaitPriorConfig:
     mirror_weight: float = option(0.0, ge=0)
     start_share: float = option(0.0, ge=0, le=1)
     clock: bool = False
+    feedforward: bool = False
 
 
 @dataclass(frozen=True)

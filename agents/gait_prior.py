@@ -76,6 +76,20 @@ The clock is the policy's memory of the episode: a saved agent carries it as the
 restarts with every episode. A symmetric reference stride then asks for a symmetric gait at the
 reference's cadence; the speed-tracking reward still sets the pace.
 
+**Feedforward** (``feedforward``, clock mode only): the policy's action is added to the reference
+stride's own actuator torques at the clock's sample, a_k = clip(π(o_k) + a_ref[k], −1, 1), with
+
+    a_ref[k] = (τ̄_k − τ_passive(q̄_k, u̇̄_k)) / τ_max,
+
+τ̄, q̄, u̇̄ the reference's joint torques, angles and speeds averaged over the control interval
+k … k + 1 and τ_passive, τ_max the environment's passive joint moments and actuator strength
+(:meth:`GaitPrior.with_feedforward`). The policy learns the feedback around the stride (residual
+policy learning: Silver et al. 2018, arXiv:1812.06298; Johannink et al. 2019, ICRA) — the
+structure of the generator's and the optimal-control trackers, feedforward plus feedback, with
+the feedback learned by PPO instead of an LQR. Why: with imitation rewards alone PPO found its own
+gaits, far from the stride (clock reward 0.1–0.27 of its maximum after 0.5 M steps, walking and
+running); the feedforward alone, open loop, falls after 0.5–0.9 s.
+
 The terms are a wrapper of the training environments only (:class:`GaitPriorReward`, an SB3
 ``VecEnvWrapper`` applied inside ``VecNormalize``): episodes and the environment's own rewards and
 metrics are unchanged (in clock mode the observations gain the two clock entries), so evaluations, ``agents evaluate`` and the controller
@@ -85,9 +99,10 @@ the ``info`` key ``reward_prior``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Final
+from typing import Any, Final
 
 import numpy as np
 from gymnasium import spaces
@@ -129,6 +144,8 @@ class GaitPrior:
         mirror_weight: w_mirror of the half-stride mirror term (0: none).
         clock: compare with the sample of the episode's clock instead of the nearest one, and
             append the clock to the observation (module docstring).
+        feedforward: (K, 6) the reference's normalised actuator torques a_ref added to the
+            policy's actions (clock mode; :meth:`with_feedforward`), or None.
     """
 
     trajectory: Trajectory
@@ -139,14 +156,42 @@ class GaitPrior:
     symmetry_time: float = 1.0
     mirror_weight: float = 0.0
     clock: bool = False
+    feedforward: np.ndarray | None = None
 
     @classmethod
-    def from_config(cls, config: GaitPriorConfig) -> GaitPrior | None:
-        """The prior of an agent configuration's ``prior`` section, or None without a reference stride."""
+    def from_config(cls, config: GaitPriorConfig, env: Any = None) -> GaitPrior | None:
+        """The prior of an agent configuration's ``prior`` section, or None without a reference
+        stride; with ``config.feedforward``, its feedforward for ``env`` (the training environment:
+        its ``tau_max`` and ``passive_torque``), which is then required."""
         if config.gait is None:
             return None
-        return cls.from_file(config.gait, config.weight, config.angle_scale, config.speed_scale,
-                             config.symmetry_weight, config.symmetry_time, config.mirror_weight, config.clock)
+        prior = cls.from_file(config.gait, config.weight, config.angle_scale, config.speed_scale,
+                              config.symmetry_weight, config.symmetry_time, config.mirror_weight, config.clock)
+        if config.feedforward:
+            if not config.clock:
+                raise UserError(f"{prior.source}: prior.feedforward needs prior.clock: true (it is added at the clock's sample)")
+            if env is None:
+                raise ValueError("a feedforward prior needs the environment (tau_max, passive_torque)")
+            prior = prior.with_feedforward(env.unwrapped.tau_max, env.unwrapped.passive_torque)
+        return prior
+
+    def with_feedforward(self, tau_max: np.ndarray, passive_torque: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> GaitPrior:
+        """This prior with a_ref (module docstring) for an environment of actuator strength
+        ``tau_max`` (6,) N·m and passive joint moments ``passive_torque(angles, rates)`` N·m.
+        Hand-written because the reference is already on the control grid: the generator's
+        tracker (:mod:`predictive.generator.closed_loop`) resamples other cycles onto it first."""
+        t = self.trajectory
+        mid = [0.5 * (x + np.roll(x, -1, axis=0)) for x in (t.tau, t.q, t.u)]  # interval k … k + 1, periodic
+        actions = (mid[0] - passive_torque(mid[1][:, 3:], mid[2][:, 3:])) / np.asarray(tau_max)
+        return replace(self, feedforward=np.asarray(actions, dtype=np.float64))
+
+    def act(self, policy_actions: np.ndarray, phase: np.ndarray) -> np.ndarray:
+        """The environment's actions (N, 6): the policy's plus a_ref at the clock samples ``phase``
+        (N,), clipped to [−1, 1] (policy's unchanged without a feedforward)."""
+        if self.feedforward is None:
+            return policy_actions
+        ff = self.feedforward[np.asarray(phase) % self.period_steps]
+        return np.clip(np.asarray(policy_actions) + ff, -1.0, 1.0).astype(np.float32)
 
     @classmethod
     def from_file(cls, path: str | Path, weight: float, angle_scale: float, speed_scale: float,
@@ -255,6 +300,9 @@ class GaitPriorReward(VecEnvWrapper):
         self.loaded_share = np.ones((self.num_envs, 2))  # c̄_R, c̄_L
         self.angles = np.zeros((self.num_envs, prior.half_stride_steps, 6))  # ring of the last T/2 joint angles
         self.steps = np.zeros(self.num_envs, dtype=np.int64)  # steps since each episode's start
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self.venv.step_async(self.prior.act(actions, self.phase))
 
     def reset(self) -> np.ndarray:
         self.loaded_share[:] = 1.0

@@ -85,8 +85,15 @@ def make_training_envs(config: AgentConfig, run_dir: Path, seed: int, append_mon
 
 
 def load_prior(config: AgentConfig) -> GaitPrior | None:
-    """The gait prior of ``config.prior`` (:mod:`agents.gait_prior`), or None without a reference stride."""
-    return GaitPrior.from_config(config.prior)
+    """The gait prior of ``config.prior`` (:mod:`agents.gait_prior`), or None without a reference
+    stride; its feedforward, if any, for the configuration's environment."""
+    if not config.prior.feedforward:
+        return GaitPrior.from_config(config.prior)
+    env = make_env(config)
+    try:
+        return GaitPrior.from_config(config.prior, env)
+    finally:
+        env.close()
 
 
 def reference_starts(config: AgentConfig, prior: GaitPrior | None) -> dict[str, Any]:

@@ -256,3 +256,34 @@ def test_a_clock_agent_restarts_its_clock_with_every_episode(tmp_path: Path) -> 
     _, s1 = agent.predict(obs, s0, episode_start=False)
     _, s2 = agent.predict(obs, s1, episode_start=True)
     assert s1[0] == (s0[0] + 1) % agent.prior.period_steps and s2[0] == s0[0]
+
+
+def test_feedforward_adds_the_reference_torques_at_the_clock_sample() -> None:
+    env = gymnasium.make("sspinn/SagittalWalker-v0", target_speed=1.3)
+    cfg = config_from_dict({"algo": "ppo", "prior": {"gait": str(WALK), "clock": True, "feedforward": True}}).prior
+    prior = GaitPrior.from_config(cfg, env)
+    assert prior is not None and prior.feedforward is not None and prior.feedforward.shape == (prior.period_steps, 6)
+    t = Trajectory.load(WALK)
+    e = env.unwrapped
+    k = 7  # interval 7 … 8: mean torque minus the passive moment of the mean state, over τ_max
+    expected = (0.5 * (t.tau[k] + t.tau[k + 1]) - e.passive_torque(0.5 * (t.q[k, 3:] + t.q[k + 1, 3:]),
+                                                                    0.5 * (t.u[k, 3:] + t.u[k + 1, 3:]))) / e.tau_max
+    np.testing.assert_allclose(prior.feedforward[k], expected)
+    assert np.abs(prior.feedforward).max() < 1  # within the actuators' strength
+    np.testing.assert_allclose(prior.act(np.full((2, 6), 0.9), np.array([k, k])), np.clip(0.9 + expected, -1, 1)[None].repeat(2, 0),
+                               rtol=1e-6)
+    # the wrapper steps its environments with these actions
+    plain, wrapped = WalkerVecEnv(2, target_speed=1.3), GaitPriorReward(WalkerVecEnv(2, target_speed=1.3), prior)
+    plain.seed(3)
+    wrapped.seed(3)
+    phase = prior.start_phase(plain.reset())
+    wrapped.reset()
+    for a in np.random.default_rng(1).uniform(-0.3, 0.3, (20, 2, 6)).astype(np.float32):
+        obs0, _, d0, _ = plain.step(prior.act(a, phase))
+        obs1, _, _, _ = wrapped.step(a)
+        np.testing.assert_array_equal(obs1[:, :22], obs0)
+        phase = (phase + 1) % prior.period_steps
+        if d0.any():
+            phase[d0] = prior.start_phase(obs0[d0])
+    with pytest.raises(UserError, match="needs prior.clock"):
+        GaitPrior.from_config(config_from_dict({"algo": "ppo", "prior": {"gait": str(WALK), "feedforward": True}}).prior, env)
