@@ -18,6 +18,8 @@ from sspinn.model.conventions import N_Q, N_TAU
 
 #: Info keys of a reset (the others come from steps).
 _RESET_INFO_KEYS = ("target_speed", "x_position")
+_NO_ROWS = np.zeros(0, dtype=np.int64)
+_NO_ROWS.flags.writeable = False
 #: The mask key of every info key.
 _MASK = {key: f"_{key}" for key in (*WalkerState.INFO_KEYS, "final_obs", "final_info")}
 
@@ -200,15 +202,14 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
         a = np.asarray(actions, dtype=np.float64)
         if a.shape != (self.num_envs, N_TAU):
             raise ValueError(f"actions must have shape ({self.num_envs}, {N_TAU}), got {a.shape}")
-        finite = np.isfinite(a).all(1)
-        if not finite.all():
-            rows = np.flatnonzero(~finite)
+        if not np.isfinite(a).all():
+            rows = np.flatnonzero(~np.isfinite(a).all(1))
             raise ValueError(f"actions must be finite; environment(s) {rows[:10].tolist()} got {a[rows[0]].tolist()} "
                              "(first shown): check the policy's output")
         self._actions[:] = a
         w = self._walkers
         mode = self.autoreset_mode
-        resetting = np.flatnonzero(self._autoreset) if mode == AutoresetMode.NEXT_STEP else np.zeros(0, dtype=np.int64)
+        resetting = self._autoreset.nonzero()[0] if mode == AutoresetMode.NEXT_STEP else _NO_ROWS
         active = self._all if len(resetting) == 0 else ~self._autoreset
         w.step(self._actions, active, self._parallel())
         rewards = w.out[:, 0].copy()
@@ -226,7 +227,7 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
                 info[_MASK[key]][resetting] = True
         done = terminated | truncated
         if mode == AutoresetMode.SAME_STEP and done.any():
-            rows = np.flatnonzero(done)
+            rows = done.nonzero()[0]
             final_info = dict(info)
             info["final_obs"], info["_final_obs"] = w.obs.copy(), done.copy()
             info["final_info"], info["_final_info"] = final_info, done.copy()
