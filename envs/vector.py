@@ -55,7 +55,7 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
       and reward 0 (as the single environment) until :meth:`reset`.
 
     Resets draw per sub-environment in a Python loop over the sub-environments being reset only
-    (a handful per step); reset ``options`` are those of the single environment
+    (a handful per step; the draws only: one compiled call then writes their states); reset ``options`` are those of the single environment
     (:data:`envs.walker_state.RESET_OPTIONS`; ``target_speed`` may be one number or N), plus
     Gymnasium's ``reset_mask`` (bool (N,)) to reset only some sub-environments. Options apply to the
     episodes that this :meth:`reset` starts; auto-resets use the configuration.
@@ -64,6 +64,9 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
     ``target_speed``, ``x_position``, ``distance``, ``cost_of_transport``, ``grf`` (N, 4), ``torques``
     (N, 6), ``reward_tracking``, ``reward_alive``, ``reward_effort``, ``physics_failure``,
     ``push_force`` — each with its Gymnasium mask ``_key`` (False where a row was reset instead).
+    Every array and mask of an ``info`` is new and writable and shares no memory with another key
+    or step (the float quantities and the masks are rows of one block each, which costs fewer
+    allocations than one array per key).
 
     Args:
         num_envs: number of walkers N (≥ 1).

@@ -9,7 +9,8 @@ one integer (only with ``reset_state_share`` > 0 and no ``initial_state`` option
 which row of ``reset_states`` the episode starts), 8 uniform numbers of
 coordinate noise, 9 of speed noise, and — only when observation noise is on — one 63-bit key of
 the observation-noise generator (:mod:`envs.kernels`). The same seed therefore gives the same
-episode in both environments. The Python loop of a reset runs over the walkers being reset only;
+episode in both environments. The Python loop of a reset runs over the walkers being reset only
+and makes the draws; one compiled call (:func:`envs.kernels.start_rows`) writes their states;
 :meth:`WalkerState.step` is one compiled call for all walkers.
 """
 
