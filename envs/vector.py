@@ -18,6 +18,7 @@ from sspinn.model.conventions import N_Q, N_TAU
 
 #: Info keys of a reset (the others come from steps).
 _RESET_INFO_KEYS = ("target_speed", "x_position")
+#: No sub-environment (read-only).
 _NO_ROWS = np.zeros(0, dtype=np.int64)
 _NO_ROWS.flags.writeable = False
 #: The mask key of every info key.
@@ -55,10 +56,11 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
       and reward 0 (as the single environment) until :meth:`reset`.
 
     Resets draw per sub-environment in a Python loop over the sub-environments being reset only
-    (a handful per step; the draws only: one compiled call then writes their states); reset ``options`` are those of the single environment
-    (:data:`envs.walker_state.RESET_OPTIONS`; ``target_speed`` may be one number or N), plus
-    Gymnasium's ``reset_mask`` (bool (N,)) to reset only some sub-environments. Options apply to the
-    episodes that this :meth:`reset` starts; auto-resets use the configuration.
+    (a handful per step; the draws only: one compiled call then writes their states); reset
+    ``options`` are those of the single environment (:data:`envs.walker_state.RESET_OPTIONS`;
+    ``target_speed`` may be one number or N), plus Gymnasium's ``reset_mask`` (bool (N,)) to reset
+    only some sub-environments. Options apply to the episodes that this :meth:`reset` starts;
+    auto-resets use the configuration.
 
     ``info`` of :meth:`step`: the single environment's keys as arrays (N, ...) — ``speed``,
     ``target_speed``, ``x_position``, ``distance``, ``cost_of_transport``, ``grf`` (N, 4), ``torques``
