@@ -80,12 +80,15 @@ class WalkerVecEnv(VecEnv):
         dones = terminated | truncated
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         if dones.any():
-            final = info["final_info"]
-            for i in np.flatnonzero(dones):
+            rows = dones.nonzero()[0]
+            final, final_obs = info["final_info"], info["final_obs"]
+            time_limit = (truncated & ~terminated)[rows].tolist()
+            values = [final[key][rows].tolist() for key in FINAL_INFO_KEYS]
+            for n, i in enumerate(rows.tolist()):
                 infos[i] = {
-                    "terminal_observation": info["final_obs"][i],
-                    "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
-                    **{key: final[key][i].item() for key in FINAL_INFO_KEYS},
+                    "terminal_observation": final_obs[i],
+                    "TimeLimit.truncated": time_limit[n],
+                    **{key: column[n] for key, column in zip(FINAL_INFO_KEYS, values)},
                 }
         return obs, rewards.astype(np.float32), dones, infos
 

@@ -173,12 +173,61 @@ def _reset_walker(i, q, u, grf, p, c, fenv, ienv, noise_std, history, fpar, obs)
     _emit(i, ienv, noise_std, history, obs)
 
 
+#: ``efloat`` columns of :func:`start_rows` (an episode's float constants): standing hip height of
+#: the simulated body (m), its body weight (N), push force (N), shift of a given initial state's
+#: pelvis_ty (m: simulated minus announced standing height).
+E_STANDING, E_BODY_WEIGHT, E_PUSH_FORCE, E_SHIFT = range(4)
+#: ``eint`` columns of :func:`start_rows`: push mode, push start step, push intervals, observation delay.
+E_PUSH_MODE, E_PUSH_AT, E_PUSH_STEPS, E_DELAY = range(4)
+
+
 @numba.njit(cache=True)
-def reset_rows(rows, q, u, grf, p, c, fenv, ienv, noise_std, history, fpar, obs):  # pragma: no cover - compiled
-    """:func:`_reset_walker` for every walker where ``rows`` (N,) is True."""
-    for i in range(q.shape[0]):
-        if rows[i]:
-            _reset_walker(i, q, u, grf, p, c, fenv, ienv, noise_std, history, fpar, obs)
+def start_rows(rows, targets, picks, draws, keys, initial, starts, efloat, eint, ep_p, ep_strength, ep_noise_std,
+               q, u, grf, tau, p, strength, noise_std, fenv, ienv, c, history, fpar, obs):  # pragma: no cover - compiled
+    """Start the episodes of the walkers ``rows`` (indices) from the draws made for them in Python.
+
+    Row n of the draws belongs to walker ``rows[n]``: ``targets`` (m/s), ``picks`` (row of
+    ``starts`` (K, 18) to start from, or −1), ``draws`` (8 coordinate then 9 speed noise values),
+    ``keys`` (observation-noise keys). ``initial`` is a given initial state (q, u) (18,), or empty.
+    The episode's constants are ``efloat`` (``E_STANDING`` ...), ``eint`` (``E_PUSH_MODE`` ...)
+    and the body ``ep_p``, torque factors ``ep_strength`` and observation-noise std ``ep_noise_std``.
+    The state is built as in Python (the same floating-point operations in the same order), then
+    :func:`_reset_walker` computes contact forces, counters, history and the first observation."""
+    for n in range(rows.shape[0]):
+        i = rows[n]
+        if initial.shape[0] > 0:
+            for j in range(N_Q):
+                q[i, j] = initial[j]
+                u[i, j] = initial[N_Q + j]
+            q[i, 1] += efloat[E_SHIFT]
+        elif picks[n] >= 0:
+            for j in range(N_Q):
+                q[i, j] = starts[picks[n], j]
+                u[i, j] = starts[picks[n], N_Q + j]
+        else:
+            for j in range(N_Q):
+                q[i, j] = 0.0
+                u[i, j] = 0.0
+            q[i, 1] = efloat[E_STANDING]
+        q[i, 0] = 0.0
+        for j in range(1, N_Q):
+            q[i, j] += draws[n, j - 1]
+        for j in range(N_Q):
+            u[i, j] += draws[n, N_Q - 1 + j]
+        p[i, :] = ep_p
+        strength[i, :] = ep_strength
+        noise_std[i, :] = ep_noise_std
+        tau[i, :] = 0.0
+        fenv[i, F_TARGET] = targets[n]
+        fenv[i, F_STANDING] = efloat[E_STANDING]
+        fenv[i, F_BODY_WEIGHT] = efloat[E_BODY_WEIGHT]
+        fenv[i, F_PUSH_FORCE] = efloat[E_PUSH_FORCE]
+        ienv[i, I_PUSH_MODE] = eint[E_PUSH_MODE]
+        ienv[i, I_PUSH_AT] = eint[E_PUSH_AT]
+        ienv[i, I_PUSH_LEFT] = eint[E_PUSH_STEPS]
+        ienv[i, I_DELAY] = eint[E_DELAY]
+        ienv[i, I_NOISE_KEY] = keys[n]
+        _reset_walker(i, q, u, grf, p, c, fenv, ienv, noise_std, history, fpar, obs)
 
 
 # ----------------------------------------------------------------------------------------- step
@@ -300,6 +349,6 @@ def physics_parallel(q, u, tau, passive, p, c, dt, substeps, method, grf):  # pr
 
 
 __all__ = [
-    "HISTORY", "N_FENV", "N_FPAR", "N_IENV", "N_IPAR", "N_OUT", "normal", "physics_parallel", "reset_rows",
+    "HISTORY", "N_FENV", "N_FPAR", "N_IENV", "N_IPAR", "N_OUT", "normal", "physics_parallel", "start_rows",
     "step_parallel", "step_serial", "uniform",
 ]

@@ -18,6 +18,11 @@ from sspinn.model.conventions import N_Q, N_TAU
 
 #: Info keys of a reset (the others come from steps).
 _RESET_INFO_KEYS = ("target_speed", "x_position")
+#: No sub-environment (read-only).
+_NO_ROWS = np.zeros(0, dtype=np.int64)
+_NO_ROWS.flags.writeable = False
+#: The mask key of every info key.
+_MASK = {key: f"_{key}" for key in (*WalkerState.INFO_KEYS, "final_obs", "final_info")}
 
 
 class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
@@ -51,15 +56,19 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
       and reward 0 (as the single environment) until :meth:`reset`.
 
     Resets draw per sub-environment in a Python loop over the sub-environments being reset only
-    (a handful per step); reset ``options`` are those of the single environment
-    (:data:`envs.walker_state.RESET_OPTIONS`; ``target_speed`` may be one number or N), plus
-    Gymnasium's ``reset_mask`` (bool (N,)) to reset only some sub-environments. Options apply to the
-    episodes that this :meth:`reset` starts; auto-resets use the configuration.
+    (a handful per step; the draws only: one compiled call then writes their states); reset
+    ``options`` are those of the single environment (:data:`envs.walker_state.RESET_OPTIONS`;
+    ``target_speed`` may be one number or N), plus Gymnasium's ``reset_mask`` (bool (N,)) to reset
+    only some sub-environments. Options apply to the episodes that this :meth:`reset` starts;
+    auto-resets use the configuration.
 
     ``info`` of :meth:`step`: the single environment's keys as arrays (N, ...) — ``speed``,
     ``target_speed``, ``x_position``, ``distance``, ``cost_of_transport``, ``grf`` (N, 4), ``torques``
     (N, 6), ``reward_tracking``, ``reward_alive``, ``reward_effort``, ``physics_failure``,
     ``push_force`` — each with its Gymnasium mask ``_key`` (False where a row was reset instead).
+    Every array and mask of an ``info`` is new and writable and shares no memory with another key
+    or step (the float quantities and the masks are rows of one block each, which costs fewer
+    allocations than one array per key).
 
     Args:
         num_envs: number of walkers N (≥ 1).
@@ -182,14 +191,13 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
         return self._walkers.obs.copy(), info
 
     def _reset_info(self, rows: np.ndarray) -> dict[str, Any]:
-        w = self._walkers
         mask = np.zeros(self.num_envs, dtype=bool)
         mask[rows] = True
-        values = {"target_speed": w.target().copy(), "x_position": w.q[:, 0].copy()}
         info: dict[str, Any] = {}
-        for key, value in values.items():
-            value[~mask] = 0.0
-            info[key], info[f"_{key}"] = value, mask.copy()
+        for key, value in self._reset_values(rows).items():
+            full = np.zeros(self.num_envs)
+            full[rows] = value
+            info[key], info[_MASK[key]] = full, mask.copy()
         return info
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
@@ -199,40 +207,51 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
         a = np.asarray(actions, dtype=np.float64)
         if a.shape != (self.num_envs, N_TAU):
             raise ValueError(f"actions must have shape ({self.num_envs}, {N_TAU}), got {a.shape}")
-        finite = np.isfinite(a).all(1)
-        if not finite.all():
-            rows = np.flatnonzero(~finite)
+        if not np.isfinite(a).all():
+            rows = np.flatnonzero(~np.isfinite(a).all(1))
             raise ValueError(f"actions must be finite; environment(s) {rows[:10].tolist()} got {a[rows[0]].tolist()} "
                              "(first shown): check the policy's output")
         self._actions[:] = a
         w = self._walkers
         mode = self.autoreset_mode
-        resetting = np.flatnonzero(self._autoreset) if mode == AutoresetMode.NEXT_STEP else np.zeros(0, dtype=np.int64)
+        resetting = self._autoreset.nonzero()[0] if mode == AutoresetMode.NEXT_STEP else _NO_ROWS
         active = self._all if len(resetting) == 0 else ~self._autoreset
         w.step(self._actions, active, self._parallel())
         rewards = w.out[:, 0].copy()
         terminated = w.flags[:, 0].copy()
         truncated = w.flags[:, 1].copy()
-        info = _with_masks(w.info(slice(None)), active)
+        values = w.info_all()
+        info = _with_masks(values, active)
         if len(resetting):
             w.reset_rows(resetting, [self._generator(i) for i in resetting], self._default_setup)
             rewards[resetting] = 0.0
             terminated[resetting] = False
             truncated[resetting] = False
-            _merge(info, self._reset_info(resetting))
+            for key, value in self._reset_values(resetting).items():  # the arrays are this step's own
+                info[key][resetting] = value
+                info[_MASK[key]][resetting] = True
         done = terminated | truncated
         if mode == AutoresetMode.SAME_STEP and done.any():
-            rows = np.flatnonzero(done)
+            rows = done.nonzero()[0]
             final_info = dict(info)
             info["final_obs"], info["_final_obs"] = w.obs.copy(), done.copy()
             info["final_info"], info["_final_info"] = final_info, done.copy()
             w.reset_rows(rows, [self._generator(i) for i in rows], self._default_setup)
-            for key in list(final_info):
-                if not key.startswith("_") and key not in _RESET_INFO_KEYS:
-                    info[f"_{key}"] = info[f"_{key}"] & ~done
-            _merge(info, self._reset_info(rows))
+            masks = np.empty((len(values), self.num_envs), dtype=bool)  # new masks: final_info keeps its own
+            masks[:] = active & ~done
+            for key, mask in zip(values, masks):
+                info[_MASK[key]] = mask
+            for key, value in self._reset_values(rows).items():
+                info[key] = info[key].copy()
+                info[key][rows] = value
+                info[_MASK[key]] |= done
         self._autoreset = done if mode == AutoresetMode.NEXT_STEP else self._autoreset
         return w.obs.copy(), rewards, terminated, truncated, info
+
+    def _reset_values(self, rows: np.ndarray) -> dict[str, np.ndarray]:
+        """The reset info values (:data:`_RESET_INFO_KEYS`) of the walkers ``rows`` just reset."""
+        w = self._walkers
+        return {"target_speed": w.target(rows), "x_position": w.q[rows, 0]}
 
     def _parallel(self) -> bool:
         if self.parallel is not None:
@@ -245,19 +264,14 @@ class SagittalWalkerVectorEnv(WalkerParameters, VectorEnv):
 
 
 def _with_masks(values: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, Any]:
-    """Gymnasium's vector info: every key with its ``_key`` mask."""
+    """Gymnasium's vector info: every key with its ``_key`` mask, a copy of ``mask`` (N,) each (rows
+    of one block: every mask has its own memory, as if allocated one by one)."""
+    masks = np.empty((len(values), len(mask)), dtype=bool)
+    masks[:] = mask
     info: dict[str, Any] = {}
-    for key, value in values.items():
-        info[key], info[f"_{key}"] = value, mask.copy()
+    for (key, value), row in zip(values.items(), masks):
+        info[key], info[_MASK[key]] = value, row
     return info
-
-
-def _merge(info: dict[str, Any], reset_info: dict[str, Any]) -> None:
-    """Put the reset rows' values (where their mask is True) into ``info``."""
-    for key in _RESET_INFO_KEYS:
-        rows = reset_info[f"_{key}"]
-        info[key] = np.where(rows, reset_info[key], info[key])
-        info[f"_{key}"] = info[f"_{key}"] | rows
 
 
 __all__ = ["SagittalWalkerVectorEnv"]

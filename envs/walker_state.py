@@ -9,7 +9,8 @@ one integer (only with ``reset_state_share`` > 0 and no ``initial_state`` option
 which row of ``reset_states`` the episode starts), 8 uniform numbers of
 coordinate noise, 9 of speed noise, and — only when observation noise is on — one 63-bit key of
 the observation-noise generator (:mod:`envs.kernels`). The same seed therefore gives the same
-episode in both environments. The Python loop of a reset runs over the walkers being reset only;
+episode in both environments. The Python loop of a reset runs over the walkers being reset only
+and makes the draws; one compiled call (:func:`envs.kernels.start_rows`) writes their states;
 :meth:`WalkerState.step` is one compiled call for all walkers.
 """
 
@@ -28,6 +29,11 @@ from envs.disturbances import PUSH_PHASES, Disturbances
 from sspinn.data.gait_events import CONTACT_THRESHOLD_BW
 from sspinn.model.conventions import N_GRF, N_Q, N_TAU
 from sspinn.model.simulation import METHODS, contact_into
+
+#: Placeholders of :func:`envs.kernels.start_rows` for "no given initial state" and "no start states".
+_NO_STATE: Final[np.ndarray] = np.zeros(0)
+_NO_STARTS: Final[np.ndarray] = np.zeros((0, 2 * N_Q))
+_NO_STARTS.flags.writeable = False  # read-only like WalkerConfig.reset_states: one compiled signature
 
 #: Keys accepted in ``reset(options=...)`` by the NumPy environments.
 RESET_OPTIONS: Final[tuple[str, ...]] = ("target_speed", "initial_state", "reset_noise_scale", "disturbances")
@@ -107,6 +113,11 @@ class WalkerState:
     effort terms, push force N); ``flags`` (N, 3) terminated, truncated, physics failure.
     """
 
+    #: Keys of :meth:`info` and :meth:`info_all`, in their order.
+    INFO_KEYS: Final[tuple[str, ...]] = (
+        "speed", "target_speed", "x_position", "distance", "cost_of_transport", "grf", "torques", "reward_tracking",
+        "reward_alive", "reward_effort", "physics_failure", "push_force")
+
     def __init__(self, config: WalkerConfig, n: int) -> None:
         self.config = config
         self.n = n
@@ -142,13 +153,19 @@ class WalkerState:
         self.out = np.zeros((n, k.N_OUT))
         self.flags = np.zeros((n, 3), dtype=bool)
         self._episode_cache: dict[str, dict[str, Any]] = {}
+        self._last_disturbances: Disturbances | None = None
+        self._last_episode: dict[str, Any] = {}
 
     # ------------------------------------------------------------------------------ episode data
     def _episode_arrays(self, disturbances: Disturbances) -> dict[str, Any]:
-        """Per-walker arrays of an episode with ``disturbances`` (cached: the body is rebuilt once)."""
+        """Per-walker arrays of an episode with ``disturbances`` (cached: the body is rebuilt once; the
+        last one is also kept by identity, as auto-resets pass the same frozen object every time)."""
+        if disturbances is self._last_disturbances:
+            return self._last_episode
         key = repr(disturbances)
         cached = self._episode_cache.get(key)
         if cached is not None:
+            self._last_disturbances, self._last_episode = disturbances, cached
             return cached
         config = self.config
         body = disturbances.body(config.body_parameters)
@@ -171,55 +188,54 @@ class WalkerState:
             "push_steps": max(1, int(round(d.push_duration / CONTROL_DT))),
             "delay": d.obs_delay,
         }
+        arrays["noisy_obs"] = bool(arrays["noise_std"].any())
+        efloat = np.zeros(4)
+        efloat[[k.E_STANDING, k.E_BODY_WEIGHT, k.E_PUSH_FORCE, k.E_SHIFT]] = (
+            arrays["standing"], arrays["body_weight"], arrays["push_force"], arrays["standing"] - config.standing_height)
+        eint = np.zeros(4, dtype=np.int64)
+        eint[[k.E_PUSH_MODE, k.E_PUSH_AT, k.E_PUSH_STEPS, k.E_DELAY]] = (
+            arrays["push_mode"], arrays["push_at"], arrays["push_steps"], arrays["delay"])
+        arrays["efloat"], arrays["eint"] = efloat, eint
+        for name in ("p", "strength", "noise_std"):
+            arrays[name] = np.ascontiguousarray(arrays[name], dtype=np.float64)
         if len(self._episode_cache) < 64:
             self._episode_cache[key] = arrays
+        self._last_disturbances, self._last_episode = disturbances, arrays
         return arrays
 
     # ------------------------------------------------------------------------------------- reset
     def reset_rows(self, rows: np.ndarray, rngs: Sequence[np.random.Generator], setup: EpisodeSetup) -> None:
         """Start new episodes for the walkers ``rows`` (indices), drawing from ``rngs`` (one generator
-        per row, in the order of the module docstring); their observations are then in ``obs``."""
+        per row, in the order of the module docstring); their observations are then in ``obs``.
+
+        Only the draws run in a Python loop over the rows (each row has its own generator); one
+        compiled call (:func:`envs.kernels.start_rows`) then writes the states and episodes."""
+        rows = np.asarray(rows, dtype=np.int64)
+        m = len(rows)
         episode = self._episode_arrays(setup.disturbances)
-        low, high = self.config.target_range
-        noise = setup.noise_scale
-        noisy_obs = bool(episode["noise_std"].any())
-        starts = self.config.reset_states if self.config.reset_state_share > 0 else None
-        for n, (i, rng) in enumerate(zip(rows, rngs)):
-            if setup.target_speed is not None:
-                target = float(setup.target_speed[n])
-            else:
-                target = low if low == high else float(rng.uniform(low, high))
-            q, u = np.zeros(N_Q), np.zeros(N_Q)
-            q[1] = episode["standing"]
-            if setup.initial_state is not None:  # given for the announced body: keep the feet where they are
-                q, u = setup.initial_state[0].copy(), setup.initial_state[1].copy()
-                q[1] += episode["standing"] - self.config.standing_height
-            elif starts is not None and rng.uniform() < self.config.reset_state_share:
-                row = starts[int(rng.integers(len(starts)))]
-                q, u = row[:N_Q].copy(), row[N_Q:].copy()
-            q[0] = 0.0
-            q[1:] += rng.uniform(-noise, noise, N_Q - 1)
-            u = u + rng.uniform(-noise, noise, N_Q)
-            self.q[i] = q
-            self.u[i] = u
-            self.p[i] = episode["p"]
-            self.strength[i] = episode["strength"]
-            self.noise_std[i] = episode["noise_std"]
-            f, e = self.fenv[i], self.ienv[i]
-            f[k.F_TARGET] = target
-            f[k.F_STANDING] = episode["standing"]
-            f[k.F_BODY_WEIGHT] = episode["body_weight"]
-            f[k.F_PUSH_FORCE] = episode["push_force"]
-            e[k.I_PUSH_MODE] = episode["push_mode"]
-            e[k.I_PUSH_AT] = episode["push_at"]
-            e[k.I_PUSH_LEFT] = episode["push_steps"]
-            e[k.I_DELAY] = episode["delay"]
-            e[k.I_NOISE_KEY] = int(rng.integers(0, 2**63 - 1)) if noisy_obs else 0
-            self.tau[i] = 0.0
-        mask = np.zeros(self.n, dtype=bool)
-        mask[np.asarray(rows, dtype=np.int64)] = True
-        k.reset_rows(mask, self.q, self.u, self.grf, self.p, self.c, self.fenv, self.ienv, self.noise_std,
-                     self.history, self.fpar, self.obs)
+        config = self.config
+        low, high = config.target_range
+        scale = setup.noise_scale
+        noisy_obs = episode["noisy_obs"]
+        starts = config.reset_states if config.reset_state_share > 0 and setup.initial_state is None else None
+        share = config.reset_state_share
+        targets = np.empty(m) if setup.target_speed is None else np.asarray(setup.target_speed, dtype=np.float64)
+        picks = np.full(m, -1, dtype=np.int64)
+        draws = np.empty((m, 2 * N_Q - 1))  # coordinate noise (8) then speed noise (9): one call, the same stream
+        keys = np.zeros(m, dtype=np.int64)
+        for n, rng in enumerate(rngs):
+            if setup.target_speed is None:
+                targets[n] = low if low == high else rng.uniform(low, high)
+            if starts is not None and rng.uniform() < share:
+                picks[n] = rng.integers(len(starts))
+            draws[n] = rng.uniform(-scale, scale, 2 * N_Q - 1)
+            if noisy_obs:
+                keys[n] = rng.integers(0, 2**63 - 1)
+        initial = _NO_STATE if setup.initial_state is None else np.concatenate(setup.initial_state)
+        k.start_rows(rows, targets, picks, draws, keys, initial, _NO_STARTS if starts is None else starts,
+                     episode["efloat"], episode["eint"], episode["p"], episode["strength"], episode["noise_std"],
+                     self.q, self.u, self.grf, self.tau, self.p, self.strength, self.noise_std, self.fenv, self.ienv,
+                     self.c, self.history, self.fpar, self.obs)
 
     # -------------------------------------------------------------------------------------- step
     def step(self, actions: np.ndarray, active: np.ndarray, parallel: bool) -> None:
@@ -249,6 +265,28 @@ class WalkerState:
     def steps(self, i: int | slice = slice(None)) -> Any:
         """Control steps since each walker's reset."""
         return self.ienv[i, k.I_STEPS]
+
+    def info_all(self) -> dict[str, np.ndarray]:
+        """:meth:`info` of every walker as new arrays (N, ...) — the same keys, order and values in
+        five allocations: the float quantities are rows of one block (each row its own memory)."""
+        block = np.empty((k.N_OUT + 2, self.n))
+        block[: k.N_OUT] = self.out.T
+        block[k.N_OUT] = self.fenv[:, k.F_TARGET]
+        block[k.N_OUT + 1] = self.q[:, 0]
+        return {
+            "speed": block[k.O_SPEED],
+            "target_speed": block[k.N_OUT],
+            "x_position": block[k.N_OUT + 1],
+            "distance": block[k.O_DISTANCE],
+            "cost_of_transport": block[k.O_COT],
+            "grf": self.grf.copy(),
+            "torques": self.tau.copy(),
+            "reward_tracking": block[k.O_TRACKING],
+            "reward_alive": block[k.O_ALIVE],
+            "reward_effort": block[k.O_EFFORT],
+            "physics_failure": self.flags[:, 2].copy(),
+            "push_force": block[k.O_PUSH],
+        }
 
     def info(self, rows: int | slice | np.ndarray) -> dict[str, Any]:
         """The step quantities of ``rows`` (NumPy arrays, or scalars for one int row): ``speed``

@@ -183,3 +183,70 @@ def test_bad_inputs_are_clear_value_errors() -> None:
     obs2, info2 = env.reset(seed=4, options={"reset_mask": mask, "target_speed": 2.0})
     np.testing.assert_array_equal(env.target_speed, [1.0, 2.0, 1.4])
     assert info2["_target_speed"].tolist() == [False, True, False]
+
+
+def _reference_start(seed: int, env: SagittalWalkerVectorEnv, starts: np.ndarray | None, share: float) -> tuple:
+    """The start of one episode drawn by hand in the documented order (envs.walker_state): target
+    speed, [start-state choice], 8 coordinate then 9 speed noise values."""
+    rng, _ = gymnasium.utils.seeding.np_random(seed)
+    low, high = env.config.target_range
+    target = rng.uniform(low, high)
+    q, u = np.zeros(9), np.zeros(9)
+    q[1] = env.standing_height
+    if starts is not None and rng.uniform() < share:
+        row = starts[int(rng.integers(len(starts)))]
+        q, u = row[:9].copy(), row[9:].copy()
+    q[0] = 0.0
+    noise = env.config.reset_noise_scale
+    q[1:] += rng.uniform(-noise, noise, 8)
+    u = u + rng.uniform(-noise, noise, 9)
+    return target, q, u
+
+
+@pytest.mark.parametrize("with_starts", [False, True])
+def test_resets_draw_in_the_documented_order_bit_for_bit(with_starts: bool) -> None:
+    """The compiled reset writes exactly the states that the per-walker draws give (both environments
+    share it, so the vector-equals-single tests alone could not see a change of the draws)."""
+    starts = np.zeros((3, 18))
+    starts[:, 1] = 0.9
+    starts[:, 2:9] = np.linspace(-0.1, 0.1, 3)[:, None]
+    starts[:, 9] = [0.5, 1.0, 1.5]
+    kwargs = {**_KWARGS, "reset_states": starts, "reset_state_share": 0.5} if with_starts else _KWARGS
+    n, seed = 8, 21
+    env = SagittalWalkerVectorEnv(n, **kwargs)
+    env.reset(seed=seed)
+    q, u = env.state
+    for j in range(n):
+        target, q_ref, u_ref = _reference_start(seed + j, env, starts if with_starts else None, 0.5)
+        assert env.target_speed[j] == target
+        np.testing.assert_array_equal(q[j], q_ref, err_msg=f"env {j}")
+        np.testing.assert_array_equal(u[j], u_ref, err_msg=f"env {j}")
+    if with_starts:
+        assert (q[:, 1] != env.standing_height).sum() > 0 and np.isin(u[:, 0].round(1), [0.5, 1.0, 1.5]).any()
+
+
+@pytest.mark.parametrize("mode", ["NextStep", "SameStep"])
+def test_info_arrays_are_each_steps_own_and_writable(mode: str) -> None:
+    """Every info array and mask has its own memory (Gymnasium's ``_add_info`` writes into masks),
+    and a later step changes none of them."""
+    env = SagittalWalkerVectorEnv(3, autoreset_mode=mode, max_episode_steps=2)
+    env.reset(seed=0)
+    _, _, _, _, first = env.step(np.zeros((3, 6)))
+    kept = {key: np.copy(v) for key, v in first.items() if isinstance(v, np.ndarray)}
+    _, _, _, _, second = env.step(np.zeros((3, 6)))  # episodes end here (max_episode_steps=2)
+    for key, value in kept.items():
+        np.testing.assert_array_equal(first[key], value, err_msg=key)
+    assert all(first[key].flags.writeable for key in kept)
+    info = second if mode == "SameStep" else env.step(np.zeros((3, 6)))[4]  # SameStep: final_info; NextStep: the reset step
+    masks = [key for key in info if key.startswith("_") and isinstance(info[key], np.ndarray)]
+    before = {key: info[key].copy() for key in masks}
+    info["_speed"][:] = ~info["_speed"]
+    for key in masks:
+        if key != "_speed":
+            np.testing.assert_array_equal(info[key], before[key], err_msg=key)
+    if mode == "SameStep":
+        final = info["final_info"]
+        assert final["_speed"].all() and not info["_distance"].any()
+        final["_distance"][0] = False
+        assert not info["_distance"][0] and final["_target_speed"].all()
+        assert info["_speed"].all()  # the flipped mask, nowhere else
