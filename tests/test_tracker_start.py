@@ -70,3 +70,18 @@ def test_build_chooses_the_start_and_settings_validate_it() -> None:
         TrackerSettings(start_height_error=0.0)
     with pytest.raises(ValueError, match="start must be one of"):
         GaitTracker.build(env, ref, start="middle")
+
+
+def test_open_loop_baseline_starts_where_its_tracker_starts() -> None:
+    from predictive.experiments.robustness import OpenLoop
+
+    rng = np.random.default_rng(3)
+    ref = GaitReference(q=rng.normal(size=(8, 9)), u=rng.normal(size=(8, 9)), action=np.zeros((8, 6)), speed=1.0, dt=0.01)
+
+    class Source:
+        def controller_for(self, speed, body=None):
+            return GaitTracker(ref, rng.normal(size=(8, 6, N_Z)), start=5)
+
+    baseline = OpenLoop(Source()).controller_for(1.0)
+    assert baseline.start == 5 and baseline.phase == "clock" and not baseline.gains.any()
+    np.testing.assert_array_equal(baseline.initial_state[0], ref.q[5])
