@@ -28,6 +28,9 @@ needs no step counter.
   contact model) linearised around the reference by central finite differences, from the
   periodic Riccati recursion iterated backward over cycles until the gains converge. Its
   weights may depend on the speed (a gain schedule, :class:`TrackerSettings`).
+* The start: an episode starts on the cycle at the sample whose start the closed loop on the
+  announced model survives best with the pelvis a few cm too high and too low (:func:`start_costs`,
+  ``TrackerSettings.start``) — under initial-state noise the start decides most falls.
 
 Why this and not a PD law on the joints: the model is underactuated (pelvis x, y, tilt) and the
 trunk is balanced only through the hip torques and the ground; joint-space PD feedback leaves the
