@@ -1,10 +1,10 @@
 """What the tracker's parts contribute: falls under 10× reset noise per generator, speed and tracker
 variant, on reset seeds that neither the tracker study nor the final check used.
 
-Variants: the clock phase with one set of LQR weights (the defaults of
+Variants, from the cycle's sample 0: the clock phase with one set of LQR weights (the defaults of
 :class:`predictive.generator.closed_loop.LQRWeights`); the state-based phase with those weights;
-the clock with the configured gain schedule; the configured tracker (state-based phase + gain
-schedule). Every generator's controller is made by ``controller_for(speed)`` and evaluated by
+the clock with the configured gain schedule; the state-based phase with the gain schedule; then
+the configured tracker (the same from its configured start sample, ``tracker.start``). Every generator's controller is made by ``controller_for(speed)`` and evaluated by
 :func:`predictive.experiments.robustness.evaluate`.
 
 Usage: ``python benchmarks/ablation_tracker.py --generators runs/generator_s0/generator.pt ...
@@ -14,6 +14,7 @@ Usage: ``python benchmarks/ablation_tracker.py --generators runs/generator_s0/ge
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -27,20 +28,21 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("results/ablation_tracker.json"))
     args = parser.parse_args(argv)
 
-    from sspinn.body import BodyParameters
-
     from predictive.experiments.robustness import RobustnessConfig, evaluate
     from predictive.generator.closed_loop import TrackerSettings
     from predictive.generator.controllers import GeneratorControllers
+    from sspinn.model.body import BodyParameters
 
     config = RobustnessConfig.from_yaml(args.config)
     lo, _, hi = args.seeds.partition("-")
     seeds = list(range(int(lo), int(hi or lo) + 1))
     body = BodyParameters.from_anthropometry(config.height, config.mass)
+    first = "cycle_start"  # the parts below start at the cycle's sample 0; the last row adds the start choice
     variants = {
-        "clock, default weights": TrackerSettings(phase="clock"),
-        "state phase, default weights": TrackerSettings(phase="state", phase_prior=config.tracker.phase_prior),
-        "clock, gain schedule": TrackerSettings(lqr=config.tracker.lqr, phase="clock"),
+        "clock, default weights": TrackerSettings(phase="clock", start=first),
+        "state phase, default weights": TrackerSettings(phase="state", phase_prior=config.tracker.phase_prior, start=first),
+        "clock, gain schedule": TrackerSettings(lqr=config.tracker.lqr, phase="clock", start=first),
+        "state phase + gain schedule": dataclasses.replace(config.tracker, start=first),
         "configured tracker": config.tracker,
     }
     falls: dict[str, dict[str, dict[float, int]]] = {}

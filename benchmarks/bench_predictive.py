@@ -4,7 +4,7 @@
    config — the table of self-supervised generator vs SB3 agents vs OCP on the same environment
    and metrics — and prints it (the report with plots goes to ``--out``).
 2. **Time to a controller for a new speed** (speeds no method was built for): the self-supervised
-   generator (one forward pass + LQR; and with its brief fine-tune) against the named baseline
+   generator (one forward pass + LQR + the tracker's start choice; and with its brief fine-tune) against the named baseline
    "re-solving the OCP (IPOPT, 100 nodes per half cycle) + LQR", measured in the same run, each
    with its closed-loop result (distance in 10 s, falls) on the first seed. Re-training an RL
    agent for a new speed is not run here; its cost is the agent's training time in the table
@@ -56,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     model = generators[0].model
     variants = {
-        "generator (forward pass + LQR)": MethodSpec("g", "generator", model, refine_iterations=0),
+        "generator (forward pass + LQR + start choice)": MethodSpec("g", "generator", model, refine_iterations=0),
         "generator + fine-tune (+ LQR)": MethodSpec("g+", "generator", model, refine_iterations=200, refine_kane_factor=10.0),
         "baseline: OCP re-solve (+ LQR)": MethodSpec("ocp", "ocp", n_nodes=100),
     }

@@ -124,7 +124,7 @@ def test_bench_predictive_times_a_new_speed(tmp_path, capsys) -> None:
     assert bench["main"](["--config", str(cfg), "--out", str(tmp_path / "out"), "--new-speeds", "1.1", "--new-bodies", "1.7:60",
                           "--skip-table"]) == 0
     out = capsys.readouterr().out
-    assert "baseline: OCP re-solve" in out and "generator (forward pass + LQR)" in out
+    assert "baseline: OCP re-solve" in out and "generator (forward pass + LQR + start choice)" in out
     rows = json.loads((tmp_path / "out" / "new_speed_timing.json").read_text())
     assert len(rows["speeds"]) == 3 and all(r["time_s"] > 0 for r in rows["speeds"])
     assert len(rows["bodies"]) == 2 and "Other bodies" in out

@@ -78,6 +78,7 @@ def test_shipped_configs_load() -> None:
     robustness = RobustnessConfig.from_yaml(root / "robustness.yaml")
     compare = ComparisonConfig.from_yaml(root / "compare.yaml")
     assert robustness.tracker == compare.tracker and robustness.tracker.phase == "state"
+    assert robustness.tracker.start == "least_sensitive" and robustness.tracker.start_height_error == 0.05
     assert [w.speed for w in robustness.tracker.lqr] == [1.3, 2.2, 3.5] and robustness.env == {"reset_noise_scale": 0.05}
     generator = GeneratorConfig.from_yaml(root / "generator.yaml")
     assert generator.weights.clearance > 0 and generator.polish_iterations > 0

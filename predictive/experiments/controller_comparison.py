@@ -14,7 +14,8 @@ All of them are :class:`predictive.controller.Controller` objects (SB3's ``predi
 the SB3 agents through :class:`SB3Controller`), made by ``controller_for(speed, body)`` of a
 :class:`predictive.controller.ControllerSource` and run by the same episode loop.
 
-Start states: the gait trackers start on their reference at phase 0 (``reset(options=
+Start states: the gait trackers start on their reference at their start sample
+(``tracker.start``, :class:`predictive.generator.closed_loop.TrackerSettings`; ``reset(options=
 {"initial_state": ...})``) with the environment's reset noise; the SB3 agents start standing, as
 trained. The gait trackers do not learn gait initiation — a stated difference, not hidden.
 

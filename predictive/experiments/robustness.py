@@ -110,14 +110,15 @@ def evaluate(
 
 
 class OpenLoop:
-    """The trivial baseline: a tracker's feedforward replayed by the clock, no feedback."""
+    """The trivial baseline: a tracker's feedforward replayed by the clock from the tracker's start
+    sample, no feedback."""
 
     def __init__(self, source: ControllerSource) -> None:
         self.source = source
 
     def controller_for(self, speed: float, body: BodyParameters | None = None) -> GaitTracker:
         tracker = self.source.controller_for(speed, body)
-        return GaitTracker(tracker.reference, np.zeros_like(tracker.gains), phase="clock")
+        return GaitTracker(tracker.reference, np.zeros_like(tracker.gains), phase="clock", start=tracker.start)
 
 
 def run_robustness(config: RobustnessConfig, out: str | Path) -> dict[str, Any]:

@@ -44,7 +44,8 @@ def track(solution: GaitSolution, env: SagittalWalkerEnv, settings: TrackerSetti
     ``info`` holds the plan, the times (s) to obtain it and to build the tracker, and ``note``."""
     start = time.perf_counter()
     ref = resample_cycle(solution.time, solution.q, solution.tau, solution.speed, solution.duration, env)
-    tracker = GaitTracker.build(env, ref, settings.weights_at(solution.speed), settings.phase, settings.phase_prior)
+    tracker = GaitTracker.build(env, ref, settings.weights_at(solution.speed), settings.phase, settings.phase_prior,
+                                settings.start, settings.start_height_error)
     tracker.info.update(plan=solution, plan_time_s=plan_time_s, lqr_time_s=time.perf_counter() - start, note=note)
     return tracker
 
