@@ -149,7 +149,7 @@ class LoadedAgent:
             phase = phase % self.prior.period_steps
             if starts.any():
                 phase[starts] = self.prior.start_phase(batch[starts])
-            clocked = self.prior.with_clock(batch, phase)
+            clocked = self.prior.policy_input(batch, phase)
             action, _ = self.model.predict(self.normalize(clocked), deterministic=deterministic)  # type: ignore[attr-defined]
             action = self.prior.act(np.asarray(action).reshape(n, -1), phase)
             return action.reshape(*obs.shape[:-1], -1), phase

@@ -187,6 +187,9 @@ class GaitPriorConfig:
         feedforward: (clock only) add the reference stride's actuator torques at the clock's
             sample to the policy's actions, so that the policy learns the feedback around the
             stride (:mod:`agents.gait_prior`, "feedforward").
+        mirror_policy: (clock only) in the second half of each stride the policy sees the
+            mirrored observation and its action is mirrored back: one policy for both legs
+            (:mod:`agents.gait_prior`, "mirrored half strides").
     """
 
     gait: str | None = None
@@ -199,6 +202,7 @@ class GaitPriorConfig:
     start_share: float = option(0.0, ge=0, le=1)
     clock: bool = False
     feedforward: bool = False
+    mirror_policy: bool = False
 
 
 @dataclass(frozen=True)

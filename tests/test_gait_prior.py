@@ -211,9 +211,9 @@ def test_clock_wrapper_appends_the_clock_and_rewards_the_clock_sample() -> None:
         seen = np.array([i0[j]["terminal_observation"] if d0[j] else obs0[j] for j in range(3)])
         np.testing.assert_allclose(r1 - r0, prior.reward(seen, clock), rtol=1e-5, atol=1e-6)
         for j in np.flatnonzero(d0):  # the final observation carries the clock of its step
-            np.testing.assert_allclose(i1[j]["terminal_observation"], prior.with_clock(seen[j:j + 1], clock[j:j + 1])[0])
+            np.testing.assert_allclose(i1[j]["terminal_observation"], prior.policy_input(seen[j:j + 1], clock[j:j + 1])[0])
         clock[d0] = prior.start_phase(obs0[d0]) if d0.any() else clock[d0]  # a new episode restarts its clock
-        np.testing.assert_allclose(obs1, prior.with_clock(obs0, clock))
+        np.testing.assert_allclose(obs1, prior.policy_input(obs0, clock))
         phase = clock
         ended += int(d0.sum())
     assert ended > 0
@@ -287,3 +287,37 @@ def test_feedforward_adds_the_reference_torques_at_the_clock_sample() -> None:
             phase[d0] = prior.start_phase(obs0[d0])
     with pytest.raises(UserError, match="needs prior.clock"):
         GaitPrior.from_config(config_from_dict({"algo": "ppo", "prior": {"gait": str(WALK), "feedforward": True}}).prior, env)
+
+
+def test_mirrored_half_strides_treat_the_legs_alike() -> None:
+    env = gymnasium.make("sspinn/SagittalWalker-v0", target_speed=1.3)
+    cfg = config_from_dict({"algo": "ppo", "prior": {"gait": str(WALK), "clock": True, "feedforward": True,
+                                                       "mirror_policy": True}}).prior
+    prior = GaitPrior.from_config(cfg, env)
+    assert prior is not None and prior.mirror_policy
+    h = prior.period_steps // 2
+    rng = np.random.default_rng(2)
+    obs = rng.normal(size=(4, 22)).astype(np.float32)
+    mirrored = obs.copy()
+    mirrored[:, 2:5], mirrored[:, 5:8] = obs[:, 5:8], obs[:, 2:5]  # joint angles
+    mirrored[:, 11:14], mirrored[:, 14:17] = obs[:, 14:17], obs[:, 11:14]  # joint speeds
+    mirrored[:, 17:19], mirrored[:, 19:21] = obs[:, 19:21], obs[:, 17:19]  # contact forces
+    phase = np.array([0, 10, 40, h - 1])
+    # the second half stride shows the policy the mirror image, with the clock of the first half
+    np.testing.assert_allclose(prior.policy_input(mirrored, phase + h), prior.policy_input(obs, phase), atol=1e-6)
+    # any policy then acts on the mirrored body with the mirrored action
+    weights = rng.normal(size=(24, 6)) * 0.1
+
+    def policy(x: np.ndarray) -> np.ndarray:
+        return np.tanh(x @ weights)
+
+    first = prior.act(policy(prior.policy_input(obs, phase)), phase)
+    second = prior.act(policy(prior.policy_input(mirrored, phase + h)), phase + h)
+    np.testing.assert_allclose(second, first[:, [3, 4, 5, 0, 1, 2]], atol=1e-6)
+    assert not np.allclose(first, first[:, [3, 4, 5, 0, 1, 2]])  # not trivially symmetric
+    # a stride that is not its own mirror half a stride later is refused
+    t = Trajectory.load(WALK)
+    odd = Trajectory(time=t.time[:-1], q=t.q[:-1], u=t.u[:-1], qdd=t.qdd[:-1], tau=t.tau[:-1], grf=t.grf[:-1], w=t.w[:-1])
+    bad = GaitPrior(trajectory=odd, scales=prior.scales, weight=1.0, source="odd.npz", clock=True)
+    with pytest.raises(UserError, match="mirror"):
+        bad.with_mirror_policy()
