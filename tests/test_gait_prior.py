@@ -79,7 +79,8 @@ def test_wrapper_adds_the_prior_of_the_resulting_observation() -> None:
     assert ended > 0  # random actions end episodes: the terminal-observation branch ran
 
 
-@pytest.mark.parametrize("name, speed", [("ppo_prior_walk", 1.3), ("ppo_prior_run", 3.5)])
+@pytest.mark.parametrize("name, speed", [("ppo_prior_walk", 1.3), ("ppo_prior_run", 3.5), ("ppo_clock_walk", 1.3),
+                                         ("ppo_clock_run", 3.5), ("sac_clock_walk", 1.3)])
 def test_shipped_prior_configs_load(name: str, speed: float) -> None:
     config = load_config(ROOT / "configs" / "agents" / f"{name}.yaml")
     assert config.env.target_speed == speed
