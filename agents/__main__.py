@@ -103,7 +103,7 @@ def _main(argv: list[str]) -> int:
               f"foot slide {s['mean_foot_slide_m']:.2f} m ({fmt('mean_foot_slide_per_step_cm', 1)} cm/step), "
               f"asymmetry step time {fmt('mean_step_time_asymmetry', 1)} % / step length "
               f"{fmt('mean_step_length_asymmetry', 1)} % / stance {fmt('mean_stance_asymmetry', 1)} %, "
-              f"impact {fmt('mean_peak_impact_bw')} BW, RMSD to Winter hip/knee/ankle {fmt('mean_rmsd_hip_deg', 1)}/"
+              f"impact {fmt('mean_peak_impact_bw')} BW, flight {fmt('mean_flight_percent', 0)} %, RMSD to Winter hip/knee/ankle {fmt('mean_rmsd_hip_deg', 1)}/"
               f"{fmt('mean_rmsd_knee_deg', 1)}/{fmt('mean_rmsd_ankle_deg', 1)} deg; written to {args.out}")
     else:
         from agents.evaluate import record

@@ -197,7 +197,7 @@ def _trajectory(env: Any, q: list[np.ndarray], u: list[np.ndarray], grf: list[np
 #: Gait metrics averaged by :func:`summarize` (``mean_<name>``; over the episodes where defined).
 SUMMARY_GAIT_KEYS: tuple[str, ...] = (
     "step_time_asymmetry", "step_length_asymmetry", "stance_asymmetry", "contact_asymmetry", "foot_slide_per_step_cm",
-    "peak_impact_bw",
+    "peak_impact_bw", "flight_percent",
     "max_vertical_grf_bw", "rmsd_hip_deg", "rmsd_knee_deg", "rmsd_ankle_deg",
 )
 

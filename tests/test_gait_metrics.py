@@ -59,6 +59,9 @@ def test_symmetric_cycle_has_no_asymmetry() -> None:
     assert m.stance_percent_r == pytest.approx(60.0) and m.stance_asymmetry == pytest.approx(0.0, abs=1e-9)
     assert m.step_length_r == pytest.approx(_heel_distance(0.3, -0.3)) and m.step_length_l == pytest.approx(m.step_length_r)
     assert m.cadence_steps_per_min == pytest.approx(60 / (T / 2))
+    assert m.flight_percent == 0.0  # stance 60 % of each stride: double support, never flight
+    running = gait_metrics(_gait(stance=(0.3, 0.3)), BODY)  # each foot down 30 % of the stride, half a stride apart
+    assert running.flight_percent == pytest.approx(40.0, abs=1.5)
 
 
 def test_feet_landing_together_give_no_cadence_instead_of_an_error() -> None:

@@ -118,6 +118,8 @@ class GaitMetrics:
         step_length_r, step_length_l: mean step length, m.
         stance_percent_r, stance_percent_l: mean stance phase, % of the stride.
         contact_share_r, contact_share_l: share of the analysed time in contact, %.
+        flight_percent: share of the analysed time with neither foot in contact, % (running's
+            flight phase; 0 in walking).
         step_time_asymmetry, step_length_asymmetry, stance_asymmetry, contact_asymmetry: symmetry
             indices, %.
         foot_slide_per_step_cm: mean sliding of the contact point per contact phase, cm.
@@ -141,6 +143,7 @@ class GaitMetrics:
     stance_percent_l: float
     contact_share_r: float
     contact_share_l: float
+    flight_percent: float
     step_time_asymmetry: float
     step_length_asymmetry: float
     stance_asymmetry: float
@@ -273,6 +276,8 @@ def gait_metrics(
         stance_percent_l=means["stance"][1],
         contact_share_r=contact_share[0],
         contact_share_l=contact_share[1],
+        flight_percent=float(100.0 * np.mean(~(events[0].contact[first:] | events[1].contact[first:])))
+        if first < len(t) else float("nan"),
         step_time_asymmetry=symmetry_index(*means["time"]),
         step_length_asymmetry=symmetry_index(*means["length"]),
         stance_asymmetry=symmetry_index(*means["stance"]),
