@@ -124,18 +124,12 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 
 from agents.config import GaitPriorConfig
 from envs.config import CONTROL_DT
-from envs.task import OBS_INDEX
+from envs.task import OBS_INDEX, OBSERVATION_NAMES
 from sspinn.data.gait_events import CONTACT_THRESHOLD_BW
 from sspinn.errors import UserError
-from sspinn.model.conventions import COORDINATES, JOINTS
+from sspinn.model.conventions import COORDINATES, MIRROR_Q, MIRROR_TAU, mirror_index
 from sspinn.model.trajectory import Trajectory
 from sspinn.yaml_config import shipped_path
-
-
-def _swap_side(name: str) -> str:
-    """The other leg's name of a coordinate, joint or contact-force name (``_r`` ↔ ``_l``)."""
-    return name[:-2] + {"_r": "_l", "_l": "_r"}[name[-2:]] if name[-2:] in ("_r", "_l") else name
-
 
 #: Names of the observation entries the clock mode appends (after the environment's 22).
 CLOCK_NAMES: Final[tuple[str, ...]] = ("clock_sin", "clock_cos")
@@ -145,9 +139,9 @@ _Q_COLUMNS: Final = tuple(COORDINATES.index(name) for name in PRIOR_COORDINATES)
 _LOAD_COLUMNS: Final = (OBS_INDEX["grf_y_r"], OBS_INDEX["grf_y_l"])  # vertical GRF, BW
 _JOINT_COLUMNS: Final = tuple(OBS_INDEX[name] for name in COORDINATES[3:])  # hip, knee, ankle right, then left
 #: Left/right mirror permutations: of q (9), of an observation (22) and of an action (6).
-_Q_MIRROR: Final = [COORDINATES.index(_swap_side(name)) for name in COORDINATES]
-_OBS_MIRROR: Final = [OBS_INDEX[_swap_side(name)] for name in OBS_INDEX]
-_ACTION_MIRROR: Final = [JOINTS.index(_swap_side(name)) for name in JOINTS]
+_Q_MIRROR: Final = list(MIRROR_Q)
+_OBS_MIRROR: Final = list(mirror_index(OBSERVATION_NAMES))
+_ACTION_MIRROR: Final = list(MIRROR_TAU)
 _OBS_COLUMNS: Final = tuple(OBS_INDEX[name] for name in PRIOR_COORDINATES) + tuple(
     OBS_INDEX[f"d_{name}"] for name in PRIOR_COORDINATES)
 

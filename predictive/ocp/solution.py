@@ -18,18 +18,18 @@ import numpy as np
 
 from sspinn.data.gait_events import CONTACT_THRESHOLD_BW, contact_onsets, stance_fractions
 from sspinn.errors import UserError
+from sspinn.model import conventions
 from sspinn.model.body import BodyParameters
 from sspinn.model.contact import ContactParameters
 from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, JOINTS, N_Q
 from sspinn.model.trajectory import FIELDS, Trajectory, TrajectoryError, save_npz
 from sspinn.run_folder import atomic_write_json
 
-#: Permutation that swaps the right and left leg in q (and u, q̈).
-MIRROR_Q = np.array([0, 1, 2, 6, 7, 8, 3, 4, 5])
-#: The same for τ (joints only).
-MIRROR_TAU = np.array([3, 4, 5, 0, 1, 2])
-#: The same for the GRF vector [Fx_r, Fy_r, Fx_l, Fy_l].
-MIRROR_GRF = np.array([2, 3, 0, 1])
+#: Permutations that swap the right and left leg in q (and u, q̈), τ and the GRF vector
+#: (:data:`sspinn.model.conventions.MIRROR_Q` ..., as index arrays).
+MIRROR_Q = np.array(conventions.MIRROR_Q)
+MIRROR_TAU = np.array(conventions.MIRROR_TAU)
+MIRROR_GRF = np.array(conventions.MIRROR_GRF)
 
 #: The arrays of the npz file: the trajectory's fields and the normalising torques.
 _ARRAYS = (*FIELDS, "tau_max")

@@ -61,6 +61,24 @@ N_SEGMENTS: Final[int] = len(SEGMENTS)
 GRF: Final[tuple[str, ...]] = ("grf_x_r", "grf_y_r", "grf_x_l", "grf_y_l")
 N_GRF: Final[int] = len(GRF)
 
+
+def other_side(name: str) -> str:
+    """The name of the same quantity on the other leg (``_r`` ↔ ``_l``); names without a side unchanged."""
+    side = name[-2:]
+    return name[:-2] + {"_r": "_l", "_l": "_r"}[side] if side in ("_r", "_l") else name
+
+
+def mirror_index(names: tuple[str, ...]) -> tuple[int, ...]:
+    """The permutation that swaps the right and left leg in a vector ordered by ``names``."""
+    index = {name: i for i, name in enumerate(names)}
+    return tuple(index[other_side(name)] for name in names)
+
+
+#: Left/right swaps of q (and u, q̈), of τ and of the GRF vector.
+MIRROR_Q: Final[tuple[int, ...]] = mirror_index(COORDINATES)
+MIRROR_TAU: Final[tuple[int, ...]] = mirror_index(JOINTS)
+MIRROR_GRF: Final[tuple[int, ...]] = mirror_index(GRF)
+
 #: Named points with generated kinematics (global x, y and their derivatives).
 POINTS: Final[tuple[str, ...]] = (
     "hip",
