@@ -172,15 +172,9 @@ def load_agent(checkpoint: str | Path, config: AgentConfig | None = None, device
     if not path.is_file():
         raise FileNotFoundError(f"checkpoint {path} does not exist")
     config = config if config is not None else find_config(path)
-    from agents.gait_prior import GaitPrior
+    from agents.gait_prior import load_prior
 
-    prior = None
-    if config.prior.clock:
-        env = make_env(config)
-        try:
-            prior = GaitPrior.from_config(config.prior, env)
-        finally:
-            env.close()
+    prior = load_prior(config) if config.prior.clock else None
     agent = LoadedAgent(model=load_model(path, config, device=device), config=config, prior=prior)
     stats = vecnormalize_path(path)
     if stats.is_file():

@@ -122,7 +122,8 @@ from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 
-from agents.config import GaitPriorConfig
+from agents.builders import make_env
+from agents.config import AgentConfig, GaitPriorConfig
 from envs.config import CONTROL_DT
 from envs.task import OBS_INDEX, OBSERVATION_NAMES
 from sspinn.data.gait_events import CONTACT_THRESHOLD_BW
@@ -325,6 +326,18 @@ class GaitPrior:
         return self.weight * np.exp(-np.sqrt(np.mean(d * d, axis=1)))
 
 
+def load_prior(config: AgentConfig) -> GaitPrior | None:
+    """The gait prior of an agent configuration (:meth:`GaitPrior.from_config`), or None without a
+    reference stride; a feedforward is computed for the configuration's environment."""
+    if not config.prior.feedforward:
+        return GaitPrior.from_config(config.prior)
+    env = make_env(config)
+    try:
+        return GaitPrior.from_config(config.prior, env)
+    finally:
+        env.close()
+
+
 def clock_space(space: spaces.Box) -> spaces.Box:
     """The observation space ``space`` with the two clock entries (each in [−1, 1]) appended."""
     low = np.concatenate([space.low, -np.ones(len(CLOCK_NAMES))]).astype(space.dtype)
@@ -410,4 +423,4 @@ class GaitPriorReward(VecEnvWrapper):
         return bonus
 
 
-__all__ = ["CLOCK_NAMES", "PRIOR_COORDINATES", "GaitPrior", "GaitPriorReward", "clock_space"]
+__all__ = ["CLOCK_NAMES", "PRIOR_COORDINATES", "GaitPrior", "GaitPriorReward", "clock_space", "load_prior"]

@@ -42,7 +42,7 @@ from agents.checkpoints import (
     vecnormalize_path,
 )
 from agents.config import AgentConfig, save_config
-from agents.gait_prior import GaitPrior, GaitPriorReward
+from agents.gait_prior import GaitPrior, GaitPriorReward, load_prior
 from agents.rollout import SUMMARY_GAIT_KEYS, run_episode, summarize
 from agents.vec_env import PerEnvVecMonitor, WalkerVecEnv
 from sspinn.data.gait_metrics import winter_or_none
@@ -57,13 +57,15 @@ EVAL_COLUMNS: tuple[str, ...] = (
 )
 
 
-def make_training_envs(config: AgentConfig, run_dir: Path, seed: int, append_monitor: bool = False) -> VecEnv:
+def make_training_envs(
+    config: AgentConfig, run_dir: Path, seed: int, prior: GaitPrior | None, append_monitor: bool = False
+) -> VecEnv:
     """``n_envs`` seeded environments (seeds ``seed``, ``seed + 1``, ...) with one Monitor CSV log
     per environment (``<run>/monitor/<i>.monitor.csv``): the native vector environment
     (``env.vec_env: native``) or SB3's ``DummyVecEnv``/``SubprocVecEnv`` of single environments;
-    with ``config.prior``, its training reward outside the Monitor logs (which keep the
-    environment's own episode returns) and its reference starts."""
-    prior = load_prior(config)
+    with ``prior`` (:func:`agents.gait_prior.load_prior` of the configuration), its training
+    reward outside the Monitor logs (which keep the environment's own episode returns) and its
+    reference starts."""
     starts = reference_starts(config, prior)
     if config.env.vec_env == "native":
         if config.env.threads is not None:
@@ -82,18 +84,6 @@ def make_training_envs(config: AgentConfig, run_dir: Path, seed: int, append_mon
             monitor_kwargs={"info_keywords": MONITOR_INFO_KEYS, "override_existing": not append_monitor},
         )
     return venv if prior is None else GaitPriorReward(venv, prior)
-
-
-def load_prior(config: AgentConfig) -> GaitPrior | None:
-    """The gait prior of ``config.prior`` (:mod:`agents.gait_prior`), or None without a reference
-    stride; its feedforward, if any, for the configuration's environment."""
-    if not config.prior.feedforward:
-        return GaitPrior.from_config(config.prior)
-    env = make_env(config)
-    try:
-        return GaitPrior.from_config(config.prior, env)
-    finally:
-        env.close()
 
 
 def reference_starts(config: AgentConfig, prior: GaitPrior | None) -> dict[str, Any]:
@@ -135,14 +125,16 @@ class WalkerEvalCallback(BaseCallback):
     TensorBoard ``eval/*`` and ``evaluations.csv``, and saves the best model (mean return) with
     its VecNormalize statistics."""
 
-    def __init__(self, config: AgentConfig, run_dir: Path, vec_normalize: VecNormalize | None) -> None:
+    def __init__(
+        self, config: AgentConfig, run_dir: Path, vec_normalize: VecNormalize | None, prior: GaitPrior | None = None
+    ) -> None:
         super().__init__(verbose=config.logging.verbose)
         self.config = config
         self.run_dir = run_dir
         self.vec_normalize = vec_normalize
         self.eval_env = make_env(config)
         self.reference = winter_or_none() if config.env.target_speed < WALKING_BELOW_M_S else None
-        self.prior = load_prior(config) if config.prior.clock else None  # the policy's clock
+        self.prior = prior if config.prior.clock else None  # the policy's clock (the training prior)
         self.csv_path = run_dir / "evaluations.csv"
         self.best_return = -math.inf
         self.next_eval = 0
@@ -252,7 +244,8 @@ def _train(config: AgentConfig, out: Path, resume: bool) -> BaseAlgorithm:
     tensorboard_log = str(run_dir / "tb") if config.logging.tensorboard else None
 
     # 2. vectorised environments, observation/reward normalisation (statistics restored on resume)
-    venv: VecEnv = make_training_envs(config, run_dir, seed, append_monitor=resume)
+    prior = load_prior(config)  # read once: the training reward and the evaluated policy's clock
+    venv: VecEnv = make_training_envs(config, run_dir, seed, prior, append_monitor=resume)
     norm = config.normalize
     vec_normalize: VecNormalize | None = None
     if resume and (norm.obs or norm.reward):
@@ -293,7 +286,7 @@ def _train(config: AgentConfig, out: Path, resume: bool) -> BaseAlgorithm:
                            vec_normalize, config.logging.keep_replay_buffer)
     ]
     if config.logging.eval_freq > 0:
-        callbacks.append(WalkerEvalCallback(config, run_dir, vec_normalize))
+        callbacks.append(WalkerEvalCallback(config, run_dir, vec_normalize, prior))
 
     # 5. learn, then save the final model and statistics
     model.learn(
