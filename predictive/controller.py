@@ -19,13 +19,12 @@ same way, through SB3's ``predict`` convention::
 
 A new speed or body is one call on a :class:`ControllerSource` (``controller_for(speed=1.3,
 body=...)``), not a script. :func:`run_controller_episode` runs one episode of any controller with reset
-options and returns what happened; :func:`episode_policy` adapts a controller to the plain
-``observation → action`` functions of :mod:`agents.rollout`.
+options and returns what happened; :func:`agents.rollout.run_episode` drives any controller
+through the same ``predict`` protocol.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
@@ -145,19 +144,6 @@ def start_options(controller: Controller, reset_options: dict[str, Any] | None =
     return options or None
 
 
-def episode_policy(controller: Controller) -> Callable[[np.ndarray], np.ndarray]:
-    """A plain ``observation → action`` function for ONE episode: its first call starts the
-    episode (``episode_start`` True), later calls pass the state on. Make a new one per episode."""
-    memory: dict[str, Any] = {"state": None, "start": True}
-
-    def policy(observation: np.ndarray) -> np.ndarray:
-        action, memory["state"] = controller.predict(observation, memory["state"], episode_start=memory["start"])
-        memory["start"] = False
-        return action
-
-    return policy
-
-
 @dataclass
 class Episode:
     """One episode of a controller.
@@ -205,6 +191,6 @@ def run_controller_episode(
 
 
 __all__ = [
-    "Controller", "ControllerSource", "Episode", "LegLengthCalibrated", "episode_policy", "episode_starts",
+    "Controller", "ControllerSource", "Episode", "LegLengthCalibrated", "episode_starts",
     "run_controller_episode", "start_options",
 ]

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from agents.rollout import run_episode
 from envs.sagittal_walker import SagittalWalkerEnv
-from predictive.controller import Controller, ControllerSource, episode_policy, run_controller_episode, start_options
+from predictive.controller import Controller, ControllerSource, run_controller_episode, start_options
 from predictive.generator.closed_loop import TrackerSettings
 from predictive.generator.controllers import GeneratorControllers
 from predictive.generator.gait_generator import GeneratorConfig, GeneratorTrainer
@@ -34,13 +35,11 @@ def test_reusing_a_controller_gives_the_episode_of_a_fresh_one(source, phase) ->
     np.testing.assert_array_equal(again.actions, fresh.actions)
     np.testing.assert_array_equal(again.states, fresh.states)
     assert first.states[0, 0] == 0.0 and not np.array_equal(first.states[:5], again.states[:5])
-    # the plain-function adapter of agents.rollout: one per episode, same actions
-    obs, _ = env.reset(seed=2, options=start_options(used))
-    policy = episode_policy(used)
-    for k in range(5):
-        action = policy(obs)
-        np.testing.assert_array_equal(action, fresh.actions[k].astype(np.float32))
-        obs, *_ = env.step(action)
+    # agents.rollout.run_episode drives the same used controller through predict: the same episode
+    rollout = run_episode(used, env, seed=2, reset_options=start_options(used))
+    assert rollout.steps == fresh.steps
+    np.testing.assert_array_equal(rollout.trajectory.q, fresh.states[:, :9])
+    np.testing.assert_array_equal(rollout.trajectory.tau[:-1], fresh.actions * env.tau_max)
 
 
 def test_controller_for_another_body_tracks_that_body(source) -> None:

@@ -56,7 +56,7 @@ from agents.evaluate import write_animation
 from agents.plot_learning_curve import read_evaluations
 from agents.rollout import run_episode
 from predictive.controller import Controller as ControllerProtocol
-from predictive.controller import LegLengthCalibrated, episode_policy, start_options
+from predictive.controller import LegLengthCalibrated, start_options
 from predictive.generator.closed_loop import TrackerSettings
 from predictive.generator.controllers import GeneratorControllers, OCPControllers
 from predictive.ocp.collocation import OCPError
@@ -370,7 +370,7 @@ def evaluate_controller(
     controller = built.controller
     rows, cycle, states = [], None, None
     for seed in seeds:
-        res = run_episode(episode_policy(controller), env, seed, speed,
+        res = run_episode(controller, env, seed, speed,
                           reset_options=start_options(controller, condition))
         assert res.trajectory is not None
         m = res.metrics()
@@ -396,7 +396,7 @@ def write_gait_animation(built: BuiltController, config: ComparisonConfig, speed
     env = gymnasium.make("sspinn/SagittalWalker-v0", height=config.height, mass=config.mass, target_speed=speed,
                          render_mode="rgb_array", max_episode_steps=steps)
     try:
-        res = run_episode(episode_policy(built.controller), env, config.seeds[0], speed, frame_every=4,
+        res = run_episode(built.controller, env, config.seeds[0], speed, frame_every=4,
                           reset_options=start_options(built.controller))
     finally:
         env.close()
