@@ -7,7 +7,9 @@ Run ``python -m sspinn.model.codegen`` (or ``make generate``) to rewrite:
   (any leading batch dimensions), torch tensors (batched, autograd, CPU/CUDA, float32/64) and
   CasADi SX/MX vectors (for IPOPT).
 * ``sspinn/model/_generated/model_numba.py`` — scalar kernels of the environment's hot path
-  (mass matrix + forcing, contact forces), compiled with numba for single-state speed.
+  (mass matrix + forcing, contact forces, and the solve M·q̈ = f written out for the mass
+  matrix's sparsity, see :func:`generate_mass_matrix_solver`), compiled with numba for
+  single-state speed.
 
 Both are written with SymPy's common-subexpression elimination. ``tests/test_codegen.py`` fails
 if regenerating would change the committed files. Why hand-written printing and not
@@ -90,9 +92,19 @@ EXPR_FUNCTIONS: dict[str, Spec] = {
 NUMBA_KERNELS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "mass_matrix_forcing": (("mass_matrix", "forcing"), ("q", "u", "tau", "grf", "w", "p")),
     "contact_simulation": (("contact_forces_simulation", "contact_fraction"), ("q", "u", "p", "c")),
+    "contact_mass_matrix_forcing": (
+        ("contact_forces_simulation", "contact_fraction", "mass_matrix", "forcing"),
+        ("q", "u", "tau", "p", "c"),
+    ),
     "contact_learned_from_ankles": (("contact_from_ankles", "contact_fraction"), ("q", "u", "ankle", "mu_hat", "p", "c")),
     "contact_point_fraction": (("contact_fraction",), ("q", "c")),
 }
+
+#: Inputs that an output of the same numba kernel supplies (input group → output): in
+#: ``contact_mass_matrix_forcing`` the forcing's ground reaction forces and contact fractions are
+#: the contact model's, substituted before the common-subexpression elimination so that the
+#: contact model and the equations of motion share their sines, cosines and point kinematics.
+NUMBA_FEEDS: dict[str, str] = {"grf": "contact_forces_simulation", "w": "contact_fraction"}
 
 
 class _Printer(PythonCodePrinter):
@@ -165,6 +177,83 @@ def generate_expr(model: SymbolicModel) -> str:
     return "\n".join(out)
 
 
+def elimination_order(pattern: sp.Matrix) -> list[tuple[int, list[int]]]:
+    """Minimum-degree elimination order of a symmetric sparsity pattern, with each pivot's
+    neighbours at its elimination (the rows of its column of the Cholesky factor L).
+
+    Greedy minimum degree (ties: lowest index), eliminating on the graph of the structural
+    nonzeros: a pivot's remaining neighbours become a clique (fill-in). For the sagittal model the
+    legs go first (each joint couples only to its own leg and the pelvis coordinates) and the only
+    fill is the (pelvis_tx, pelvis_ty) entry.
+    """
+    n = pattern.shape[0]
+    graph = {i: {j for j in range(n) if j != i and pattern[i, j] != 0} for i in range(n)}
+    order: list[tuple[int, list[int]]] = []
+    while graph:
+        pivot = min(graph, key=lambda i: (len(graph[i]), i))
+        neighbours = graph.pop(pivot)
+        for a in neighbours:
+            graph[a] |= neighbours - {a}
+            graph[a].discard(pivot)
+        order.append((pivot, sorted(neighbours)))
+    return order
+
+
+def generate_mass_matrix_solver(mass_matrix: sp.Matrix) -> list[str]:
+    """Lines of the numba kernel ``solve_mass_matrix(mass_matrix, forcing, out)``: out ← M⁻¹·f.
+
+    A square-root-free Cholesky factorisation M = L·D·Lᵀ (L unit lower triangular, D diagonal) in
+    the :func:`elimination_order` of M's structural nonzeros, then the solves L·z = f, D·y = z,
+    Lᵀ·x = y, written out entry by entry: only nonzero entries of L are computed, every loop is
+    unrolled and every value stays a scalar. With e_ak = l_ak·d_k (Golub & Van Loan, *Matrix
+    Computations*, 4th ed., Alg. 4.1.2):
+
+        d_k = M_kk − Σ_j l_kj·e_kj,   e_ak = M_ak − Σ_j l_aj·e_kj,   l_ak = e_ak / d_k
+
+    over the earlier pivots j whose columns hold both rows. Each pivot costs one division (the
+    factorisation is latency-bound, and a square root would double its critical path). Written by
+    hand because no library emits a sparse, unrolled factorisation for numba (SciPy's and
+    LAPACK's solvers are dense and allocate; SymPy's symbolic ``LUsolve`` of the whole model
+    would blow up the expressions).
+    """
+    n = mass_matrix.shape[0]
+    order = elimination_order(mass_matrix)
+    position = {pivot: k for k, (pivot, _) in enumerate(order)}
+    rows = dict(order)  # pivot → rows of its column of L
+
+    def entry(i: int, j: int) -> str:
+        return f"mass_matrix[{min(i, j)}, {max(i, j)}]"
+
+    def earlier(pivot: int) -> list[int]:
+        return [j for j, _ in order[: position[pivot]] if pivot in rows[j]]
+
+    lines = [
+        "\n@njit(cache=True)",
+        "def solve_mass_matrix(mass_matrix, forcing, out):",
+        '    """out (9,) ← M⁻¹·f by a factorisation M = L·D·Lᵀ in the elimination order '
+        + ", ".join(str(p) for p, _ in order)
+        + ",\n    unrolled over the nonzeros of L (reads the upper triangle of M)."
+        + '"""',
+    ]
+    for pivot, below in order:
+        d = " - ".join([entry(pivot, pivot)] + [f"l{pivot}_{j} * e{pivot}_{j}" for j in earlier(pivot)])
+        lines.append(f"    r{pivot} = 1.0 / ({d})")
+        for a in below:
+            terms = [entry(a, pivot)] if mass_matrix[a, pivot] != 0 else ["0.0"]
+            terms += [f"l{a}_{j} * e{pivot}_{j}" for j in earlier(pivot) if a in rows[j]]
+            lines.append(f"    e{a}_{pivot} = {' - '.join(terms)}")
+            lines.append(f"    l{a}_{pivot} = e{a}_{pivot} * r{pivot}")
+    for pivot, _ in order:  # L·z = f
+        terms = [f"forcing[{pivot}]"] + [f"l{pivot}_{j} * z{j}" for j in earlier(pivot)]
+        lines.append(f"    z{pivot} = {' - '.join(terms)}")
+    for pivot, below in reversed(order):  # D·y = z, Lᵀ·x = y
+        terms = [f"z{pivot} * r{pivot}"] + [f"l{a}_{pivot} * x{a}" for a in below]
+        lines.append(f"    x{pivot} = {' - '.join(terms)}")
+    lines.extend(f"    out[{i}] = x{i}" for i in range(n))
+    lines.append("")
+    return lines
+
+
 def generate_numba(model: SymbolicModel) -> str:
     printer = _Printer("math.", "_softplus")
     out = [
@@ -182,8 +271,14 @@ def generate_numba(model: SymbolicModel) -> str:
     for name, (outputs, inputs) in NUMBA_KERNELS.items():
         exprs: list[sp.Expr] = []
         targets: list[str] = []
+        feeds = {
+            symbol: value
+            for group, source in NUMBA_FEEDS.items()
+            if source in outputs
+            for symbol, value in zip(model.inputs[group], model.outputs[source])
+        }
         for o in outputs:
-            m = model.outputs[o]
+            m = model.outputs[o].xreplace(feeds)
             for i in range(m.shape[0]):
                 for j in range(m.shape[1]):
                     if m.shape[1] == 1:
@@ -211,6 +306,7 @@ def generate_numba(model: SymbolicModel) -> str:
                 out.append("        for j in range(i):")
                 out.append(f"            {o}[i, j] = {o}[j, i]")
         out.append("")
+    out.extend(generate_mass_matrix_solver(model.outputs["mass_matrix"]))
     return "\n".join(out)
 
 

@@ -4,7 +4,8 @@
   compiled control interval built on the generated scalar kernels
   (``sspinn/model/_generated/model_numba.py``). :func:`step` (one control interval, returns new arrays),
   :func:`simulate` (a whole rollout) and the Gymnasium environment (``envs/``) all call it;
-  :func:`accel` evaluates q̈ once. About a microsecond per model evaluation.
+  :func:`accel` evaluates q̈ once. About 0.4–0.5 µs per model evaluation with contact
+  (``benchmarks/bench_env.py``, 2-core development machine).
 * torch: :func:`step_torch` advances any batch of states differentiably with the generated
   array code (``model_expr``) and the generic integrators of :mod:`sspinn.model.integrators`, on CPU or
   CUDA.
@@ -58,43 +59,27 @@ def _contact_into(q, u, p, c, with_contact, grf, w) -> None:  # pragma: no cover
 
 
 @numba.njit(cache=True)
-def _accel_into(q, u, tau, force, p, c, with_contact, M, f, inv, grf, w, out) -> None:  # pragma: no cover - compiled
+def _accel_into(q, u, tau, force, p, c, with_contact, M, f, grf, w, out) -> None:  # pragma: no cover - compiled
     """out ← q̈(q, u, τ) = M⁻¹ (f + force), ``force`` (9,) an external generalized force.
-    M (9, 9), f (9,), inv (9,), w (2,) are scratch; grf (4,) receives the ground reaction forces
-    used (N, zeros without contact).
+    M (9, 9), f (9,), w (2,) are scratch; grf (4,) receives the ground reaction forces used (N,
+    zeros without contact).
 
-    M x = f is solved with an in-place Cholesky factorisation (M = L Lᵀ, the lower triangle of M
-    overwritten by L) instead of numba's ``np.linalg.solve``, whose LAPACK call allocates and checks
-    more than the 9×9 factorisation costs. The reciprocals of the diagonal of L are kept in ``inv``
-    so that the 45 + 18 divisions become 9 (divisions dominate the cost); the result therefore
-    differs from an LU solve by round-off only.
+    With contact, one generated kernel evaluates the contact model and the equations of motion
+    together (they share their trigonometry). M x = f is solved by the generated
+    ``solve_mass_matrix`` kernel: an L·D·Lᵀ factorisation unrolled over the nonzeros of M's factor
+    (:func:`sspinn.model.codegen.generate_mass_matrix_solver`) instead of numba's
+    ``np.linalg.solve``, whose LAPACK call allocates and checks more than the 9×9 factorisation
+    costs; the result differs from an LU solve by round-off only.
     """
-    _contact_into(q, u, p, c, with_contact, grf, w)
-    kernels.mass_matrix_forcing(q, u, tau, grf, w, p, M, f)
-    n = 9
-    for i in range(n):
+    if with_contact:  # one kernel: contact and equations of motion share their trigonometry
+        kernels.contact_mass_matrix_forcing(q, u, tau, p, c, grf, w, M, f)
+    else:
+        grf[:] = 0.0
+        w[:] = 0.0
+        kernels.mass_matrix_forcing(q, u, tau, grf, w, p, M, f)
+    for i in range(9):
         f[i] += force[i]
-    for j in range(n):
-        s = M[j, j]
-        for k in range(j):
-            s -= M[j, k] * M[j, k]
-        r = 1.0 / np.sqrt(s)
-        inv[j] = r
-        for i in range(j + 1, n):
-            s = M[i, j]
-            for k in range(j):
-                s -= M[i, k] * M[j, k]
-            M[i, j] = s * r
-    for i in range(n):  # L y = f
-        s = f[i]
-        for k in range(i):
-            s -= M[i, k] * out[k]
-        out[i] = s * inv[i]
-    for i in range(n - 1, -1, -1):  # Lᵀ x = y
-        s = out[i]
-        for k in range(i + 1, n):
-            s -= M[k, i] * out[k]
-        out[i] = s * inv[i]
+    kernels.solve_mass_matrix(M, f, out)
 
 
 @numba.njit(cache=True)
@@ -102,9 +87,7 @@ def accel(q: np.ndarray, u: np.ndarray, tau: np.ndarray, p: np.ndarray, c: np.nd
     """q̈ (9,) for one state under joint torques tau (6,, N·m) and (optionally) ground contact; one
     model evaluation of :func:`advance` (no passive joint moments)."""
     out = np.empty(9)
-    _accel_into(
-        q, u, tau, _NO_FORCE, p, c, with_contact, np.empty((9, 9)), np.empty(9), np.empty(9), np.empty(4), np.empty(2), out
-    )
+    _accel_into(q, u, tau, _NO_FORCE, p, c, with_contact, np.empty((9, 9)), np.empty(9), np.empty(4), np.empty(2), out)
     return out
 
 
@@ -153,7 +136,6 @@ def advance_forced(q, u, tau, force, passive, p, c, dt, substeps, method, with_c
     """
     M = np.empty((9, 9))
     f = np.empty(9)
-    inv = np.empty(9)
     w = np.empty(2)
     t = np.empty(6)
     a1 = np.empty(9)
@@ -170,24 +152,24 @@ def advance_forced(q, u, tau, force, passive, p, c, dt, substeps, method, with_c
         for j in range(6):
             t[j] = tau[j] + _passive_torque(q[3 + j], u[3 + j], passive[j], passive[6 + j], k, b)
         if method == _SEMI_IMPLICIT_EULER:
-            _accel_into(q, u, t, force, p, c, with_contact, M, f, inv, grf, w, a1)
+            _accel_into(q, u, t, force, p, c, with_contact, M, f, grf, w, a1)
             for i in range(9):
                 u[i] = u[i] + dt * a1[i]
                 q[i] = q[i] + dt * u[i]
         else:  # _RK4
-            _accel_into(q, u, t, force, p, c, with_contact, M, f, inv, grf, w, a1)
+            _accel_into(q, u, t, force, p, c, with_contact, M, f, grf, w, a1)
             for i in range(9):
                 us2[i] = u[i] + 0.5 * dt * a1[i]
                 qs[i] = q[i] + 0.5 * dt * u[i]
-            _accel_into(qs, us2, t, force, p, c, with_contact, M, f, inv, grf, w, a2)
+            _accel_into(qs, us2, t, force, p, c, with_contact, M, f, grf, w, a2)
             for i in range(9):
                 us3[i] = u[i] + 0.5 * dt * a2[i]
                 qs[i] = q[i] + 0.5 * dt * us2[i]
-            _accel_into(qs, us3, t, force, p, c, with_contact, M, f, inv, grf, w, a3)
+            _accel_into(qs, us3, t, force, p, c, with_contact, M, f, grf, w, a3)
             for i in range(9):
                 us4[i] = u[i] + dt * a3[i]
                 qs[i] = q[i] + dt * us3[i]
-            _accel_into(qs, us4, t, force, p, c, with_contact, M, f, inv, grf, w, a4)
+            _accel_into(qs, us4, t, force, p, c, with_contact, M, f, grf, w, a4)
             for i in range(9):
                 q[i] = q[i] + dt / 6.0 * (u[i] + 2.0 * us2[i] + 2.0 * us3[i] + us4[i])
                 u[i] = u[i] + dt / 6.0 * (a1[i] + 2.0 * a2[i] + 2.0 * a3[i] + a4[i])
