@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo demo-smoke showcase test generate bench lint clean robustness
+.PHONY: demo demo-smoke showcase test generate bench lint clean clean-numba robustness
 
 # The main job on the embedded default: generate (or reuse) the synthetic dataset, train the
 # CPU-sized SSPINNpose configuration (five 500-step starts, then the chosen one to 12,000 steps;
@@ -60,5 +60,10 @@ robustness: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check .
 
-clean:
+# numba caches each compiled function under __pycache__ keyed on its own file only: after an update
+# that changes a kernel another file's kernels call, `make clean-numba` drops the stale copies.
+clean-numba:
+	find . -path ./$(VENV) -prune -o \( -name '*.nbi' -o -name '*.nbc' \) -print -exec rm -f {} +
+
+clean: clean-numba
 	rm -rf $(VENV) results .pytest_cache
