@@ -248,3 +248,32 @@ def test_froude_speed_scales_with_the_square_root_of_leg_length() -> None:
     assert cmp["walk"]["worse_than_froude"] == ["speed_error_mps", "speed_tracking_mps"]
     with pytest.raises(ValueError, match="speed must be one of"):
         pred.speed_for(same, "median")
+
+
+def test_resuming_a_checkpoint_without_baselines(tiny_run, tmp_path: Path) -> None:
+    """A checkpoint from before the entry existed: a training from scratch (it saw only its own
+    recordings) fits them on resume; one that started from another model (its ``trained_on``
+    names more recordings) stores none rather than the labels of its adaptation recordings."""
+    import contextlib
+    import dataclasses
+    import io
+    import shutil
+
+    import torch
+
+    from sspinn.estimator.model_store import load_model
+    from sspinn.estimator.training import TrainConfig, Trainer
+
+    _, _, cfg, train, run = tiny_run
+    config = dataclasses.replace(TrainConfig.from_yaml(cfg), steps=5)
+    for name, trained_on, fitted_on in (("scratch", ("a", "b"), ("a", "b")), ("adapted", ("x", "a", "b"), None)):
+        folder = tmp_path / name
+        shutil.copytree(run, folder, ignore=shutil.ignore_patterns("*.lock"))
+        state = torch.load(folder / "checkpoint.pt", weights_only=True)
+        del state["baselines"]
+        state["trained_on"] = trained_on
+        torch.save(state, folder / "checkpoint.pt")
+        with contextlib.redirect_stderr(io.StringIO()):
+            Trainer(config, folder).fit(train, resume=True)
+        stored = load_model(folder / "model.pt").baselines
+        assert (stored.fitted_on if stored is not None else None) == fitted_on, name
