@@ -22,7 +22,9 @@ and with a mock stiff knee (``CSStiffKnee``), with 8 Xsens IMUs in unknown mount
    (%BW, both feet), heel-strike and toe-off timing error (ms; :mod:`sspinn.data.gait_events`, 5 %BW
    threshold on estimated and measured force alike), and the speed error against the belt speed.
    Beside them the baselines, on the same samples: the training subjects' constant mean GRF and
-   mean speed (:class:`sspinn.estimator.trivial_predictors.TrivialPredictor`), and their mean GRF profile placed at
+   mean speed (:class:`sspinn.estimator.trivial_predictors.TrivialPredictor`), the Froude speed
+   sqrt(Fr · g · L) (m/s; Fr the training subjects' mean Froude number, L the test subject's leg
+   length from the height), and their mean GRF profile placed at
    the test trial's measured heel strikes (:class:`sspinn.estimator.trivial_predictors.GRFProfilePredictor`, oracle
    timing, per condition). Targets: GRF RMSE ≤ 15 %BW, heel-strike timing ≤ 30 ms,
    speed error ≤ 0.10 m/s.
@@ -72,6 +74,8 @@ GRF_PATTERN = "{subject}/{condition}/OpenSim_{subject}_{condition}_GRF.mot"
 ARMS = ("scratch", "zero_shot", "finetune", "adapted")
 WARMUP = 100  # samples (1 s) of LSTM warm-up left out of every metric
 TARGETS = {"grf_rmse": 15.0, "hs_ms": 30.0, "speed": 0.10}
+#: Row names of the baselines in the results and the report.
+CONSTANT, FROUDE, PROFILE = "constant mean GRF / mean speed", "Froude speed", "mean GRF profile (measured timing)"
 EVENT_WINDOW_S = 0.3  # an estimated event further than this from the measured one counts as missed
 
 
@@ -230,9 +234,11 @@ def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recordi
     for rec in test:
         base = trivial.predict(rec)
         profile_grf[rec.name] = profiles[condition_of(rec, conditions)].predict_grf(rec)
+        froude = trial_metrics(base.grf, trivial.speed_for(rec, "froude"), rec)
         row = {"belt_speed": float(np.mean(rec.labels.speed)) if rec.labels and rec.labels.speed is not None else None,
-               "constant mean GRF / mean speed": trial_metrics(base.grf, float(np.mean(base.u[:, 0])), rec),
-               "mean GRF profile (measured timing)": trial_metrics(profile_grf[rec.name], None, rec)}
+               CONSTANT: trial_metrics(base.grf, float(np.mean(base.u[:, 0])), rec),
+               FROUDE: {k: v if k in ("speed", "speed_error") else float("nan") for k, v in froude.items()},  # a speed only
+               PROFILE: trial_metrics(profile_grf[rec.name], None, rec)}
         estimates[rec.name] = {}
         for arm, stored in loaded.items():
             est = estimate_recording(stored.network, rec, stored.segments)
@@ -283,7 +289,7 @@ def _fmt(value: float | None, spec: str) -> str:
 def report(results: dict, training: dict[str, dict], out: Path, protocol: Protocol | None = None) -> str:
     """Markdown tables: per trial, and per condition (mean over the test subjects) with verdicts."""
     protocol = protocol or Protocol(REPO.parent / "shared/data/cmu_treadmill_imu_grf")
-    rows = ["constant mean GRF / mean speed", "mean GRF profile (measured timing)", *[a for a in ARMS if a in training or a == "zero_shot"]]
+    rows = [CONSTANT, FROUDE, PROFILE, *[a for a in ARMS if a in training or a == "zero_shot"]]
     lines = [f"# SSPINNpose on real continuous IMU data ({protocol.source.name}; test subjects {', '.join(protocol.test_subjects)})", "",
              f"Trained (self-supervised, no labels) on {', '.join(protocol.train_subjects)}, conditions "
              f"{', '.join(protocol.conditions)}; metrics over each whole aligned "
@@ -316,7 +322,7 @@ def report(results: dict, training: dict[str, dict], out: Path, protocol: Protoc
             lines.append(f"| {predictor} | {_fmt(m['all'], '.1f')} | {_fmt(m['vertical'], '.1f')} | {_fmt(m['horizontal'], '.1f')} | "
                          f"{_fmt(m['hs_ms'], '.0f')} | {_fmt(m['to_ms'], '.0f')} | {_fmt(m['speed_error'], '.3f')} |")
         lines.append("")
-        const, prof = means["constant mean GRF / mean speed"], means["mean GRF profile (measured timing)"]
+        const, prof, froude = means[CONSTANT], means[PROFILE], means.get(FROUDE)
         for arm in (a for a in ARMS if a in means):
             m = means[arm]
             verdicts = [
@@ -326,7 +332,9 @@ def report(results: dict, training: dict[str, dict], out: Path, protocol: Protoc
                 f"HS {_fmt(m['hs_ms'], '.0f')} ms: {'meets' if m['hs_ms'] <= TARGETS['hs_ms'] else 'MISSES'} ≤ {TARGETS['hs_ms']:g}",
                 f"speed error {m['speed_error']:.3f} m/s: {'meets' if m['speed_error'] <= TARGETS['speed'] else 'MISSES'} ≤ "
                 f"{TARGETS['speed']:.2f}, {'beats' if m['speed_error'] < const['speed_error'] else 'WORSE than'} the training "
-                f"subjects' mean speed ({const['speed_error']:.3f})",
+                f"subjects' mean speed ({const['speed_error']:.3f})"
+                + (f", {'beats' if m['speed_error'] < froude['speed_error'] else 'WORSE than'} their Froude speed "
+                   f"({froude['speed_error']:.3f})" if froude is not None else ""),
             ]
             lines.append(f"- **{arm}**: " + "; ".join(verdicts))
         names = [name for name in results if name.endswith(f"_{condition}")]
@@ -334,7 +342,7 @@ def report(results: dict, training: dict[str, dict], out: Path, protocol: Protoc
             (n1, r1), (n2, r2) = ((n, results[n]) for n in names)
             lines.append(f"- speed tracking, {arm}: estimate {n1.split('_')[0]} − {n2.split('_')[0]} = "
                          f"{r1[arm]['speed'] - r2[arm]['speed']:+.3f} m/s, belts {r1['belt_speed'] - r2['belt_speed']:+.3f} m/s "
-                         f"(the training mean predicts 0)")
+                         f"(the training mean predicts 0, the Froude speed {r1[FROUDE]['speed'] - r2[FROUDE]['speed']:+.3f})")
         lines.append("")
     lines += ["## GRF over a few strides", ""] + [f"![{n}](plots/{n}.png)" for n in results]
     text = "\n".join(lines) + "\n"

@@ -89,15 +89,15 @@ def _evaluate(args: argparse.Namespace) -> int:
     from sspinn.estimator.evaluation import EvaluationError, evaluate
     from sspinn.estimator.sspinnpose import SSPINNpose
 
+    est = SSPINNpose.load(args.model)
     reference = None
     if (args.data / "dataset.json").exists():  # one read of the index for both splits
         dataset = Dataset.open(args.data)
         recs = dataset.load(args.split)
-        if "train" in dataset.splits:
+        if "train" in dataset.splits and est.baselines_ is None:  # the fallback baselines' data
             reference = recs if args.split == "train" else dataset.load("train")
     else:
         recs = open_recordings(args.data, args.split, args.periods, args.height, args.mass)
-    est = SSPINNpose.load(args.model)
     try:
         result = evaluate(est, recs, args.out, reference=reference, reference_where=str(args.data),
                           title=f"{args.model} on {args.data} ({args.split})", skip=args.skip)
@@ -109,12 +109,16 @@ def _evaluate(args: argparse.Namespace) -> int:
         cells = [
             f"{key} {c['model'][key]:.3g} vs {c['baseline'][key]:.3g}"
             + (" (WORSE)" if key in c["worse_than_baseline"] else "")
+            + (f", Froude speed {c['froude'][key]:.3g}" + (" (WORSE)" if key in c["worse_than_froude"] else "")
+               if key in c["froude"] else "")
             for key in c["model"]
             if key in c["baseline"] and key not in ("jitter", "n_samples", "kane_residual", "hs_timing_ms", "hs_matched")
         ]
         print(f"  {program:<5} " + "; ".join(cells))
         if c["worse_than_baseline"]:
             print(f"  FAILURE: on {program}, {', '.join(c['worse_than_baseline'])} no better than the trivial predictor")
+        if c["worse_than_froude"]:
+            print(f"  FAILURE: on {program}, {', '.join(c['worse_than_froude'])} no better than the Froude speed")
     print(f"report: {args.out / 'report.md'}")
     return 0
 

@@ -108,23 +108,172 @@ def test_reference_predictor_is_labelled_by_what_it_was_fitted_on() -> None:
     assert reference_predictor([a], [unlabelled], "d").source == f"{ORACLE_SOURCE} (the training split of d has no labels)"
 
 
-def test_evaluate_after_import_split_all_calls_the_baseline_an_oracle(tmp_path: Path, tiny_run, capsys) -> None:
-    """A folder where every recording is in train, val and test (``sspinn import --split all``):
-    the trivial predictor is fitted on the evaluated recordings and must say so."""
-    from sspinn.cli import main
+def _split_all_data(folder: Path, speed: float = 1.3) -> Path:
+    """Two recordings p, q in every split (``sspinn import --split all``), at ``speed`` m/s."""
     from sspinn.imu.pipeline import add_to_index
     from sspinn.testing import make_recording
 
-    _, _, _, _, run = tiny_run
-    data = tmp_path / "data"
-    data.mkdir()
+    folder.mkdir()
     rng = np.random.default_rng(0)
     for name in ("p", "q"):
         rec = make_recording(name, name, 150, rng)
-        rec.save(data)
-        add_to_index(data, rec, "all")
-    assert main(["evaluate", "--model", str(run / "model.pt"), "--data", str(data), "--out", str(tmp_path / "ev"), "--skip", "10"]) == 0
+        rec.labels.speed[:] = speed
+        rec.save(folder)
+        add_to_index(folder, rec, "all")
+    return folder
+
+
+def _old_format_copy(model: Path, out: Path) -> Path:
+    """``model`` as a file written before model files stored their baselines (no such entry)."""
+    import torch
+
+    state = torch.load(model, weights_only=True)
+    del state["baselines"]
+    torch.save(state, out)
+    return out
+
+
+def test_evaluate_with_an_old_model_file_after_import_split_all_calls_the_baseline_an_oracle(
+        tmp_path: Path, tiny_run, capsys) -> None:
+    """A model file without stored baselines and a folder where every recording is in train, val
+    and test (``sspinn import --split all``): the trivial predictor is fitted on the evaluated
+    recordings and must say so, and that the model file stores none."""
+    from sspinn.cli import main
+    from sspinn.estimator.model_store import load_model
+
+    old = _old_format_copy(tiny_run[4] / "model.pt", tmp_path / "old.pt")
+    assert load_model(old).baselines is None
+    data = _split_all_data(tmp_path / "data")
+    assert main(["evaluate", "--model", str(old), "--data", str(data), "--out", str(tmp_path / "ev"), "--skip", "10"]) == 0
     printed = capsys.readouterr().out
     assert "against the trivial predictors (oracle: fitted on the evaluated recordings):" in printed
+    [note] = [line for line in printed.splitlines() if line.startswith("NOTE:")]
+    assert "stores no trivial predictors of its training data" in note and "oracle" in note
     report = (tmp_path / "ev" / "report.md").read_text()
-    assert "(oracle: fitted on the evaluated recordings)" in report and "training split" not in report
+    assert "(oracle: fitted on the evaluated recordings)" in report and "training" not in report
+
+
+def _plain(pred: TrivialPredictor) -> str:
+    """The predictor's plain data as text (NaN, for a label column no recording has, equal to NaN)."""
+    import json
+
+    return json.dumps(pred.to_dict(), sort_keys=True)
+
+
+def test_stored_baselines_round_trip_through_the_model_file(tiny_run, tmp_path: Path) -> None:
+    """Training stores the means of its training recordings' labels (a, b: 1.3 m/s); model file
+    and checkpoint give them back, and a file saved again keeps them."""
+    import torch
+
+    from sspinn.estimator.model_store import load_model, save_model
+    from sspinn.estimator.trivial_predictors import TRAINING_SOURCE
+
+    _, _, _, train, run = tiny_run
+    stored = load_model(run / "model.pt")
+    pred = stored.baselines
+    assert pred is not None and pred.source == TRAINING_SOURCE and pred.fitted_on == ("a", "b")
+    expected = TrivialPredictor.fit(train, TRAINING_SOURCE)
+    assert pred.means[ALL].speed == pytest.approx(1.3) and pred.means[ALL].n_samples == 300
+    np.testing.assert_allclose(pred.means[ALL].q, expected.means[ALL].q)
+    np.testing.assert_allclose(pred.means[ALL].grf_bw, expected.means[ALL].grf_bw)
+    assert pred.means[ALL].froude == pytest.approx(expected.means[ALL].froude)
+    assert _plain(load_model(run / "checkpoint.pt").baselines) == _plain(pred)
+    # plain data only: the file loads with weights_only, and the entry survives a save
+    assert isinstance(torch.load(run / "model.pt", weights_only=True)["baselines"]["programs"][ALL]["q"], list)
+    again = save_model(stored.network, tmp_path / "again.pt", stored.segments, stored.config, stored.imu_std, (), pred)
+    assert _plain(load_model(again).baselines) == _plain(pred)
+    with pytest.raises(ValueError, match="malformed|shape"):
+        TrivialPredictor.from_dict({**pred.to_dict(), "programs": {ALL: {**pred.to_dict()["programs"][ALL], "q": [0.0]}}})
+
+
+def test_evaluate_prefers_the_stored_baselines_and_never_fits_on_the_evaluated_recordings(tmp_path: Path, tiny_run, capsys) -> None:
+    """The evaluated recordings walk at 2.0 m/s, the model's training recordings at 1.3: the
+    mean-speed baseline is 0.7 m/s off. A baseline fitted on the evaluated recordings (or on the
+    split-"all" training split next to them) would be 0 off."""
+    import json
+
+    from sspinn.cli import main
+
+    data = _split_all_data(tmp_path / "data", speed=2.0)
+    assert main(["evaluate", "--model", str(tiny_run[4] / "model.pt"), "--data", str(data), "--out", str(tmp_path / "ev"),
+                 "--skip", "10"]) == 0
+    printed = capsys.readouterr().out
+    assert "against the trivial predictors (means of the model's training data):" in printed and "NOTE:" not in printed
+    assert "Froude speed" in printed
+    metrics = json.loads((tmp_path / "ev" / "metrics.json").read_text())
+    assert metrics["baseline_source"] == "means of the model's training data" and metrics["baselines_stored_in_model"]
+    assert metrics["by_program"][ALL]["baseline"]["speed_error_mps"] == pytest.approx(0.7)
+    # 1.75 m subjects throughout: the Froude speed is the mean speed
+    assert metrics["by_program"][ALL]["froude"]["speed_error_mps"] == pytest.approx(0.7)
+    report = (tmp_path / "ev" / "report.md").read_text()
+    assert "(means of the model's training data)" in report and "(Froude speed)" in report and "oracle" not in report
+
+
+def test_stored_baselines_of_the_evaluated_recordings_are_called_an_oracle(tiny_run) -> None:
+    from sspinn.estimator.model_store import load_model
+    from sspinn.estimator.trivial_predictors import ORACLE_SOURCE, reference_predictor
+
+    _, _, _, train, run = tiny_run
+    stored = load_model(run / "model.pt").baselines
+    assert reference_predictor(train, None, "d", stored).source == ORACLE_SOURCE
+    assert reference_predictor(train[:1], None, "d", stored).source == (
+        "means of the model's training data, which holds 1 of the 1 evaluated recordings (in part an oracle)")
+    other = _recording("z", "walk", 1.3, 0.5, 7)
+    assert reference_predictor([other], [other], "d", stored) is stored  # the split next to the data is not used
+    assert "holds 1 of the 2 evaluated recordings (in part an oracle)" in reference_predictor([train[0], other], None, "d", stored).source
+
+
+def test_froude_speed_scales_with_the_square_root_of_leg_length() -> None:
+    """Fitted on one 1.75 m subject at 1.3 m/s: the Froude speed of 1.75 m is 1.3; of two
+    subjects of other heights, in the ratio sqrt(L1 / L2) (leg length ∝ height)."""
+    from sspinn.estimator.trivial_predictors import leg_length
+
+    pred = TrivialPredictor.fit([_recording("t", "walk", 1.3, 0.5, 0)], "train")
+    same = _recording("s", "walk", 1.0, 0.5, 1)
+    assert pred.speed_for(same, "froude") == pytest.approx(1.3) and pred.speed_for(same) == pytest.approx(1.3)
+    short, tall = _recording("a", "walk", 1.0, 0.5, 2), _recording("b", "walk", 1.0, 0.5, 3)
+    short.height, tall.height = 1.55, 1.95
+    l1, l2 = leg_length(short), leg_length(tall)
+    assert l1 / l2 == pytest.approx(1.55 / 1.95) and 0.75 < l1 < 0.9
+    v1, v2 = pred.speed_for(short, "froude"), pred.speed_for(tall, "froude")
+    assert v1 / v2 == pytest.approx(np.sqrt(l1 / l2)) and v1 < 1.3 < v2
+    assert pred.means["walk"].froude == pytest.approx(1.3**2 / (GRAVITY * leg_length(same)))
+    est = pred.predict(tall, speed="froude")
+    assert np.allclose(est.u[:, 0], v2) and compute_metrics(est, tall).speed_error_mps == pytest.approx(v2 - 1.0)
+    # subjects who walk at the training Froude number: the Froude speed knows their speeds, the mean speed does not
+    short.labels.speed[:], tall.labels.speed[:] = v1, v2
+    cmp = compare_with_baseline([pred.predict(r) for r in (short, tall)], [short, tall], pred)
+    assert cmp["walk"]["froude"]["speed_error_mps"] == pytest.approx(0.0, abs=1e-12)
+    assert cmp["walk"]["baseline"]["speed_error_mps"] == pytest.approx(((1.3 - v1) + (v2 - 1.3)) / 2)
+    assert cmp["walk"]["worse_than_froude"] == ["speed_error_mps", "speed_tracking_mps"]
+    with pytest.raises(ValueError, match="speed must be one of"):
+        pred.speed_for(same, "median")
+
+
+def test_resuming_a_checkpoint_without_baselines(tiny_run, tmp_path: Path) -> None:
+    """A checkpoint from before the entry existed: a training from scratch (it saw only its own
+    recordings) fits them on resume; one that started from another model (its ``trained_on``
+    names more recordings) stores none rather than the labels of its adaptation recordings."""
+    import contextlib
+    import dataclasses
+    import io
+    import shutil
+
+    import torch
+
+    from sspinn.estimator.model_store import load_model
+    from sspinn.estimator.training import TrainConfig, Trainer
+
+    _, _, cfg, train, run = tiny_run
+    config = dataclasses.replace(TrainConfig.from_yaml(cfg), steps=5)
+    for name, trained_on, fitted_on in (("scratch", ("a", "b"), ("a", "b")), ("adapted", ("x", "a", "b"), None)):
+        folder = tmp_path / name
+        shutil.copytree(run, folder, ignore=shutil.ignore_patterns("*.lock"))
+        state = torch.load(folder / "checkpoint.pt", weights_only=True)
+        del state["baselines"]
+        state["trained_on"] = trained_on
+        torch.save(state, folder / "checkpoint.pt")
+        with contextlib.redirect_stderr(io.StringIO()):
+            Trainer(config, folder).fit(train, resume=True)
+        stored = load_model(folder / "model.pt").baselines
+        assert (stored.fitted_on if stored is not None else None) == fitted_on, name

@@ -13,6 +13,7 @@ import runpy
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 import torch
 
@@ -89,6 +90,8 @@ def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     # the baselines are what they claim: the profile at measured timing beats the constant mean GRF
     assert row["mean GRF profile (measured timing)"]["all"] < row["constant mean GRF / mean speed"]["all"]
     assert row["mean GRF profile (measured timing)"]["hs_ms"] == 0.0 and row["belt_speed"] == pytest.approx(0.7791, abs=1e-3)
+    froude = row["Froude speed"]  # a speed only, at the test subject's leg length
+    assert 0.3 < froude["speed"] < 2.0 and np.isnan(froude["all"]) and "Froude speed" in out
     assert "per condition" in out.lower() and (tmp_path / "cmu" / "plots" / "Sub05_CSBaseline.png").exists()
     saved = json.loads((tmp_path / "cmu" / "metrics.json").read_text())
     assert saved["training"]["scratch"]["steps"] == 3 and saved["training"]["adapted"]["steps"] == 3

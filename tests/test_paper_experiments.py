@@ -76,6 +76,7 @@ def test_sensor_sets_run_resume_and_overwrite(tiny, tmp_path, capsys):
     assert results["arms"]["single_segment"]["status"] == "not built"
     text = (out / "report.md").read_text()
     assert "## walk" in text and "## run" in text and "trivial predictors" in text and "9.1" in text  # the paper's row
+    assert "the Froude speed (the same data's mean Froude number" in text
     assert (out / "sensor_sets.png").stat().st_size > 0
     stamp = (out / "all" / "arm.json").stat().st_mtime_ns
     capsys.readouterr()

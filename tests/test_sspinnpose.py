@@ -75,6 +75,10 @@ def test_adapt_continues_from_the_loaded_weights_and_names_both_trainings(tiny: 
     assert (tmp_path / "adapted" / "model.pt").exists()
     saved = adapted.save(tmp_path / "copy.pt")
     assert load_model(saved).trained_on == adapted.trained_on_
+    # the baselines stay those of the training data: the adaptation recordings' labels never enter them
+    assert adapted.baselines_ is not None and adapted.baselines_.fitted_on == ("a", "b") == base.baselines_.fitted_on
+    assert load_model(saved).baselines.fitted_on == ("a", "b")
+    assert load_model(tmp_path / "adapted" / "checkpoint.pt").baselines.fitted_on == ("a", "b")
 
 
 def test_named_configs_resolve_from_any_folder(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:

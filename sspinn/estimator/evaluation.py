@@ -166,6 +166,9 @@ BASELINE_OF: dict[str, str] = {
     "speed_error_mps": "mean speed",
     "speed_tracking_mps": "mean speed",
 }
+#: Metrics also compared with the Froude speed (the training data's mean Froude number at the
+#: evaluated subject's leg length; :meth:`~sspinn.estimator.trivial_predictors.TrivialPredictor.speed_for`).
+FROUDE_METRICS: tuple[str, ...] = ("speed_error_mps", "speed_tracking_mps")
 _LABELS = {"jae_deg": "JAE (deg)", "jte_pct_bwbh": "JTE (%BW·BH)", "grfe_pct_bw": "GRFE (%BW)", "speed_error_mps": "speed error (m/s)",
            "speed_tracking_mps": f"speed tracking, {SPEED_WINDOW_S:g}-s means (m/s)"}
 
@@ -174,22 +177,32 @@ def compare_with_baseline(
     estimates: list[GaitEstimate], recordings: list[Recording], baseline: TrivialPredictor, skip: int = 0
 ) -> dict[str, dict]:
     """Per gait program (and pooled as "all" when there are several): the sample-weighted mean
-    metrics of the estimates and of the trivial predictor on the same recordings, and the
-    metrics on which the estimate is **worse** than the baseline."""
+    metrics of the estimates (``model``) and of the trivial predictor on the same recordings
+    (``baseline``), the metrics on which the estimate is **worse** than the baseline
+    (``worse_than_baseline``), and the speed metrics of the Froude speed (``froude``, m/s; the
+    metrics :data:`FROUDE_METRICS`) with those on which the estimate is worse than it
+    (``worse_than_froude``)."""
     from sspinn.estimator.trivial_predictors import program_of
 
-    groups: dict[str, list[tuple[Metrics, Metrics]]] = {}
+    groups: dict[str, list[tuple[Metrics, Metrics, Metrics]]] = {}
     for est, rec in zip(estimates, recordings):
-        pair = (compute_metrics(est, rec, skip), compute_metrics(baseline.predict(rec), rec, skip, physics=False))
-        groups.setdefault(program_of(rec), []).append(pair)
+        triple = (compute_metrics(est, rec, skip), compute_metrics(baseline.predict(rec), rec, skip, physics=False),
+                  compute_metrics(baseline.predict(rec, speed="froude"), rec, skip, physics=False))
+        groups.setdefault(program_of(rec), []).append(triple)
     if len(groups) > 1:
-        groups["all"] = [pair for pairs in list(groups.values()) for pair in pairs]
+        groups["all"] = [triple for triples in list(groups.values()) for triple in triples]
+
+    def worse(model: dict[str, float], base: dict[str, float], keys: tuple[str, ...]) -> list[str]:
+        return [k for k in keys if np.isfinite(model[k]) and np.isfinite(base[k]) and model[k] >= base[k]]
+
     out = {}
-    for program, pairs in groups.items():
-        model = mean_metrics([m for m, _ in pairs]).as_dict()
-        base = mean_metrics([b for _, b in pairs]).as_dict()
-        worse = [k for k in BASELINE_OF if np.isfinite(model[k]) and np.isfinite(base[k]) and model[k] >= base[k]]
-        out[program] = {"recordings": len(pairs), "model": model, "baseline": base, "worse_than_baseline": worse}
+    for program, triples in groups.items():
+        model = mean_metrics([m for m, _, _ in triples]).as_dict()
+        base = mean_metrics([b for _, b, _ in triples]).as_dict()
+        froude = {k: v for k, v in mean_metrics([f for _, _, f in triples]).as_dict().items() if k in FROUDE_METRICS}
+        out[program] = {"recordings": len(triples), "model": model, "baseline": base,
+                        "worse_than_baseline": worse(model, base, tuple(BASELINE_OF)),
+                        "froude": froude, "worse_than_froude": worse(model, froude, FROUDE_METRICS)}
     return out
 
 
@@ -220,16 +233,21 @@ def check_evaluable(estimates: list[GaitEstimate], recordings: list[Recording], 
 
 
 def baseline_lines(comparison: dict[str, dict], source: str) -> list[str]:
-    """Markdown tables of :func:`compare_with_baseline`, one per program."""
+    """Markdown tables of :func:`compare_with_baseline`, one per program: every metric against
+    its trivial predictor, then the speed metrics against the Froude speed."""
     lines = ["", f"## Against the trivial predictors ({source})", ""]
     for program, c in comparison.items():
         lines += [f"### {program} ({c['recordings']} recording(s))", "", "| metric | estimate | trivial predictor | ratio | verdict |", "|---|---|---|---|---|"]
-        for k, name in BASELINE_OF.items():
-            m, b = c["model"][k], c["baseline"][k]
+        rows = [(k, name, c["baseline"], c["worse_than_baseline"]) for k, name in BASELINE_OF.items()]
+        rows += [(k, "Froude speed", c["froude"], c["worse_than_froude"]) for k in FROUDE_METRICS if "froude" in c]
+        for k, name, base, worse in rows:
+            m, b = c["model"][k], base[k]
             ratio = m / b if np.isfinite(m) and np.isfinite(b) and b > 0 else float("nan")
-            verdict = "**WORSE than the baseline**" if k in c["worse_than_baseline"] else ("beats it" if np.isfinite(ratio) else "–")
+            verdict = "**WORSE than the baseline**" if k in worse else ("beats it" if np.isfinite(ratio) else "–")
             lines.append(f"| {_LABELS[k]} | {_cell(m, '.3g')} | {_cell(b, '.3g')} ({name}) | {_cell(ratio, '.2f')} | {verdict} |")
         lines.append("")
+    lines += ["Froude speed: sqrt(Fr · g · L), Fr the same data's mean Froude number of the program, L the evaluated "
+              "subject's leg length (the standing hip height of the body scaled from the height).", ""]
     return lines
 
 
@@ -355,11 +373,13 @@ def evaluate(
     (``report.md``, ``metrics.json``, one PNG per recording) to ``out``; returns the metrics.
 
     The rules of a fair report live here: every estimate is checked before anything is written;
-    the trivial predictors are fitted on ``reference`` (the model's labelled training split), else
-    they are an oracle and the report says so
+    the trivial predictors are those the model file stores, fitted on the labels of the model's
+    own training data; a model file without them (older, or trained on unlabelled recordings)
+    says so in a ``NOTE:`` line, and they are fitted on ``reference`` (the labelled training
+    split found at ``reference_where``, a folder named in the report), else on the evaluated
+    recordings, an oracle the report names as such
     (:func:`~sspinn.estimator.trivial_predictors.reference_predictor`); recordings whose IMU
-    signals the model's training saw are named in the title and in a ``NOTE:`` line. ``reference``
-    is the labelled training split found at ``reference_where`` (a folder, named in the report)."""
+    signals the model's training saw are named in the title and in a ``NOTE:`` line."""
     out = Path(out)
     title = title or f"{estimator.path_} on {len(recordings)} recording(s)"
     seen = [r.name for r in recordings if r.name in estimator.trained_on_]
@@ -372,5 +392,10 @@ def evaluate(
     check_evaluable(estimates, recordings, skip)
     from sspinn.estimator.trivial_predictors import reference_predictor
 
-    baseline = reference_predictor(recordings, reference, reference_where)
-    return write_report(estimates, recordings, out, title=title, skip=skip, baseline=baseline)
+    stored = estimator.baselines_
+    baseline = reference_predictor(recordings, reference, reference_where, stored)
+    if stored is None:
+        print(f"NOTE: {estimator.path_} stores no trivial predictors of its training data (a file from before they were "
+              f"stored, or a model trained on unlabelled recordings); compared instead with: {baseline.source}")
+    return write_report(estimates, recordings, out, title=title, skip=skip, baseline=baseline,
+                        extra={"baselines_stored_in_model": stored is not None})

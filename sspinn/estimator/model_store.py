@@ -7,8 +7,12 @@ A model file (``model.pt`` of a ``sspinn train`` run) is a ``"sspinn-model"`` fi
 (a plain dict) and the per-channel IMU standard deviations, and ``trained_on`` (absent from
 the oldest files): the names of the recordings whose IMU signals its self-supervised training saw,
 those of the model it was fine-tuned or adapted from included (:func:`trained_on`; evaluation
-names the evaluated recordings among them). A training checkpoint holds the same entries and
-more, so it can be loaded as a model too.
+names the evaluated recordings among them), and ``baselines`` (absent from older files; None when
+the training recordings had no labels): the trivial predictors fitted on the labels of the
+recordings a training from scratch saw, as plain numbers and strings
+(:meth:`~sspinn.estimator.trivial_predictors.TrivialPredictor.to_dict`; a fine-tuned or adapted
+model keeps its starting model's), which evaluation compares with. A training checkpoint holds
+the same entries and more, so it can be loaded as a model too.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from typing import Any
 import torch
 
 from sspinn.estimator.network import NetworkConfig, SSPINNposeNet, feature_std_floor
+from sspinn.estimator.trivial_predictors import TrivialPredictor
 from sspinn.model.conventions import SEGMENTS
 from sspinn.torch_files import CHECKPOINT, MODEL, ModelFileError, check_finite_weights, load_torch_file, save_torch_file
 
@@ -31,18 +36,36 @@ MODEL_HINT = "pass the model.pt (or checkpoint.pt) of a finished `sspinn train` 
 
 def save_model(
     model: SSPINNposeNet, path: Path, segments: tuple[str, ...], config: dict[str, Any], imu_std: torch.Tensor,
-    trained_on: tuple[str, ...] = (),
+    trained_on: tuple[str, ...] = (), baselines: TrivialPredictor | None = None,
 ) -> Path:
     """The trained model alone (weights + what is needed to rebuild and run it), written
     atomically in the safe format of :mod:`sspinn.torch_files`; ``config`` is the training
     configuration as a plain dict (``TrainConfig.to_dict()``), ``trained_on`` the names of the
-    recordings its training saw."""
+    recordings its training saw, ``baselines`` the trivial predictors of its training data."""
     check_finite_weights(path, model.state_dict(), "training diverged: nothing written")
     return save_torch_file(
         path, MODEL,
         {"model": model.state_dict(), "hyperparameters": model.hyperparameters(), "segments": tuple(segments),
-         "config": config, "imu_std": imu_std, "trained_on": tuple(trained_on)},
+         "config": config, "imu_std": imu_std, "trained_on": tuple(trained_on), "baselines": baselines_entry(baselines)},
     )
+
+
+def baselines_entry(baselines: TrivialPredictor | None) -> dict[str, Any] | None:
+    """The ``baselines`` entry of a model file or checkpoint: plain data, or None."""
+    return None if baselines is None else baselines.to_dict()
+
+
+def read_baselines(state: dict[str, Any], path: Path) -> TrivialPredictor | None:
+    """The trivial predictors stored in a model file's or checkpoint's ``state``; None when the
+    file has none (older files, unlabelled training data). Raises :class:`ModelFileError` for a
+    malformed entry."""
+    entry = state.get("baselines")
+    if entry is None:
+        return None
+    try:
+        return TrivialPredictor.from_dict(entry)
+    except ValueError as exc:
+        raise ModelFileError(f"{path}: its baselines entry is damaged ({exc}); {MODEL_HINT}") from None
 
 
 def trained_on(path: str | Path) -> tuple[str, ...] | None:
@@ -100,6 +123,8 @@ class StoredModel:
         trained_on: names of the recordings whose IMU signals its training saw (those of the
             models it started from included); ``None`` for files written before the entry existed.
         path: the file it was read from.
+        baselines: the trivial predictors fitted on its training data's labels; ``None`` for
+            files written before the entry existed or trained on unlabelled recordings.
     """
 
     network: SSPINNposeNet
@@ -108,6 +133,7 @@ class StoredModel:
     imu_std: torch.Tensor
     trained_on: tuple[str, ...] | None
     path: Path
+    baselines: TrivialPredictor | None = None
 
 
 def load_model(path: str | Path, device: str | torch.device = "cpu") -> StoredModel:
@@ -128,6 +154,7 @@ def load_model(path: str | Path, device: str | torch.device = "cpu") -> StoredMo
     return StoredModel(
         network=model, segments=segments, config=state["config"], imu_std=torch.as_tensor(state["imu_std"]),
         trained_on=None if names is None else tuple(str(n) for n in names), path=path,
+        baselines=read_baselines(state, path),
     )
 
 

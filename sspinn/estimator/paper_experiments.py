@@ -461,7 +461,10 @@ def report(results: dict[str, Any]) -> str:
                 worse.append(f"- **{name} is worse than the trivial predictors on {program}**: " + "; ".join(c for c in cells if c))
         lines.append("| trivial predictors | " + ", ".join(BASELINE_OF[k] for k in METRICS) + " | "
                      + " | ".join(_cell(base[k]) for k in METRICS) + " |")
-        lines += ["", f"Trivial predictors: {source}.", ""]
+        froude = first.get("froude", {}).get("speed_error_mps")  # absent from arms scored before it existed
+        lines += ["", f"Trivial predictors: {source}."
+                  + (f" Beside the mean speed, the Froude speed (the same data's mean Froude number at each test subject's "
+                     f"leg length): speed error {_cell(froude)} m/s." if froude is not None else ""), ""]
         lines += worse + ([""] if worse else [])
         reference = next(iter(finished))
         if len(finished) > 1 and program in finished[reference]["by_program"]:

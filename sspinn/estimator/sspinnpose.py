@@ -34,6 +34,7 @@ from sspinn.estimator.inference import GaitEstimate, StreamingEstimator, estimat
 from sspinn.estimator.model_store import StoredModel, export_streaming, load_model, save_model
 from sspinn.estimator.network import SSPINNposeNet
 from sspinn.estimator.training import TrainConfig, Trainer, adaptation_config
+from sspinn.estimator.trivial_predictors import TrivialPredictor
 from sspinn.yaml_config import shipped_path
 
 #: The repository's named training configurations (``configs/sspinn/<name>.yaml``), found from
@@ -76,6 +77,9 @@ class SSPINNpose:
         config_: the :class:`TrainConfig` it was trained with.
         imu_std_: (n_segments, 3) IMU standard deviations of its training data (m/s², rad/s).
         trained_on_: names of the recordings whose IMU signals its training saw.
+        baselines_: the trivial predictors fitted on its training data's labels
+            (:class:`~sspinn.estimator.trivial_predictors.TrivialPredictor`), stored in the model
+            file; None for older files and unlabelled training data.
         steps_: optimiser steps of the last ``fit``/``adapt`` (None after ``load``).
         stopped_by_: ``"steps"`` or ``"time_limit"`` for the last ``fit``/``adapt``.
         path_: the model file it was loaded from or last saved to.
@@ -99,6 +103,7 @@ class SSPINNpose:
         self.config_: TrainConfig = resolve_train_config_from_dict(stored.config, str(stored.path))
         self.imu_std_: torch.Tensor = stored.imu_std
         self.trained_on_: tuple[str, ...] = stored.trained_on or ()
+        self.baselines_: TrivialPredictor | None = stored.baselines
         self.steps_ = steps
         self.stopped_by_ = stopped_by
         self.path_: Path = stored.path
@@ -153,7 +158,7 @@ class SSPINNpose:
         stored = StoredModel(
             network=network.to(self.device).eval(), segments=trainer.segments, config=trainer.config.to_dict(),
             imu_std=trainer.imu_std, trained_on=trainer.trained_on,
-            path=Path(folder) / "model.pt" if out is not None else Path("<memory>"),
+            path=Path(folder) / "model.pt" if out is not None else Path("<memory>"), baselines=trainer.baselines,
         )
         self._set(stored, steps=trainer.step, stopped_by=trainer.stopped_by)
         return self
@@ -179,7 +184,8 @@ class SSPINNpose:
     def save(self, path: str | Path) -> Path:
         """Write the model file (atomically, safe format) and return its path."""
         self._check_fitted()
-        path = save_model(self.network_, Path(path), self.segments_, self._stored.config, self.imu_std_, self.trained_on_)
+        path = save_model(self.network_, Path(path), self.segments_, self._stored.config, self.imu_std_, self.trained_on_,
+                          self.baselines_)
         self.path_ = path
         return path
 

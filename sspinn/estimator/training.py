@@ -6,7 +6,10 @@
    noise augmentation, gradient clipping, a NaN/inf guard that names the offending windows,
    TensorBoard logs, a progress bar, periodic checkpoints, ``resume`` and a checkpoint on Ctrl-C.
 
-No labels are used anywhere in training.
+No labels are used anywhere in training. A training from scratch stores the means of its
+recordings' labels, where they have any, in the model file as the trivial predictors evaluation
+compares with (:func:`~sspinn.estimator.trivial_predictors.training_predictor`); they play no part
+in the training itself.
 """
 
 from __future__ import annotations
@@ -30,7 +33,15 @@ import yaml
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.estimator.cpu_share import ThreadShare
 from sspinn.estimator.losses import Batch, IMUNoise, LossWeights, PhysicsLosses
-from sspinn.estimator.model_store import MODEL_ENTRIES, StoredModel, load_model, load_weights, save_model
+from sspinn.estimator.model_store import (
+    MODEL_ENTRIES,
+    StoredModel,
+    baselines_entry,
+    load_model,
+    load_weights,
+    read_baselines,
+    save_model,
+)
 from sspinn.estimator.network import (
     NetworkConfig,
     SSPINNposeNet,
@@ -39,6 +50,7 @@ from sspinn.estimator.network import (
     input_features,
     output_affine,
 )
+from sspinn.estimator.trivial_predictors import TrivialPredictor, training_predictor
 from sspinn.interrupt import DeferredInterrupt
 from sspinn.model.backends import ops_for
 from sspinn.model.body import BodyParameters, JointLimits
@@ -440,6 +452,11 @@ class Trainer:
         self.stopped_by = "steps"
         self.model: SSPINNposeNet | None = None
         self.history: list[dict[str, float]] = []
+        #: the trivial predictors of the training data stored with the model: fitted on the
+        #: training recordings' labels in a training from scratch, the starting model's with
+        #: ``init_from`` (fine-tuning and adaptation recordings are often the ones evaluated
+        #: next), the checkpoint's on resume; None without labels
+        self.baselines: TrivialPredictor | None = None
 
     # -------------------------------------------------------------- setup
     def _setup(self, train: list[Recording]) -> None:
@@ -499,6 +516,7 @@ class Trainer:
             "placement": self.placement.detach().cpu(),
             "recordings": [d.recording.name for d in self.data],
             "trained_on": self.trained_on,
+            "baselines": baselines_entry(self.baselines),
             "imu_std": self.imu_std,
             "rng": rng or self._rng_state(),
             "history": self.history,
@@ -526,6 +544,7 @@ class Trainer:
         load_weights(self.model, state, source.path)
         check_finite_weights(source.path, self.model.state_dict(), "the model is damaged or its training diverged")
         self.trained_on = tuple(dict.fromkeys((source.trained_on or ()) + self.trained_on))
+        self.baselines = source.baselines
 
     def load_checkpoint(self, path: Path) -> None:
         """Restore a checkpoint (the whole training state) into a set-up trainer. Raises
@@ -540,6 +559,10 @@ class Trainer:
         if state["recordings"] != [d.recording.name for d in self.data]:
             raise ModelFileError(f"{path}: checkpoint was trained on other recordings; resume needs the same --data")
         self.trained_on = tuple(state.get("trained_on", self.trained_on))
+        if "baselines" in state:
+            self.baselines = read_baselines(state, path)
+        elif set(self.trained_on) == {d.recording.name for d in self.data}:  # older checkpoint of a training from scratch
+            self.baselines = training_predictor([d.recording for d in self.data])
         try:
             self.optimizer.load_state_dict(state["optimizer"])
             with torch.no_grad():
@@ -582,6 +605,8 @@ class Trainer:
             self.start_from(init_from if isinstance(init_from, StoredModel) else load_model(init_from, self.device))
         elif cfg.starts > 1:
             self.load_checkpoint(self._best_start(train))
+        else:
+            self.baselines = training_predictor(train)
         lead = self.rank == 0  # only rank 0 writes files and shows progress
         if lead:
             atomic_write_text(self.out / "config.yaml", yaml.safe_dump({"train": cfg.to_dict()}, sort_keys=False))
@@ -667,7 +692,8 @@ class Trainer:
                 writer.close()
         if lead:
             self.save_checkpoint()
-            save_model(self.model, self.out / "model.pt", self.segments, self.config.to_dict(), self.imu_std, self.trained_on)
+            save_model(self.model, self.out / "model.pt", self.segments, self.config.to_dict(), self.imu_std, self.trained_on,
+                       self.baselines)
             summary = {
                 "steps": self.step,
                 "steps_planned": cfg.steps,

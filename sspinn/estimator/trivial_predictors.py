@@ -9,25 +9,38 @@ the same recordings. :class:`TrivialPredictor` predicts, for every sample,
   (GRFE baseline),
 * the **mean speed**, m/s (speed-error baseline),
 
-with the means taken over the labelled *reference* recordings — the training split's labels, the
+with the means taken over the labelled *reference* recordings — the training data's labels, the
 fair choice — per gait program (``walk``/``run``, from the recordings' provenance) when the
-reference has recordings of that program, else over all of them. When no labelled training data
-exist, :meth:`TrivialPredictor.fit` on the evaluated recordings themselves gives an *oracle*
-baseline (it knows the test means; harder to beat), and says so in ``source``;
-:func:`reference_predictor` picks between the two and labels the result by what it was fitted on
-(a training split that holds the evaluated recordings is an oracle too).
+reference has recordings of that program, else over all of them. Beside the mean speed,
+:meth:`TrivialPredictor.predict` with ``speed="froude"`` gives the **Froude speed**
+``sqrt(Fr · g · L)``: the reference recordings' mean Froude number Fr (dimensionless, per
+program) at the evaluated recording's own leg length L (m, :func:`leg_length`) — what a
+predictor that knows only the subject's height says, since people of similar build walk at
+similar Froude numbers.
+
+A model file stores the predictor fitted on its training recordings (:meth:`TrivialPredictor.to_dict`,
+plain numbers and strings; :mod:`sspinn.estimator.model_store`), so evaluation compares with the
+model's own training data wherever the evaluated recordings come from. Without it, the training
+split found next to the evaluated data is used; when no labelled training data exist,
+:meth:`TrivialPredictor.fit` on the evaluated recordings themselves gives an *oracle* baseline
+(it knows the test means; harder to beat), and says so in ``source``. :func:`reference_predictor`
+picks between the three and labels the result by what it was fitted on (reference data that hold
+the evaluated recordings are an oracle too).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.data.gait_events import detect_events, normalise_cycles, strides
 from sspinn.estimator.inference import GaitEstimate
+from sspinn.model.body import BodyParameters
 from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, N_Q, N_TAU
 
 #: Program name of recordings whose provenance names none.
@@ -42,24 +55,47 @@ def program_of(rec: Recording) -> str:
     return str(name) if name else ALL
 
 
+def leg_length(rec: Recording) -> float:
+    """Leg length (m) of the body the estimator assumes for ``rec``: the standing hip height
+    (femur + tibia + ankle height) of :meth:`~sspinn.model.body.BodyParameters.from_anthropometry`
+    at the recording's height and mass (Winter's proportions: 0.53 × height)."""
+    return BodyParameters.from_anthropometry(rec.height, rec.mass).standing_hip_height
+
+
 @dataclass(frozen=True)
 class ProgramMeans:
     """Means of one program's reference labels: ``q`` (9,) coordinate means (m, rad; only the
     angles and pelvis tilt are used), ``grf_bw`` (4,) mean GRF in body weights, ``speed`` (m/s),
-    and the number of samples they come from."""
+    the number of samples they come from, and ``froude``: the mean Froude number
+    (dimensionless), ``(mean of v / sqrt(g · L))²`` over the speed samples with L each
+    recording's :func:`leg_length` — the Froude number of the mean dimensionless speed, so that
+    on legs of one length the Froude speed is the mean speed exactly (a mean of v²/(g·L) would
+    add the speed's variance); NaN without speed labels."""
 
     q: np.ndarray
     grf_bw: np.ndarray
     speed: float
     n_samples: int
+    froude: float = float("nan")
+
+    def froude_speed(self, leg: float) -> float:
+        """``sqrt(froude · g · leg)``, m/s, for a leg length ``leg`` (m)."""
+        return math.sqrt(self.froude * GRAVITY * leg)
+
+
+#: What ``speed`` of :meth:`TrivialPredictor.predict` accepts.
+SPEED_BASELINES: tuple[str, ...] = ("mean", "froude")
 
 
 @dataclass(frozen=True)
 class TrivialPredictor:
-    """Per-program label means (see the module docstring); ``source`` says where they come from."""
+    """Per-program label means (see the module docstring); ``source`` says where they come from,
+    ``fitted_on`` names the recordings whose labels they are (to tell a fair baseline from an
+    oracle)."""
 
     means: dict[str, ProgramMeans]
     source: str
+    fitted_on: tuple[str, ...] = ()
 
     @classmethod
     def fit(cls, recordings: Sequence[Recording], source: str) -> TrivialPredictor:
@@ -73,10 +109,12 @@ class TrivialPredictor:
             ValueError: no recording has any of the labels q, GRF and speed.
         """
         groups: dict[str, list[Recording]] = {}
+        used: list[str] = []
         for rec in recordings:
             lab = rec.labels
             if lab is None or (lab.q is None and lab.grf is None and lab.speed is None):
                 continue
+            used.append(rec.name)
             groups.setdefault(program_of(rec), []).append(rec)
             if program_of(rec) != ALL:
                 groups.setdefault(ALL, []).append(rec)
@@ -87,26 +125,41 @@ class TrivialPredictor:
             q = [r.labels.q for r in recs if r.labels.q is not None]
             grf = [r.labels.grf / (r.mass * GRAVITY) for r in recs if r.labels.grf is not None]
             speed = [r.labels.speed for r in recs if r.labels.speed is not None]
+            dimensionless = [r.labels.speed / math.sqrt(GRAVITY * leg_length(r)) for r in recs if r.labels.speed is not None]
             means[program] = ProgramMeans(
                 np.concatenate(q).mean(0) if q else np.zeros(N_Q),
                 np.concatenate(grf).mean(0) if grf else np.zeros(len(GRF)),
                 float(np.concatenate(speed).mean()) if speed else 0.0,
                 sum(r.n_samples for r in recs),
+                float(np.concatenate(dimensionless).mean()) ** 2 if dimensionless else float("nan"),
             )
-        return cls(means, source)
+        return cls(means, source, tuple(used))
 
     def means_for(self, rec: Recording) -> ProgramMeans:
         """The means used for ``rec``: its program's, else those over all reference recordings."""
         return self.means.get(program_of(rec), self.means[ALL] if ALL in self.means else next(iter(self.means.values())))
 
-    def predict(self, rec: Recording) -> GaitEstimate:
-        """The trivial estimate of ``rec`` (same samples; constant in time)."""
+    def speed_for(self, rec: Recording, speed: str = "mean") -> float:
+        """The constant speed (m/s) predicted for ``rec``: the program's mean speed
+        (``"mean"``), or its Froude speed at the recording's :func:`leg_length` (``"froude"``;
+        NaN when the reference had no speed labels)."""
         m = self.means_for(rec)
+        if speed == "mean":
+            return m.speed
+        if speed == "froude":
+            return m.froude_speed(leg_length(rec)) if math.isfinite(m.froude) else float("nan")
+        raise ValueError(f"speed must be one of {SPEED_BASELINES}, got {speed!r}")
+
+    def predict(self, rec: Recording, speed: str = "mean") -> GaitEstimate:
+        """The trivial estimate of ``rec`` (same samples; constant in time), at the speed
+        :meth:`speed_for` gives (``"mean"`` or ``"froude"``)."""
+        m = self.means_for(rec)
+        v = self.speed_for(rec, speed)
         T = rec.n_samples
         q = np.tile(m.q, (T, 1))
-        q[:, COORDINATES.index("pelvis_tx")] = m.speed * np.arange(T) / SAMPLE_RATE_HZ
+        q[:, COORDINATES.index("pelvis_tx")] = v * np.arange(T) / SAMPLE_RATE_HZ
         u = np.zeros((T, N_Q))
-        u[:, 0] = m.speed
+        u[:, 0] = v
         grf = np.tile(m.grf_bw * rec.mass * GRAVITY, (T, 1))
         assert grf.shape[1] == len(GRF)
         return GaitEstimate(
@@ -119,6 +172,39 @@ class TrivialPredictor:
             grf=grf,
             w=np.zeros((T, 2)),
         )
+
+    def to_dict(self) -> dict[str, Any]:
+        """The predictor as plain data (str, int, float, lists, dicts) for a model file:
+        ``{"source", "fitted_on", "programs": {program: {"q", "grf_bw", "speed", "froude",
+        "n_samples"}}}`` in the units of :class:`ProgramMeans`."""
+        return {
+            "source": self.source,
+            "fitted_on": list(self.fitted_on),
+            "programs": {
+                program: {"q": [float(x) for x in m.q], "grf_bw": [float(x) for x in m.grf_bw], "speed": float(m.speed),
+                          "froude": float(m.froude), "n_samples": int(m.n_samples)}
+                for program, m in self.means.items()
+            },
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> TrivialPredictor:
+        """The inverse of :meth:`to_dict`. Raises ValueError naming the first malformed entry."""
+        try:
+            programs = data["programs"]
+            means = {}
+            for program, m in programs.items():
+                q = np.asarray(m["q"], dtype=float)
+                grf_bw = np.asarray(m["grf_bw"], dtype=float)
+                if q.shape != (N_Q,) or grf_bw.shape != (len(GRF),):
+                    raise ValueError(f"program {program!r}: q has shape {q.shape} (expected ({N_Q},)), "
+                                     f"grf_bw {grf_bw.shape} (expected ({len(GRF)},))")
+                means[str(program)] = ProgramMeans(q, grf_bw, float(m["speed"]), int(m["n_samples"]), float(m["froude"]))
+            if not means:
+                raise ValueError("no program")
+            return cls(means, str(data["source"]), tuple(str(n) for n in data["fitted_on"]))
+        except (KeyError, TypeError, AttributeError) as exc:
+            raise ValueError(f"malformed trivial-predictor entry ({type(exc).__name__}: {exc})") from None
 
 
 @dataclass(frozen=True)
@@ -179,32 +265,58 @@ class GRFProfilePredictor:
 
 #: ``TrivialPredictor.source`` when it was fitted on the very recordings it is compared on.
 ORACLE_SOURCE: str = "oracle: fitted on the evaluated recordings"
+#: ``TrivialPredictor.source`` of the predictor a training run fits on its training recordings
+#: and stores in the model file.
+TRAINING_SOURCE: str = "means of the model's training data"
 
 
-def reference_predictor(evaluated: Sequence[Recording], training: Sequence[Recording] | None, where: str) -> TrivialPredictor:
+def training_predictor(recordings: Sequence[Recording]) -> TrivialPredictor | None:
+    """The predictor a training run stores in its model file: fitted on the labels of its
+    training ``recordings`` (:data:`TRAINING_SOURCE`; training itself never reads them); None
+    when none of them has labels."""
+    try:
+        return TrivialPredictor.fit(recordings, TRAINING_SOURCE)
+    except ValueError:
+        return None
+
+
+def _oracle_label(names: set[str], reference: set[str], what: str) -> str | None:
+    """The label of a predictor fitted on the recordings ``reference`` (``what``, e.g. "the
+    training split of d") compared on the recordings ``names``: None when ``reference`` holds
+    none of them (a fair baseline), else an oracle label saying how many it holds."""
+    held = names & reference
+    if not held:
+        return None
+    if held == reference:  # nothing in the reference but evaluated recordings
+        return ORACLE_SOURCE if held == names else f"{ORACLE_SOURCE} ({len(held)} of the {len(names)}: {what})"
+    return f"means of {what}, which holds {len(held)} of the {len(names)} evaluated recordings (in part an oracle)"
+
+
+def reference_predictor(
+    evaluated: Sequence[Recording], training: Sequence[Recording] | None, where: str, stored: TrivialPredictor | None = None,
+) -> TrivialPredictor:
     """The trivial predictor an evaluation is compared with, labelled by what it was fitted on.
 
-    Fitted on ``training`` (the labelled training split found at ``where``) when it has labels,
-    else on ``evaluated``. Recordings are matched by name (names are unique in a dataset folder):
-    a training split that *is* the evaluated recordings (a dataset imported with split "all",
-    or the training split evaluated) gives :data:`ORACLE_SOURCE`, never "training split"; one
-    that holds some of them says how many.
+    ``stored`` (the model file's, fitted on the model's training data) when given; else fitted on
+    ``training`` (the labelled training split found at ``where``) when it has labels, else on
+    ``evaluated``. Recordings are matched by name (names are unique in a dataset folder):
+    reference data that *are* the evaluated recordings (a dataset imported with split "all", the
+    training split evaluated, a model trained on the recordings evaluated) give
+    :data:`ORACLE_SOURCE`, never "training data"; reference data that hold some of them say how
+    many.
     """
     names = {r.name for r in evaluated}
+    if stored is not None:
+        label = _oracle_label(names, set(stored.fitted_on), "the model's training data")
+        return stored if label is None else TrivialPredictor(stored.means, label, stored.fitted_on)
     fallback = ""
     if training:
-        held = names & {r.name for r in training}
-        if held == {r.name for r in training}:  # nothing in the training split but evaluated recordings
-            label = ORACLE_SOURCE if held == names else f"{ORACLE_SOURCE} ({len(held)} of the {len(names)}: the training split of {where})"
-        elif held:
-            label = (f"means of the training split of {where}, which holds {len(held)} of the {len(names)} evaluated "
-                     "recordings (in part an oracle)")
-        else:
-            label = f"means of the training split of {where}"
+        what = f"the training split of {where}"
+        label = _oracle_label(names, {r.name for r in training}, what) or f"means of {what}"
         try:
             return TrivialPredictor.fit(training, label)
         except ValueError:
-            fallback = f" (the training split of {where} has no labels)"
+            fallback = f" ({what} has no labels)"
     return TrivialPredictor.fit(evaluated, ORACLE_SOURCE + fallback)
 
 
