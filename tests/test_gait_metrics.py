@@ -175,3 +175,12 @@ def test_contact_point_velocity_is_the_slip_of_the_friction_law() -> None:
 def test_too_short_a_trajectory_gives_undefined_metrics() -> None:
     m = gait_metrics(_gait()[:2], BODY)
     assert m.steps_r == 0 and m.heel_strikes_l == 0 and math.isnan(m.peak_impact_bw) and m.as_dict()["foot_slide_m"] is None
+
+
+def test_the_default_data_folder_is_the_one_beside_the_repository() -> None:
+    """``DEFAULT_DATA_DIR`` is ``../shared/data`` seen from the repository root (where the tests
+    look too), so that evaluations find Winter's walking without being told."""
+    from sspinn.data.gait_metrics import DEFAULT_DATA_DIR
+
+    repository = Path(__file__).resolve().parents[1]
+    assert DEFAULT_DATA_DIR == repository.parent / "shared" / "data"

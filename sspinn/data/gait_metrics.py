@@ -55,7 +55,7 @@ from sspinn.model.trajectory import Trajectory
 #: Window after a heel strike in which the impact peak is taken, s.
 IMPACT_WINDOW_S: Final = 0.1
 #: Default location of the shared real data (``../shared/data`` beside the repository).
-DEFAULT_DATA_DIR: Final = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+DEFAULT_DATA_DIR: Final = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 _HEEL = (kinematics.point_index("heel_r"), kinematics.point_index("heel_l"))
 _CONTACT = (kinematics.point_index("contact_r"), kinematics.point_index("contact_l"))
 
