@@ -50,6 +50,7 @@ import platform
 import statistics
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -67,6 +68,7 @@ from sspinn.model import kinematics, simulation  # noqa: E402
 from sspinn.model.body import BodyParameters  # noqa: E402
 from sspinn.model.contact import ContactParameters  # noqa: E402
 from sspinn.model.simulation import METHODS, advance  # noqa: E402
+from sspinn.run_folder import atomic_write_text  # noqa: E402
 
 TARGET_SINGLE_RATIO = 1.0
 TARGET_BATCH_RATIO = 100.0
@@ -273,22 +275,60 @@ def bench_physics(repeats: int) -> dict[str, float]:
     return out
 
 
-def bench_batched(batch: int, steps: int, device: str) -> dict[str, float]:
-    env = BatchedSagittalWalker(batch, device=device, dtype=torch.float32, seed=0)
+def bench_batched(batch: int, steps: int, device: str, compile: bool = False) -> dict[str, float]:
+    """Environment steps/s of the batched torch environment: ``steps`` timed steps after one
+    warm-up step (which also compiles when ``compile``: its seconds are reported apart)."""
+    env = BatchedSagittalWalker(batch, device=device, dtype=torch.float32, seed=0, compile=compile)
     env.reset(seed=0)
     gen = torch.Generator(device=device).manual_seed(0)
     actions = [torch.rand(batch, 6, generator=gen, device=device) * 2 - 1 for _ in range(steps + 1)]
     with torch.no_grad():
-        env.step(actions[0])  # warm-up
+        t0 = time.perf_counter()
+        env.step(actions[0])  # warm-up (and compilation)
         if device == "cuda":
             torch.cuda.synchronize()
+        warm_up = time.perf_counter() - t0
         t0 = time.perf_counter()
         for a in actions[1:]:
             env.step(a)
         if device == "cuda":
             torch.cuda.synchronize()
         seconds = time.perf_counter() - t0
-    return {"env_steps_per_s": batch * steps / seconds, "seconds_per_step": seconds / steps}
+    return {"env_steps_per_s": batch * steps / seconds, "seconds_per_step": seconds / steps, "warm_up_s": warm_up}
+
+
+def batched_only(sizes: Sequence[int], steps: int, rounds: int, json_path: Path | None) -> dict[str, Any]:
+    """``--batched-only``: the single environment on this machine's CPU (the baseline, measured in
+    the same run), then the batched torch environment at each size on the GPU when there is one
+    (else the CPU), eager and with ``compile=True``; ratios to the single environment. Writes the
+    JSON after every row, so that a run cut short keeps what it measured."""
+    single_runner = _Single(SagittalWalkerEnv(), 2000)
+    single_runner()  # warm-up (numba)
+    rates = []
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        done = single_runner()
+        rates.append(done / (time.perf_counter() - t0))
+    single = statistics.median(rates)
+    device = "cuda" if torch.cuda.is_available() else "cpu"
+    name = torch.cuda.get_device_name() if device == "cuda" else platform.processor() or platform.machine()
+    print(f"single environment (CPU, unwrapped): {single:,.0f} env steps/s (median of {rounds} rounds of 2,000 steps)")
+    print(f"\n## Batched torch environment on {device} ({name}), float32, {steps} steps after one warm-up step\n")
+    print("| batch | compiled | env steps/s | s per batched step | warm-up s | ratio to single env | target |\n"
+          "|---:|---|---:|---:|---:|---:|---|")
+    results: dict[str, Any] = {"device": device, "device_name": name, "single_env_steps_per_s": single, "rows": []}
+    for batch in sizes:
+        for compiled in (False, True):
+            res = bench_batched(batch, steps, device, compile=compiled)
+            ratio = res["env_steps_per_s"] / single
+            verdict = "met" if ratio >= TARGET_BATCH_RATIO else "NOT met"
+            print(f"| {batch:,} | {'yes' if compiled else 'no'} | {res['env_steps_per_s']:,.0f} | "
+                  f"{res['seconds_per_step']:.4f} | {res['warm_up_s']:.1f} | {ratio:.1f}× | ≥ {TARGET_BATCH_RATIO:.0f}×: {verdict} |",
+                  flush=True)
+            results["rows"].append({"batch": batch, "compiled": compiled, "ratio_to_single": ratio, **res})
+            if json_path is not None:
+                atomic_write_text(json_path, json.dumps(results, indent=2))
+    return results
 
 
 # ------------------------------------------------------------------------------------------------
@@ -371,6 +411,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--step-study", action="store_true", help="also run the physics step-size study")
     parser.add_argument("--json", type=Path, help="save the results as JSON")
     parser.add_argument("--threads", type=int, help="numba threads (default: all cores / NUMBA_NUM_THREADS)")
+    parser.add_argument("--batched-only", type=int, nargs="+", metavar="N",
+                        help="only the batched torch environment at these batch sizes (GPU when present, eager and "
+                             "compiled) beside the single environment on the CPU")
     parser.add_argument("--ppo-steps", type=int, help="PPO steps per environment kind (0: skip; default 16,384, "
                         "--quick 1,024)")
     args = parser.parse_args(argv)
@@ -379,6 +422,10 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     if args.ppo_steps is None:
         args.ppo_steps = 1024 if args.quick else 16_384
     torch_threads = torch.get_num_threads()
+    if args.batched_only:
+        print(f"# bench_env --batched-only — {os.cpu_count()} CPUs, Python {platform.python_version()}, "
+              f"torch {torch.__version__}, numpy {np.__version__}")
+        return batched_only(args.batched_only, 2 if args.quick else 5, 2 if args.quick else 5, args.json)
     print(f"# bench_env — {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
           f"Python {platform.python_version()}, torch {torch.__version__} ({torch_threads} threads), numpy {np.__version__}")
 
@@ -469,7 +516,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             print(f"* {label}: " + ", ".join(f"{k} = {v:.3g}" if isinstance(v, float) else f"{k} = {v}" for k, v in res.items()))
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(results, indent=2, default=str))
+        atomic_write_text(args.json, json.dumps(results, indent=2, default=str))
     return results
 
 

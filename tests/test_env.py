@@ -250,6 +250,31 @@ def test_batched_auto_reset_and_gradients() -> None:
     assert actions.grad is not None and torch.isfinite(actions.grad).all() and actions.grad.abs().sum() > 0
 
 
+@pytest.mark.slow
+def test_compiled_batched_env_agrees_with_the_eager_one() -> None:
+    """``compile=True`` (``torch.compile`` of a substep) gives the eager path's observations and
+    rewards to round-off in float64, over steps with an auto-reset; compile errors surface here."""
+    envs_ = [BatchedSagittalWalker(3, dtype=torch.float64, seed=5, substeps=4, compile=flag) for flag in (False, True)]
+    outs = []
+    for env in envs_:
+        env.reset(seed=3)
+        q = env.q.clone()
+        q[2, 2] = 1.5  # env 2 terminates at its first step and is reset
+        env.set_state(q, env.u)
+        gen = torch.Generator().manual_seed(0)
+        rows = []
+        for _ in range(3):
+            obs, reward, terminated, *_ = env.step(torch.rand(3, 6, generator=gen, dtype=torch.float64) * 2 - 1)
+            rows.append((obs, reward, terminated))
+        outs.append(rows)
+    for (o1, r1, t1), (o2, r2, t2) in zip(*outs):
+        torch.testing.assert_close(o2, o1, rtol=1e-9, atol=1e-9)
+        torch.testing.assert_close(r2, r1, rtol=1e-9, atol=1e-9)
+        assert t1.tolist() == t2.tolist()
+    with pytest.raises(ValueError, match="compile must be a bool"):
+        BatchedSagittalWalker(2, compile="yes")
+
+
 def test_rendered_frame_has_the_right_shape_and_is_not_blank(env: SagittalWalkerEnv) -> None:
     env.reset(seed=0)
     q, u = env.state
