@@ -174,6 +174,7 @@ def generate_expr(model: SymbolicModel) -> str:
         elems = ", ".join(printer.doprint(e) for e in reduced)
         out.append(f"    return ops.pack([{elems}], {shape})")
         out.append("")
+    out.extend(generate_forward_dynamics(model, printer))
     return "\n".join(out)
 
 
@@ -199,59 +200,104 @@ def elimination_order(pattern: sp.Matrix) -> list[tuple[int, list[int]]]:
     return order
 
 
-def generate_mass_matrix_solver(mass_matrix: sp.Matrix) -> list[str]:
-    """Lines of the numba kernel ``solve_mass_matrix(mass_matrix, forcing, out)``: out ← M⁻¹·f.
+def mass_matrix_solve_lines(mass_matrix: sp.Matrix, entry: str, rhs: str, indent: str = "    ") -> list[str]:
+    """Straight-line code of x = M⁻¹·b, leaving x_i in the variables ``x0`` … ``x8``.
 
     A square-root-free Cholesky factorisation M = L·D·Lᵀ (L unit lower triangular, D diagonal) in
-    the :func:`elimination_order` of M's structural nonzeros, then the solves L·z = f, D·y = z,
+    the :func:`elimination_order` of M's structural nonzeros, then the solves L·z = b, D·y = z,
     Lᵀ·x = y, written out entry by entry: only nonzero entries of L are computed, every loop is
-    unrolled and every value stays a scalar. With e_ak = l_ak·d_k (Golub & Van Loan, *Matrix
-    Computations*, 4th ed., Alg. 4.1.2):
+    unrolled and every value is a scalar (numba) or an array of the batch (NumPy, torch: one
+    elementwise operation each, which a compiler fuses; CasADi: a symbolic expression). With
+    e_ak = l_ak·d_k (Golub & Van Loan, *Matrix Computations*, 4th ed., Alg. 4.1.2):
 
         d_k = M_kk − Σ_j l_kj·e_kj,   e_ak = M_ak − Σ_j l_aj·e_kj,   l_ak = e_ak / d_k
 
     over the earlier pivots j whose columns hold both rows. Each pivot costs one division (the
     factorisation is latency-bound, and a square root would double its critical path). Written by
-    hand because no library emits a sparse, unrolled factorisation for numba (SciPy's and
-    LAPACK's solvers are dense and allocate; SymPy's symbolic ``LUsolve`` of the whole model
-    would blow up the expressions).
+    hand because no library emits a sparse, unrolled factorisation for numba or for batched
+    arrays (SciPy's and LAPACK's solvers are dense and allocate, ``torch.linalg.solve`` is one
+    batched LU call per evaluation; SymPy's symbolic ``LUsolve`` of the whole model would blow up
+    the expressions).
+
+    Args:
+        mass_matrix: the symbolic M (its structural zeros decide the pattern).
+        entry: format of the upper-triangle entry M_ij (i ≤ j), e.g. ``"mass_matrix[{i}, {j}]"``.
+        rhs: format of b_i, e.g. ``"forcing[{i}]"``.
     """
-    n = mass_matrix.shape[0]
     order = elimination_order(mass_matrix)
     position = {pivot: k for k, (pivot, _) in enumerate(order)}
     rows = dict(order)  # pivot → rows of its column of L
 
-    def entry(i: int, j: int) -> str:
-        return f"mass_matrix[{min(i, j)}, {max(i, j)}]"
+    def m(i: int, j: int) -> str:
+        return entry.format(i=min(i, j), j=max(i, j))
 
     def earlier(pivot: int) -> list[int]:
         return [j for j, _ in order[: position[pivot]] if pivot in rows[j]]
 
-    lines = [
-        "\n@njit(cache=True)",
-        "def solve_mass_matrix(mass_matrix, forcing, out):",
-        '    """out (9,) ← M⁻¹·f by a factorisation M = L·D·Lᵀ in the elimination order '
-        + ", ".join(str(p) for p, _ in order)
-        + ",\n    unrolled over the nonzeros of L (reads the upper triangle of M)."
-        + '"""',
-    ]
+    lines = []
     for pivot, below in order:
-        d = " - ".join([entry(pivot, pivot)] + [f"l{pivot}_{j} * e{pivot}_{j}" for j in earlier(pivot)])
-        lines.append(f"    r{pivot} = 1.0 / ({d})")
+        d = " - ".join([m(pivot, pivot)] + [f"l{pivot}_{j} * e{pivot}_{j}" for j in earlier(pivot)])
+        lines.append(f"{indent}r{pivot} = 1.0 / ({d})")
         for a in below:
-            terms = [entry(a, pivot)] if mass_matrix[a, pivot] != 0 else ["0.0"]
+            terms = [m(a, pivot)] if mass_matrix[a, pivot] != 0 else ["0.0"]
             terms += [f"l{a}_{j} * e{pivot}_{j}" for j in earlier(pivot) if a in rows[j]]
-            lines.append(f"    e{a}_{pivot} = {' - '.join(terms)}")
-            lines.append(f"    l{a}_{pivot} = e{a}_{pivot} * r{pivot}")
-    for pivot, _ in order:  # L·z = f
-        terms = [f"forcing[{pivot}]"] + [f"l{pivot}_{j} * z{j}" for j in earlier(pivot)]
-        lines.append(f"    z{pivot} = {' - '.join(terms)}")
+            lines.append(f"{indent}e{a}_{pivot} = {' - '.join(terms)}")
+            lines.append(f"{indent}l{a}_{pivot} = e{a}_{pivot} * r{pivot}")
+    for pivot, _ in order:  # L·z = b
+        terms = [rhs.format(i=pivot)] + [f"l{pivot}_{j} * z{j}" for j in earlier(pivot)]
+        lines.append(f"{indent}z{pivot} = {' - '.join(terms)}")
     for pivot, below in reversed(order):  # D·y = z, Lᵀ·x = y
         terms = [f"z{pivot} * r{pivot}"] + [f"l{a}_{pivot} * x{a}" for a in below]
-        lines.append(f"    x{pivot} = {' - '.join(terms)}")
-    lines.extend(f"    out[{i}] = x{i}" for i in range(n))
-    lines.append("")
+        lines.append(f"{indent}x{pivot} = {' - '.join(terms)}")
     return lines
+
+
+def generate_mass_matrix_solver(mass_matrix: sp.Matrix) -> list[str]:
+    """Lines of the numba kernel ``solve_mass_matrix(mass_matrix, forcing, out)``: out ← M⁻¹·f by
+    :func:`mass_matrix_solve_lines`."""
+    order = ", ".join(str(p) for p, _ in elimination_order(mass_matrix))
+    return [
+        "\n@njit(cache=True)",
+        "def solve_mass_matrix(mass_matrix, forcing, out):",
+        f'    """out (9,) ← M⁻¹·f by a factorisation M = L·D·Lᵀ in the elimination order {order},\n'
+        '    unrolled over the nonzeros of L (reads the upper triangle of M)."""',
+        *mass_matrix_solve_lines(mass_matrix, "mass_matrix[{i}, {j}]", "forcing[{i}]"),
+        *(f"    out[{i}] = x{i}" for i in range(mass_matrix.shape[0])),
+        "",
+    ]
+
+
+def generate_forward_dynamics(model: SymbolicModel, printer: _Printer) -> list[str]:
+    """Lines of the array function ``forward_dynamics(ops, q, u, tau, grf, w, p)``: q̈ = M⁻¹·f with
+    M's upper triangle and f from one common-subexpression elimination, solved by
+    :func:`mass_matrix_solve_lines` (no 9×9 array is built)."""
+    mass, forcing = model.outputs["mass_matrix"], model.outputs["forcing"]
+    n = mass.shape[0]
+    upper = [(i, j) for i in range(n) for j in range(i, n) if mass[i, j] != 0]
+    exprs = [mass[i, j] for i, j in upper] + [forcing[i] for i in range(n)]
+    inputs = ("q", "u", "tau", "grf", "w", "p")
+    used = _used_inputs(model, inputs, exprs, "forward_dynamics")
+    repl, reduced = _cse(exprs)
+    out = [
+        f"\ndef forward_dynamics(ops, {', '.join(inputs)}):",
+        '    """q̈ = M(q)⁻¹·f(q, u, τ, F, w), shape (9,): an L·D·Lᵀ solve unrolled over the nonzeros of\n'
+        "    M's factor, elementwise over any batch dimensions.\n\n"
+        f"    Inputs (last-axis sizes): {', '.join(f'{g} ({len(model.inputs[g])})' for g in inputs)}.\n"
+        '    """',
+    ]
+    for g in inputs:
+        pairs = used[g]
+        if pairs:
+            out.append(f"    {', '.join(str(s) for _, s in pairs)}, = ops.take({g}, ({', '.join(str(i) for i, _ in pairs)},))")
+    out.extend(_body(printer, repl))
+    for (i, j), e in zip(upper, reduced[: len(upper)]):
+        out.append(f"    m{i}_{j} = {printer.doprint(e)}")
+    for i, e in enumerate(reduced[len(upper) :]):
+        out.append(f"    f{i} = {printer.doprint(e)}")
+    out.extend(mass_matrix_solve_lines(mass, "m{i}_{j}", "f{i}"))
+    out.append(f"    return ops.pack([{', '.join(f'x{i}' for i in range(n))}], ({n},))")
+    out.append("")
+    return out
 
 
 def generate_numba(model: SymbolicModel) -> str:

@@ -90,29 +90,17 @@ def kane_residual(q: Array, u: Array, qdd: Array, tau: Array, grf: Array, w: Arr
     return gen.kane_residual(ops, q, v["u"], v["qdd"], v["tau"], v["grf"], v["w"], p)
 
 
-def solve(M: Array, f: Array) -> Array:
-    """q̈ = M⁻¹ f for a (batch of) symmetric positive-definite mass matrices.
-
-    torch uses ``torch.linalg.solve`` (LU), not ``torch.linalg.cholesky`` + ``torch.cholesky_solve``:
-    at batch 4,096 with one thread (torch 2.13, CPU) the Cholesky pair was not faster in the forward
-    pass (float32 ≈6–10 ms against ≈4–7 ms, float64 ≈7–8 ms against ≈4–6 ms) and 2–4× slower
-    forward + backward (≈25–58 ms against ≈11–19 ms), so LU stays.
-    """
-    kind = backend_name(M)
-    if kind == "torch":
-        import torch
-
-        return torch.linalg.solve(M, f.unsqueeze(-1)).squeeze(-1)
-    if kind == "casadi":
-        import casadi as ca
-
-        return ca.solve(M, f)
-    return np.linalg.solve(M, f[..., None])[..., 0]
-
-
 def forward_dynamics(q: Array, u: Array, tau: Array, grf: Array, w: Array, p: Any) -> Array:
-    """q̈ = M(q)⁻¹ f(q, u, τ, F, w), shape (..., 9)."""
-    return solve(mass_matrix(q, p), forcing(q, u, tau, grf, w, p))
+    """q̈ = M(q)⁻¹ f(q, u, τ, F, w), shape (..., 9).
+
+    One generated function (``model_expr.forward_dynamics``): M's upper triangle and f from one
+    common-subexpression elimination, then an L·D·Lᵀ solve unrolled over the nonzeros of M's
+    factor (:func:`sspinn.model.codegen.mass_matrix_solve_lines`) — elementwise operations only,
+    so batches need no batched LU call and ``torch.compile`` fuses the whole evaluation; the
+    numba stepper solves with the same formulas.
+    """
+    ops, q, p, v = prepare_inputs(q, p, u=(u, N_Q), tau=(tau, N_TAU), grf=(grf, N_GRF), w=(w, 2))
+    return gen.forward_dynamics(ops, q, v["u"], v["tau"], v["grf"], v["w"], p)
 
 
 def inverse_dynamics(q: Array, u: Array, qdd: Array, grf: Array, w: Array, p: Any) -> tuple[Array, Array]:
