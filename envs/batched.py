@@ -61,9 +61,11 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         auto_reset: see above.
         seed: seed of the torch generator used for initial states and target speeds.
         compile: run each physics substep through ``torch.compile`` (inductor fuses the generated
-            code's few thousand elementwise operations into a handful of kernels). Worth it on a
-            GPU, where the eager substep is bound by kernel launches; the first step compiles
-            (about a minute). Same formulas: results agree with the eager path to round-off.
+            code's elementwise operations into a handful of kernels): False (eager), True
+            (inductor's default mode) or a ``torch.compile`` mode name, e.g. "reduce-overhead"
+            (CUDA graphs: each substep replays one recorded graph; for rollouts without gradients).
+            Worth it on a GPU, where the eager substep is bound by kernel launches; the first step
+            compiles (about 20 s). Same formulas: results agree with the eager path to round-off.
         config: the task and physics configuration, a :class:`~envs.config.WalkerConfig` (the one
             of the single environment); None → ``WalkerConfig()``.
         **overrides: fields of :class:`~envs.config.WalkerConfig` (height, mass, body, target_speed,
@@ -92,12 +94,12 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         auto_reset: bool = True,
         seed: int | None = None,
         config: WalkerConfig | None = None,
-        compile: bool = False,
+        compile: bool | str = False,
         **overrides: Any,
     ) -> None:
         self.num_envs = task.check_int("num_envs", num_envs, 1)
-        if not isinstance(compile, bool):
-            raise ValueError(f"compile must be a bool, got {compile!r}")
+        if not isinstance(compile, (bool, str)):
+            raise ValueError(f"compile must be a bool or a torch.compile mode name, got {compile!r}")
         if dtype not in (torch.float32, torch.float64):
             raise ValueError(f"dtype must be torch.float32 or torch.float64, got {dtype!r}")
         if not isinstance(auto_reset, bool):
@@ -121,7 +123,12 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         passive = self.passive_parameters
         self._lower, self._upper = tensor(passive[:N_TAU]), tensor(passive[N_TAU : 2 * N_TAU])
         self._k, self._b = float(passive[12]), float(passive[13])
-        self._substep = torch.compile(self._eager_substep, dynamic=False) if compile else self._eager_substep
+        self._graphs = compile == "reduce-overhead"
+        if compile:
+            mode = None if compile is True else compile
+            self._substep = torch.compile(self._eager_substep, dynamic=False, mode=mode)
+        else:
+            self._substep = self._eager_substep
 
         self.single_action_space = spaces.Box(-1.0, 1.0, (N_TAU,), dtype=np.float32)
         self.single_observation_space = spaces.Box(-np.inf, np.inf, (task.OBS_SIZE,), dtype=np.float32)
@@ -249,7 +256,11 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         q0, u0 = self.q, self.u
         q, u = q0, u0
         for _ in range(self.substeps):
-            q, u = self._substep(q, u, tau)
+            if self._graphs:  # a graph's outputs live in its pool until copied out
+                torch.compiler.cudagraph_mark_step_begin()
+                q, u = (x.clone() for x in self._substep(q, u, tau))
+            else:
+                q, u = self._substep(q, u, tau)
         grf = self._contact(q, u)
         finite = torch.isfinite(q).all(-1) & torch.isfinite(u).all(-1) & torch.isfinite(grf).all(-1)
         if not bool(finite.all()):  # keep the last finite state of failed rows

@@ -271,8 +271,8 @@ def test_compiled_batched_env_agrees_with_the_eager_one() -> None:
         torch.testing.assert_close(o2, o1, rtol=1e-9, atol=1e-9)
         torch.testing.assert_close(r2, r1, rtol=1e-9, atol=1e-9)
         assert t1.tolist() == t2.tolist()
-    with pytest.raises(ValueError, match="compile must be a bool"):
-        BatchedSagittalWalker(2, compile="yes")
+    with pytest.raises(ValueError, match="compile must be a bool or a torch.compile mode"):
+        BatchedSagittalWalker(2, compile=1)
 
 
 def test_rendered_frame_has_the_right_shape_and_is_not_blank(env: SagittalWalkerEnv) -> None:
