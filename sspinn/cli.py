@@ -2,7 +2,7 @@
 
 Commands: ``showcase`` (a physics showcase; the main job, ``make demo``, chains ``python -m
 predictive synth`` → ``sspinn train`` → ``sspinn evaluate`` → ``sspinn adapt`` → ``sspinn
-evaluate``), ``train``, ``finetune``, ``adapt``, ``evaluate``, ``infer``, ``export``,
+evaluate``), ``train``, ``finetune``, ``adapt``, ``evaluate``, ``infer`` (estimates and their per-window quality), ``calibrate-quality``, ``export``,
 ``experiment`` (the paper's claims, :mod:`sspinn.estimator.paper_experiments`). ``--data``
 accepts a dataset folder (with ``dataset.json``), a folder with an averaged stride
 (``signals.csv`` + ``meta.json``) or a single recording ``.csv``.
@@ -124,17 +124,60 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 
 def _infer(args: argparse.Namespace) -> int:
+    import warnings
+
+    from sspinn.estimator.quality import (
+        QualityWarning,
+        calibration_path,
+        flag_findings,
+        input_findings,
+        load_calibration,
+    )
     from sspinn.estimator.sspinnpose import SSPINNpose
 
     recs = open_recordings(args.data, args.split, args.periods, args.height, args.mass)
     est = SSPINNpose.load(args.model)
+    quality_file = args.quality or calibration_path(args.model)
+    calibration = load_calibration(quality_file, args.model) if args.quality or quality_file.exists() else None
+    if calibration is None:
+        print(f"NOTE: {args.model} has no quality calibration ({quality_file}): the per-window loss terms are written "
+              "without scores or flags, and the inputs are not compared with the training data's; write one with "
+              f"`sspinn calibrate-quality --model {args.model} --data DATASET`")
     try:
         estimates = [est.predict(r) for r in recs]  # all checked before anything is written
     except (NonFiniteEstimateError, ImplausibleEstimateError) as exc:
         raise type(exc)(f"{args.model} on {args.data}, recording {exc}") from None
-    for estimate in estimates:
+    for rec, estimate in zip(recs, estimates):
         path = estimate.to_csv(args.out / f"{estimate.name}_estimate.csv")
-        print(f"{estimate.name}: {len(estimate.time)} samples → {path}")
+        quality = est.quality(rec)
+        findings = []
+        if calibration is not None:
+            calibration.apply(quality)
+            findings = input_findings(rec, quality, calibration, str(args.model))
+        where = quality.to_csv(args.out / f"{estimate.name}_quality.csv")
+        flagged = "" if quality.flagged is None else f", {int(quality.flagged.sum())} flagged"
+        print(f"{estimate.name}: {len(estimate.time)} samples → {path}; quality of {quality.n_windows} windows{flagged} → {where}")
+        if calibration is not None:
+            findings += flag_findings(quality, calibration, str(where))
+        for text in findings:
+            warnings.warn(text, QualityWarning, stacklevel=1)
+    return 0
+
+
+def _calibrate_quality(args: argparse.Namespace) -> int:
+    from sspinn.estimator.quality import ERROR_QUANTILE, calibrate, calibration_path, save_calibration
+    from sspinn.estimator.sspinnpose import SSPINNpose
+
+    est = SSPINNpose.load(args.model)
+    recs = [r for split in args.split for r in open_recordings(args.data, split, args.periods, args.height, args.mass)]
+    estimates = [est.predict(r) for r in recs]
+    cal, _, _ = calibrate(est.network_, est.segments_, est.imu_std_, est.config_.joint_limits, recs, estimates, args.model,
+                          f"{args.data} ({', '.join(args.split)})")
+    out = save_calibration(cal, args.out or calibration_path(args.model))
+    fit = cal.fit
+    print(f"calibrated on {len(recs)} recordings ({int(fit['n_windows'])} windows of {cal.window_s:g} s): threshold "
+          f"{cal.threshold:.3g} flags {fit['flag_rate']:.0%} of them (precision {fit['precision']:.0%}, recall "
+          f"{fit['recall']:.0%} for the {1 - ERROR_QUANTILE:.0%} with the largest error) → {out}")
     return 0
 
 
@@ -216,6 +259,14 @@ def _main(argv: list[str]) -> int:
     _data_args(inf)
     inf.add_argument("--split", default="test")
     inf.add_argument("--out", type=Path, required=True)
+    inf.add_argument("--quality", type=Path, default=None,
+                     help="quality calibration file (default: <model>.quality.json beside the model, if there)")
+
+    cq = sub.add_parser("calibrate-quality", help="calibrate the per-window quality score on labelled recordings (JSON beside the model)")
+    cq.add_argument("--model", type=Path, required=True)
+    _data_args(cq)
+    cq.add_argument("--split", nargs="+", default=["train"], help="labelled split(s) to calibrate on (not those you evaluate on)")
+    cq.add_argument("--out", type=Path, default=None, help="calibration file (default: <model>.quality.json)")
 
     ex = sub.add_parser("export", help="torch.export program of one streaming step of a trained network (.pt2)")
     ex.add_argument("--model", type=Path, required=True)
@@ -244,6 +295,8 @@ def _main(argv: list[str]) -> int:
         return _infer(args)
     if args.command == "export":
         return _export(args)
+    if args.command == "calibrate-quality":
+        return _calibrate_quality(args)
     if args.command == "import":
         return imu_import.run(args)
     if args.command == "experiment":

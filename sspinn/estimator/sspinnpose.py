@@ -33,6 +33,7 @@ from sspinn.errors import UserError
 from sspinn.estimator.inference import GaitEstimate, StreamingEstimator, estimate_recording
 from sspinn.estimator.model_store import StoredModel, export_streaming, load_model, save_model
 from sspinn.estimator.network import SSPINNposeNet
+from sspinn.estimator.quality import WindowQuality, window_quality
 from sspinn.estimator.training import TrainConfig, Trainer, adaptation_config
 from sspinn.estimator.trivial_predictors import TrivialPredictor
 from sspinn.yaml_config import shipped_path
@@ -174,6 +175,13 @@ class SSPINNpose:
         warn(estimate_findings(recording.name, estimate.grf[:, 1] + estimate.grf[:, 3], estimate.u[:, 0], recording.imu,
                                recording.segments, recording.height, recording.mass))
         return estimate
+
+    def quality(self, recording: Recording) -> WindowQuality:
+        """The self-supervised loss terms of the estimate of ``recording`` per window, computed
+        on the recording itself (:func:`~sspinn.estimator.quality.window_quality`; no labels);
+        score and flags come from a calibration (:meth:`~sspinn.estimator.quality.QualityCalibration.apply`)."""
+        self._check_fitted()
+        return window_quality(self.network_, recording, self.segments_, self.imu_std_, self.config_.joint_limits)
 
     def stream(self, height: float, mass: float) -> StreamingEstimator:
         """A sample-by-sample estimator for one subject (height m, mass kg) with a carried LSTM
