@@ -596,7 +596,7 @@ def main() -> None:
         Case("14", "GRF labels' sides swapped", "Recording.load(walk_grf.csv) (grf_*_r ↔ grf_*_l)", "SignalWarning",
              "the GRF labels' sides look swapped", lambda: labelled(lambda r: relabel(r, r.labels.grf[:, [2, 3, 0, 1]]))),
         Case("14", "GRF labels for another body mass", "Recording.load(walk_grf.csv) (mass 90 kg, labels of 66.7 kg)",
-             "SignalWarning", "average 0.74 body weights (90 kg)", lambda: labelled(lambda r: relabel(r, mass=90.0))),
+             "SignalWarning", "0.74 × the body weight (883 N for 90 kg)", lambda: labelled(lambda r: relabel(r, mass=90.0))),
         Case("14", "GRF labels at another time base", "Recording.load(walk_grf.csv) (labels 2× slower)", "SignalWarning",
              "the labels' time base or rate differs", lambda: labelled(lambda r: relabel(
                  r, np.repeat(r.labels.grf, 2, axis=0)[: r.n_samples]))),

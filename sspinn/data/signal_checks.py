@@ -126,8 +126,13 @@ MIN_COHERENCE: Final = 0.5
 KNEE_SKEW_WARN: Final = 0.5
 #: Vertical GRF label tolerated below zero, body weights.
 NEGATIVE_GRF_TOLERANCE_BW: Final = 0.1
-#: Accepted mean summed vertical GRF label over a recording, body weights.
+#: Accepted mean summed vertical GRF (labels, or a GRF file on import) over a recording, body
+#: weights (:func:`mean_vertical_force_findings`). The twelve CMU trials: 0.95–1.00.
 LABEL_MEAN_BW_RANGE: Final = (0.85, 1.15)
+#: Outside this range the force is not in newtons (or not vertical, or not both feet): impossible.
+MEAN_VERTICAL_BW_PLAUSIBLE: Final = (0.5, 2.0)
+#: Units a vertical force may be in instead of newtons: name → newtons per unit.
+_FORCE_UNITS: Final = {"kN": 1000.0, "mN": 1e-3, "kgf (kilograms)": GRAVITY}
 #: Label and IMU stride periods differing by more than this fraction: a warning.
 PERIOD_MISMATCH: Final = 0.2
 #: Mean estimated vertical GRF below this fraction of body weight: a warning.
@@ -385,10 +390,38 @@ def leg_phase_findings(rates: dict[str, np.ndarray], rate_hz: float, stride_hz: 
 
 
 # ------------------------------------------------------------------------------------ labels
+def mean_vertical_force_findings(what: str, mean_n: float, mass: float, strict: bool = False) -> list[str]:
+    """The one check of a mean summed vertical force (``mean_n``, N, both feet, over a recording
+    or a GRF file; ``what`` names it) against the body weight of ``mass`` kg: outside
+    :data:`LABEL_MEAN_BW_RANGE` a warning (a wrong mass, a missing plate, time off the treadmill;
+    periodic gait averages 1). ``strict`` (a GRF file on import): negative (the vertical axis
+    points down) or outside :data:`MEAN_VERTICAL_BW_PLAUSIBLE` (another unit, named when one
+    fits) raises :class:`ImpossibleSignalError`."""
+    weight = mass * GRAVITY
+    ratio = mean_n / weight
+    text = f"{what} average {mean_n:.4g} N, {ratio:.3g} × the body weight ({weight:.0f} N for {mass:g} kg)"
+    low, high = MEAN_VERTICAL_BW_PLAUSIBLE
+    ok = LABEL_MEAN_BW_RANGE
+    if strict and ratio < 0:
+        hint = ("the vertical axis points down: negate the vertical columns (y up is assumed)" if low <= -ratio <= high
+                else "negative and not near body weight: check the columns, their sign and unit")
+        raise ImpossibleSignalError(f"{text}: {hint}")
+    if strict and not low <= ratio <= high:
+        guesses = {**{unit: mean_n * factor / weight for unit, factor in _FORCE_UNITS.items()},
+                   "body weights": mean_n, "N/kg": mean_n * mass / weight}
+        unit = next((u for u, r in guesses.items() if ok[0] <= r <= ok[1]), None)
+        hint = f"it looks like {unit}: give newtons" if unit else "not newtons under both feet: check the unit, the columns and the mass"
+        raise ImpossibleSignalError(f"{text}, outside {low:g}–{high:g} (newtons, both feet): {hint}")
+    if not ok[0] <= ratio <= ok[1]:
+        return [f"{text}, outside {ok[0]:g}–{ok[1]:g} (periodic gait averages 1): a wrong mass or unit, a missing plate, "
+                "or time off the treadmill"]
+    return []
+
+
 def label_findings(rec: Recording, source: str, mean_check: bool = True) -> list[str]:
     """Warnings about the GRF labels of ``rec`` against its body weight and its IMU (module
-    docstring; without the mean force where the caller judged it, as ``sspinn import`` does with
-    :func:`sspinn.imu.grf_checks.check_vertical_force`); none without GRF labels."""
+    docstring; without the mean force where the caller judged it, as ``sspinn import`` does on the
+    GRF file with :func:`mean_vertical_force_findings`); none without GRF labels."""
     labels = rec.labels
     if labels is None or labels.grf is None or rec.imu.shape[0] < 10:
         return []
@@ -402,11 +435,8 @@ def label_findings(rec: Recording, source: str, mean_check: bool = True) -> list
             found.append(f"{source}: label grf_y_{side} reaches {low:.2f} body weights ({v.min():.4g} N); the ground only pushes "
                          f"(noise down to −{NEGATIVE_GRF_TOLERANCE_BW:g}): a negated or offset force channel")
     if len(vertical) == 2 and mean_check:
-        mean = float(np.mean(vertical["r"] + vertical["l"])) / weight
-        lo, hi = LABEL_MEAN_BW_RANGE
-        if not lo <= mean <= hi:
-            found.append(f"{source}: labels grf_y_r + grf_y_l average {mean:.2f} body weights ({rec.mass:g} kg) over the recording, "
-                         f"outside {lo:g}–{hi:g} (periodic gait averages 1): a wrong mass or unit, or a missing plate")
+        found += mean_vertical_force_findings(f"{source}: labels grf_y_r + grf_y_l", float(np.mean(vertical["r"] + vertical["l"])),
+                                              rec.mass)
     imu, segments = rec.imu, tuple(rec.segments)
     rhythm = gait_rhythm(imu, segments)
     if rhythm is None or not vertical:
