@@ -77,13 +77,10 @@ def test_checking_changes_nothing_and_warns_once(walk):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         check_recording(rec, "flip.csv")
-        first = len(caught)
         check_recording(rec, "flip.csv")  # the same array again: not re-checked
     assert np.array_equal(rec.imu, before)
-    assert first == len(caught) == 2 and {w.category for w in caught} == {SignalWarning}
-    messages = sorted(str(w.message) for w in caught)
-    assert messages[0].startswith("flip.csv: sensor tibia_l: its joints fit") and "with gyr_z negated" in messages[0]
-    assert messages[1].startswith("flip.csv: the left-leg sensors do not move like one leg")
+    assert [w.category for w in caught] == [SignalWarning]
+    assert "flip.csv: the left-leg sensors do not move like one leg" in str(caught[0].message)
 
 
 def test_cli_prints_signal_warnings_as_one_warning_line(capsys):

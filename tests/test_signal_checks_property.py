@@ -7,13 +7,13 @@ legitimate recordings (a predicted walk, an averaged stride, semi-real running) 
 
 Drawn kinds (:data:`sspinn.testing.perturbations.KINDS`) include what ``sspinn import`` makes of
 a 3D sensor's mistakes: a negated gyroscope or two swapped accelerometer axes arrive as a
-mirrored acc_x (``acc_x_sign``), a gyroscope × 0.5 as gyr_z × 0.5 (``gyro_scale``); rate
+mirrored acc_x (``acc_x_sign``), a shank or foot gyroscope × 0.5 as gyr_z × 0.5 (``gyro_scale``); rate
 mislabels are drawn both from the factors the cadence detects
 (:data:`~sspinn.testing.perturbations.DETECTABLE_RATE_FACTORS`, ``rate``) and from × 0.4–0.8 and
 × 1.25–2 (``rate_near``), which only the joint constraints judge.
 
 Not drawn, because the checks cannot see them without labels (measured and listed in
-``docs/bad_input.md``): the pelvis's gyr_z negated or scaled, thigh/shank swapped within a leg,
+``docs/bad_input.md``): the pelvis's gyr_z negated or scaled, a thigh's gyr_z × 0.5, thigh/shank swapped within a leg,
 and all leg sensors swapped between the sides
 (:data:`sspinn.testing.perturbations.KINDS_NOT_CLAIMED`).
 """

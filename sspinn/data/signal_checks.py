@@ -80,7 +80,7 @@ from __future__ import annotations
 import warnings
 import weakref
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import combinations
 from typing import TYPE_CHECKING, Final
 
@@ -149,17 +149,18 @@ JOINT_MAX_S: Final = 60.0
 JOINT_FACTOR_RANGE: Final = (0.3, 3.0)
 JOINT_SCALE_RANGE: Final = (0.3, 3.0)
 #: Best-fitting time-base factor accepted as the stated rate. Measured (``scripts/joint_check_margins.py``):
-#: untouched 0.88–1.08 on the twelve CMU trials and their 20 s excerpts, 0.87–1.05 on the 40 predicted
-#: recordings, the averaged stride, the predicted walk and the semi-real running; the estimate is
-#: 0.79–1.06 × the true factor, so × 1.25 is caught from an estimate above 1.13 and × 0.8 below 0.83.
-JOINT_RATE_OK: Final = (0.83, 1.13)
+#: untouched 0.883–1.082 on the twelve CMU trials and their 20 s excerpts, 0.870–1.049 on the 40
+#: predicted recordings, the averaged stride, the predicted walk and the semi-real running; with the
+#: motion × 0.4–0.8 or × 1.25–2 the estimate is 0.8–1.07 × the true factor, so mislabels near × 0.8
+#: and × 1.25 are caught only in part (see ``docs/bad_input.md``).
+JOINT_RATE_OK: Final = (0.85, 1.12)
 #: Best-fitting gyroscope scale accepted per segment kind. Measured untouched: femur 0.59–1.49 (CMU;
 #: soft tissue and the hip fit), tibia 0.75–1.07, foot 0.82–1.38; with gyr_z × 0.5 the estimate is
 #: ≥ 1.18 (femur), ≥ 1.51 (tibia), ≥ 1.64 (foot). The pelvis turns too little to judge.
 JOINT_SCALE_OK: Final[dict[str, tuple[float, float]]] = {"femur": (0.5, 1.6), "tibia": (0.6, 1.3), "foot": (0.65, 1.5)}
-#: Residual gain with acc_x negated above which a sensor's acc_x looks mirrored. Measured: untouched
-#: ≤ 0.79 (every sensor, every recording above); acc_x negated ≥ 1.26 (pelvis), ≥ 1.71 (femur),
-#: ≥ 2.32 (tibia), ≥ 3.21 (foot).
+#: Residual gain with acc_x (or a leg sensor's gyr_z) negated above which a sensor looks mirrored.
+#: Measured: untouched ≤ 0.79 with acc_x negated, ≤ 1.03 with a leg gyr_z negated (every sensor,
+#: every recording above); acc_x negated ≥ 1.26 (pelvis), ≥ 1.71 (femur), ≥ 2.32 (tibia), ≥ 3.21 (foot).
 JOINT_MIRROR_WARN: Final = 1.1
 _KINDS: Final = ("femur", "tibia", "foot")
 
@@ -206,9 +207,10 @@ def check_recording(rec: Recording, source: str) -> None:
     warn(findings)
 
 
-def recording_findings(rec: Recording, source: str, leg_pairing: bool = True) -> list[str]:
+def recording_findings(rec: Recording, source: str, leg_pairing: bool = True, joints_judged: bool = True) -> list[str]:
     """Warnings about the IMU signals of ``rec`` (module docstring; without the leg pairing
-    where the caller ran :func:`leg_phase_findings` itself); raises for the impossible."""
+    where the caller ran :func:`leg_phase_findings` itself, and then ``joints_judged=False`` where
+    it found the legs mixed up); raises for the impossible."""
     imu, segments = rec.imu, tuple(rec.segments)
     if imu.shape[0] < 10:
         return []
@@ -221,14 +223,16 @@ def recording_findings(rec: Recording, source: str, leg_pairing: bool = True) ->
     if cadence:  # at a wrong rate the other gait checks judge nonsense
         return found + cadence
     found += _periodicity_findings(imu, segments, rhythm, source)
-    found += joint_findings(imu, segments, source)
     rates = {s: imu[:, i, 2] for i, s in enumerate(segments)} if leg_pairing else {}
     window = min(max(4 * rhythm.period_s, 2.0), imu.shape[0] / RATE_HZ)
+    legs = []
     for side, bad in leg_phase_findings(rates, RATE_HZ, 1 / rhythm.period_s, [(0, imu.shape[0])], window).items():
         pairs = "; ".join(f"{a} leads {b} by {phase:+.0f}° (one leg: {expected:+.0f}° ± 90°)" for a, b, phase, expected in bad)
-        found.append(f"{source}: the {side}-leg sensors do not move like one leg (stride-frequency phase of their gyr_z: "
-                     f"{pairs}): a sensor of the other leg (left/right columns swapped) or a negated gyroscope")
-    return found + _knee_skew_findings(imu, segments, source)
+        legs.append(f"{source}: the {side}-leg sensors do not move like one leg (stride-frequency phase of their gyr_z: "
+                    f"{pairs}): a sensor of the other leg (left/right columns swapped) or a negated gyroscope")
+    legs += _knee_skew_findings(imu, segments, source)
+    # sensors on another leg's segments or all gyroscopes negated break several joints at once: the joints are not judged then
+    return found + (joint_findings(imu, segments, source) if joints_judged and not legs else []) + legs
 
 
 def _gravity_findings(imu: np.ndarray, segments: tuple[str, ...], angles: dict[str, float], source: str) -> list[str]:
@@ -577,12 +581,12 @@ def _best_factor(cost, lo: float, hi: float) -> tuple[float, float]:
 @dataclass(frozen=True)
 class JointStats:
     """What the joint constraints say about a recording (:func:`joint_stats`): ``factor`` — the
-    speed-up of the motion that fits the joints best (1: the stated rate is right; also 1 where
-    leaving out the joints of one sensor brings it within :data:`JOINT_RATE_OK`), ``factor_gain``
+    speed-up of the motion that fits the joints best (1: the stated rate is right), ``factor_gain``
     — how much smaller the residual is at that factor than at 1; per sensor ``mirror`` — how much
     smaller its joints' residual is with its acc_x negated, ``negated`` — with its gyr_z negated,
     ``scale`` — the factor on its gyr_z that fits best and the gain (None for the pelvis); ``rms``
-    the residual specific force at the stated rate, m/s² RMS."""
+    the residual specific force at the stated rate, m/s² RMS; ``excluded`` the suspected sensors
+    whose joints the factor was not fitted on."""
 
     factor: float
     factor_gain: float
@@ -590,10 +594,14 @@ class JointStats:
     negated: dict[str, float]
     scale: dict[str, tuple[float, float] | None]
     rms: float
+    excluded: tuple[str, ...]
 
 
 def joint_stats(imu: np.ndarray, segments: tuple[str, ...], per_sensor: bool = True) -> JointStats | None:
-    """The :class:`JointStats` of ``imu`` (T, n, 3), or None without two neighbouring segments."""
+    """The :class:`JointStats` of ``imu`` (T, n, 3), or None without two neighbouring segments.
+    The sensors are judged at the stated rate first; the time-base factor is then fitted on the
+    joints of the sensors not suspected (:func:`_suspects`), so that one wrong sensor does not
+    pass for a wrong rate (``per_sensor=False``: the factor alone, on every joint)."""
     pairs = joints(segments)
     if not pairs:
         return None
@@ -601,17 +609,7 @@ def joint_stats(imu: np.ndarray, segments: tuple[str, ...], per_sensor: bool = T
     base = _residual(x, segments, pairs)
     if base <= 0:
         return None
-    factor, best = _best_factor(lambda f: _residual(x, segments, pairs, dt=f / RATE_HZ), *JOINT_FACTOR_RANGE)
-    if not JOINT_RATE_OK[0] <= factor <= JOINT_RATE_OK[1]:
-        # one wrong sensor (two joints) pulls the fit too: the rate is judged wrong only if it stays
-        # wrong without the joints of any one sensor
-        for s in segments:
-            rest = [p for p in pairs if s not in p]
-            if rest and len(rest) < len(pairs):
-                f, _ = _best_factor(lambda f: _residual(x, segments, rest, dt=f / RATE_HZ), *JOINT_FACTOR_RANGE)
-                if JOINT_RATE_OK[0] <= f <= JOINT_RATE_OK[1]:
-                    factor, best = 1.0, base
-                    break
+    legs = {f"{k}_{side}" for k in _KINDS for side in ("r", "l")}
     mirror, negated, scale = {}, {}, {}
     for s in segments if per_sensor else ():
         own = [p for p in pairs if s in p]
@@ -619,19 +617,48 @@ def joint_stats(imu: np.ndarray, segments: tuple[str, ...], per_sensor: bool = T
             continue
         mine = _residual(x, segments, own)
         mirror[s] = mine / max(_residual(x, segments, own, mirrored=s), 1e-12)
-        negated[s] = mine / max(_residual(x, segments, own, scale={s: -1.0}), 1e-12)
-        if s not in (f"{k}_{side}" for k in _KINDS for side in ("r", "l")):  # the pelvis turns too little to weigh
+        if s not in legs:  # the pelvis turns too little to weigh its gyroscope's sign or scale
             scale[s] = None
             continue
+        negated[s] = mine / max(_residual(x, segments, own, scale={s: -1.0}), 1e-12)
         g, best_s = _best_factor(lambda v: _residual(x, segments, own, scale={s: v}), *JOINT_SCALE_RANGE)
         scale[s] = (g, mine / max(best_s, 1e-12))
-    return JointStats(factor, base / max(best, 1e-12), mirror, negated, scale, float(np.sqrt(base / (len(pairs) * x.shape[0]))))
+    stats = JointStats(1.0, 1.0, mirror, negated, scale, float(np.sqrt(base / (len(pairs) * x.shape[0]))), ())
+    excluded = tuple(s for _, s, _ in _suspects(stats))
+    kept = [p for p in pairs if not set(p) & set(excluded)] or pairs
+    at_one = _residual(x, segments, kept)
+    factor, best = _best_factor(lambda f: _residual(x, segments, kept, dt=f / RATE_HZ), *JOINT_FACTOR_RANGE)
+    return replace(stats, factor=factor, factor_gain=at_one / max(best, 1e-12), excluded=excluded)
+
+
+def _suspects(stats: JointStats) -> list[tuple[float, str, str]]:
+    """(gain, sensor, what) for every sensor whose joints fit clearly better with one mistake undone."""
+    found = []
+    for s in stats.mirror:
+        if stats.mirror[s] > JOINT_MIRROR_WARN:
+            found.append((stats.mirror[s], s, f"its joints fit {stats.mirror[s]:.1f} times better with acc_x negated "
+                          f"(untouched recordings: below {JOINT_MIRROR_WARN:g}): acc_x points backwards (on a 3D sensor: a "
+                          "negated gyroscope or two swapped accelerometer axes, which the calibration turns into a "
+                          "mirrored acc_x)"))
+        elif stats.negated.get(s, 0.0) > JOINT_MIRROR_WARN:
+            found.append((stats.negated[s], s, f"its joints fit {stats.negated[s]:.1f} times better with gyr_z negated "
+                          f"(untouched recordings: below {JOINT_MIRROR_WARN:g}): the gyroscope is negated"))
+        elif stats.scale.get(s) is not None:
+            scale, gain = stats.scale[s]
+            lo, hi = JOINT_SCALE_OK[s.split("_")[0]]
+            if not lo <= scale <= hi:
+                found.append((gain, s, f"its joints fit best with gyr_z × {scale:.2f} (residual {gain:.2f} times smaller; "
+                              f"untouched recordings: {lo:g}–{hi:g}): the gyroscope reads × {1 / scale:.2f} of the true "
+                              "rate (a unit or range setting?)"))
+    return found
 
 
 def joint_findings(imu: np.ndarray, segments: tuple[str, ...], source: str) -> list[str]:
     """The joint-constraint checks of the module docstring on a recording with gait: the time base
-    (the factor that makes the joints fit best), then per sensor a mirrored acc_x and a scaled
-    gyroscope; empty without two neighbouring segments."""
+    (the factor that makes the joints fit best; then nothing is said of single sensors), else per
+    sensor a mirrored acc_x, a negated or a mis-scaled gyroscope; empty without two neighbouring
+    segments. Not called where the leg pairing or the knee-angle skew found sensors on another
+    leg's segments or all gyroscopes negated (several joints broken at once)."""
     stats = joint_stats(imu, segments)
     if stats is None:
         return []
@@ -641,26 +668,9 @@ def joint_findings(imu: np.ndarray, segments: tuple[str, ...], source: str) -> l
                 f"fast as stamped (residual {stats.factor_gain:.2f} times smaller than at the stated rate; untouched "
                 f"recordings: {lo:g}–{hi:g}): the sample rate is likely wrong (recorded at ≈ {RATE_HZ / stats.factor:.3g} Hz?): "
                 "resample to 100 Hz with the true rate"]
-    suspects = []  # (gain, sensor, message)
-    for s in stats.mirror:
-        if stats.mirror[s] > JOINT_MIRROR_WARN:
-            suspects.append((stats.mirror[s], s, f"its joints fit {stats.mirror[s]:.1f} times better with acc_x negated "
-                             f"(untouched recordings: below {JOINT_MIRROR_WARN:g}): acc_x points backwards (on a 3D sensor: a "
-                             "negated gyroscope or two swapped accelerometer axes, which the calibration turns into a "
-                             "mirrored acc_x)"))
-        elif stats.negated[s] > JOINT_MIRROR_WARN:
-            suspects.append((stats.negated[s], s, f"its joints fit {stats.negated[s]:.1f} times better with gyr_z negated "
-                             f"(untouched recordings: below {JOINT_MIRROR_WARN:g}): the gyroscope is negated"))
-        elif stats.scale.get(s) is not None:
-            scale, gain = stats.scale[s]
-            lo, hi = JOINT_SCALE_OK[s.split("_")[0]]
-            if not lo <= scale <= hi:
-                suspects.append((gain, s, f"its joints fit best with gyr_z × {scale:.2f} (residual {gain:.2f} times smaller; "
-                                 f"untouched recordings: {lo:g}–{hi:g}): the gyroscope reads × {1 / scale:.2f} of the true "
-                                 "rate (a unit or range setting?)"))
     # a wrong sensor spoils its neighbours' joints too: name the clearest one of each neighbourhood
     pairs, named, found = joints(segments), set(), []
-    for _, s, text in sorted(suspects, reverse=True):
+    for _, s, text in sorted(_suspects(stats), reverse=True):
         if any(n in named for p in pairs if s in p for n in p):
             continue
         named.add(s)
