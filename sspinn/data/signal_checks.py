@@ -151,16 +151,16 @@ JOINT_SCALE_RANGE: Final = (0.3, 3.0)
 #: Best-fitting time-base factor accepted as the stated rate. Measured (``scripts/joint_check_margins.py``):
 #: untouched 0.883–1.082 on the twelve CMU trials and their 20 s excerpts, 0.870–1.049 on the 40
 #: predicted recordings, the averaged stride, the predicted walk and the semi-real running; with the
-#: motion × 0.4–0.8 or × 1.25–2 the estimate is 0.8–1.07 × the true factor, so mislabels near × 0.8
+#: motion × 0.4–0.8 or × 1.25–2 the estimate is 0.76–1.07 × the true factor, so mislabels near × 0.8
 #: and × 1.25 are caught only in part (see ``docs/bad_input.md``).
 JOINT_RATE_OK: Final = (0.85, 1.12)
 #: Best-fitting gyroscope scale accepted per segment kind. Measured untouched: femur 0.59–1.49 (CMU;
 #: soft tissue and the hip fit), tibia 0.75–1.07, foot 0.82–1.38; with gyr_z × 0.5 the estimate is
-#: ≥ 1.18 (femur), ≥ 1.51 (tibia), ≥ 1.64 (foot). The pelvis turns too little to judge.
+#: ≥ 1.22 (femur), ≥ 1.55 (tibia), ≥ 1.64 (foot). The pelvis turns too little to judge.
 JOINT_SCALE_OK: Final[dict[str, tuple[float, float]]] = {"femur": (0.5, 1.6), "tibia": (0.6, 1.3), "foot": (0.65, 1.5)}
 #: Residual gain with acc_x (or a leg sensor's gyr_z) negated above which a sensor looks mirrored.
-#: Measured: untouched ≤ 0.79 with acc_x negated, ≤ 1.03 with a leg gyr_z negated (every sensor,
-#: every recording above); acc_x negated ≥ 1.26 (pelvis), ≥ 1.71 (femur), ≥ 2.32 (tibia), ≥ 3.21 (foot).
+#: Measured: untouched ≤ 0.79 with acc_x negated, ≤ 0.54 with a leg gyr_z negated (every sensor,
+#: every recording above); acc_x negated ≥ 1.26 (pelvis), ≥ 1.78 (femur), ≥ 2.83 (tibia), ≥ 3.21 (foot).
 JOINT_MIRROR_WARN: Final = 1.1
 _KINDS: Final = ("femur", "tibia", "foot")
 
