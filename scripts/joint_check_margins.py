@@ -88,7 +88,7 @@ def main() -> None:
             "other": others(args.synth)}
     for label, recs in sets.items():
         factor, mirror, negated, scale = [], [], [], defaultdict(list)
-        for name, (imu, segs) in recs.items():
+        for imu, segs in recs.values():
             st = joint_stats(imu, segs)
             factor.append(st.factor)
             mirror += list(st.mirror.values())
@@ -101,7 +101,7 @@ def main() -> None:
               + ", ".join(f"{k} {min(v):.2f}–{max(v):.2f}" for k, v in scale.items()))
     for label, recs in (("CMU", real), ("other", sets["other"])):
         ratio, mirror, scale = [], defaultdict(list), defaultdict(list)
-        for name, (imu, segs) in recs.items():
+        for imu, segs in recs.values():
             start = int(rng.integers(0, max(1, imu.shape[0] - EXCERPT)))
             near, what = perturb(imu, segs, "rate_near", rng)
             f = float(what.description.split("× ")[-1].rstrip(")"))

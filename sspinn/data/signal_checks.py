@@ -621,7 +621,7 @@ def joint_stats(imu: np.ndarray, segments: tuple[str, ...], per_sensor: bool = T
             scale[s] = None
             continue
         negated[s] = mine / max(_residual(x, segments, own, scale={s: -1.0}), 1e-12)
-        g, best_s = _best_factor(lambda v: _residual(x, segments, own, scale={s: v}), *JOINT_SCALE_RANGE)
+        g, best_s = _best_factor(lambda v, own=own, s=s: _residual(x, segments, own, scale={s: v}), *JOINT_SCALE_RANGE)
         scale[s] = (g, mine / max(best_s, 1e-12))
     stats = JointStats(1.0, 1.0, mirror, negated, scale, float(np.sqrt(base / (len(pairs) * x.shape[0]))), ())
     excluded = tuple(s for _, s, _ in _suspects(stats))
