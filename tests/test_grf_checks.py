@@ -57,8 +57,8 @@ def sub01() -> tuple[Path, Path]:
                                           r"foot's stance aligns at lag -0\.0\d s, the left at \+0\.1\d s"),
     (grf_unloaded(15.0, 10.0), "66.7", r"\S+grf\.mot: both feet carry less than 5% of body weight \(33 N\) in 17% of the 5950 "
                                        r"samples with the subject on the treadmill"),
-    (None, "100", r"\S+OpenSim_Sub01_CSBaseline_GRF\.mot\.gz: the mean vertical force \(rFy \+ lFy\) over the file is 652\.\d, "
-                  r"0\.665 × the body weight \(981 N for 100 kg\), outside 0\.8–1\.2"),
+    (None, "100", r"\S+OpenSim_Sub01_CSBaseline_GRF\.mot\.gz: the vertical forces \(rFy \+ lFy\) over the file average 652\.\d N, "
+                  r"0\.665 × the body weight \(981 N for 100 kg\), outside 0\.85–1\.15"),
 ], ids=["as recorded", "sides swapped", "left channel 0.15 s late", "contact lost for 10 s", "mass 100 kg instead of 66.7"])
 def test_grf_warnings_name_the_file(sub01, tmp_path, edit, mass, expected) -> None:
     accel, grf = sub01
@@ -85,7 +85,7 @@ def test_grf_sign_and_unit_errors_are_one_line(sub01, tmp_path, factor, message)
     accel, grf = sub01
     status, _, err = _import(accel, write_grf_edited(grf, tmp_path / "grf.mot", grf_scaled(factor)), tmp_path / "out")
     assert status == 2 and len(err.strip().splitlines()) == 1, err
-    assert re.search(r"sspinn: error: \S+grf\.mot: the mean vertical force \(rFy \+ lFy\) over the file is .*" + message, err), err
+    assert re.search(r"sspinn: error: \S+grf\.mot: the vertical forces \(rFy \+ lFy\) over the file average .*" + message, err), err
 
 
 def test_ambiguous_real_lag_is_warned_on_screen_and_in_the_provenance(tmp_path) -> None:
@@ -112,7 +112,7 @@ def test_vertical_force_checks_on_synthetic_forces() -> None:
     columns = {"r": ("rFx", "rFy"), "l": ("lFx", "lFy")}
     assert check_vertical_force("f.mot", forces, columns, mass) == []
     (warning,) = check_vertical_force("f.mot", forces, columns, 1.3 * mass)
-    assert warning.startswith("f.mot: the mean vertical force (rFy + lFy) over the file is ") and "outside 0.8–1.2" in warning
+    assert warning.startswith("f.mot: the vertical forces (rFy + lFy) over the file average ") and "outside 0.85–1.15" in warning
     with pytest.raises(GRFFileError, match=r"f\.mot: .* 0\.001 × the body weight .*: it looks like kN"):
         check_vertical_force("f.mot", {s: f / 1000 for s, f in forces.items()}, columns, mass)
     with pytest.raises(GRFFileError, match=r"it looks like N/kg"):

@@ -5,12 +5,17 @@ detected (an error or a finding), with the detection rate per kind printed and r
 the untouched trials (all six subjects, both conditions, in the slow tier) and the project's own
 legitimate recordings (a predicted walk, an averaged stride, semi-real running) must give none.
 
+Drawn kinds (:data:`sspinn.testing.perturbations.KINDS`) include what ``sspinn import`` makes of
+a 3D sensor's mistakes: a negated gyroscope or two swapped accelerometer axes arrive as a
+mirrored acc_x (``acc_x_sign``), a shank or foot gyroscope × 0.5 as gyr_z × 0.5 (``gyro_scale``); rate
+mislabels are drawn both from the factors the cadence detects
+(:data:`~sspinn.testing.perturbations.DETECTABLE_RATE_FACTORS`, ``rate``) and from × 0.4–0.8 and
+× 1.25–2 (``rate_near``), which only the joint constraints judge.
+
 Not drawn, because the checks cannot see them without labels (measured and listed in
-``docs/bad_input.md``): acc_x alone negated, the pelvis's gyr_z negated, a gyroscope scaled,
-thigh/shank swapped within a leg, and all leg sensors swapped between the sides
-(:data:`sspinn.testing.perturbations.KINDS_NOT_CLAIMED`). Rate mislabels are drawn from the factors
-the cadence detects (:data:`~sspinn.testing.perturbations.DETECTABLE_RATE_FACTORS`); × 0.4–2 are
-not detectable from the cadence.
+``docs/bad_input.md``): the pelvis's gyr_z negated or scaled, a thigh's gyr_z × 0.5, thigh/shank swapped within a leg,
+and all leg sensors swapped between the sides
+(:data:`sspinn.testing.perturbations.KINDS_NOT_CLAIMED`).
 """
 
 from __future__ import annotations
@@ -111,7 +116,7 @@ def _check(hits: dict[str, list[bool]]) -> None:
 
 
 def test_mistakes_detected_quick(walks):
-    _check(_rates(walks, 25))
+    _check(_rates(walks, 30))
 
 
 @pytest.mark.slow

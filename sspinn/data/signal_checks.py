@@ -44,6 +44,19 @@ Gait checks (recordings of ≥ :data:`MIN_GAIT_S` with a periodic leg movement, 
   extension most of the stride): skewness above :data:`KNEE_SKEW_WARN` on every side with a thigh
   and a shank means the gyroscopes are negated (the twelve CMU trials: −1.3…−0.5; predicted
   walking and running: −0.6…+0.1).
+* **Joint constraints** (:func:`joint_stats`, :func:`joint_findings`): two sensors on segments
+  joined at a hip, knee or ankle must agree on the joint's specific force once each is carried to
+  the joint (tangential and centripetal terms from the gyroscope, the frames turned by the
+  integrated difference of the two gyroscopes; the sensor positions and the frames' offset are
+  fitted per 3 s window, so no placement is assumed). This ties the time base to the gyroscopes
+  and accelerometers: the speed-up of the motion that fits the joints best must lie within
+  :data:`JOINT_RATE_OK` (a recording at 60 Hz or 200 Hz stamped as 100 Hz, which the cadence
+  cannot tell: the message names the likely rate); a sensor whose joints fit better with acc_x
+  negated (gain above :data:`JOINT_MIRROR_WARN`) has a mirrored acc_x — what a negated 3D
+  gyroscope or two swapped accelerometer axes become after ``sspinn import``'s calibration; a leg
+  sensor whose joints fit best with its gyr_z scaled outside :data:`JOINT_SCALE_OK` has a
+  mis-scaled gyroscope (× 0.5). Margins measured by ``scripts/joint_check_margins.py`` are given
+  at the thresholds.
 * Not detectable without labels and thus not claimed: swapping *all* sensors of the two legs (the
   sagittal signals are the same up to half a stride; ``sspinn import`` judges it from the
   medio-lateral force, and GRF labels from the stance, below), and thigh/shank swaps that keep
@@ -67,7 +80,7 @@ from __future__ import annotations
 import warnings
 import weakref
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import combinations
 from typing import TYPE_CHECKING, Final
 
@@ -113,8 +126,13 @@ MIN_COHERENCE: Final = 0.5
 KNEE_SKEW_WARN: Final = 0.5
 #: Vertical GRF label tolerated below zero, body weights.
 NEGATIVE_GRF_TOLERANCE_BW: Final = 0.1
-#: Accepted mean summed vertical GRF label over a recording, body weights.
+#: Accepted mean summed vertical GRF (labels, or a GRF file on import) over a recording, body
+#: weights (:func:`mean_vertical_force_findings`). The twelve CMU trials: 0.95–1.00.
 LABEL_MEAN_BW_RANGE: Final = (0.85, 1.15)
+#: Outside this range the force is not in newtons (or not vertical, or not both feet): impossible.
+MEAN_VERTICAL_BW_PLAUSIBLE: Final = (0.5, 2.0)
+#: Units a vertical force may be in instead of newtons: name → newtons per unit.
+_FORCE_UNITS: Final = {"kN": 1000.0, "mN": 1e-3, "kgf (kilograms)": GRAVITY}
 #: Label and IMU stride periods differing by more than this fraction: a warning.
 PERIOD_MISMATCH: Final = 0.2
 #: Mean estimated vertical GRF below this fraction of body weight: a warning.
@@ -123,6 +141,27 @@ MIN_MEAN_VERTICAL_BW: Final = 0.7
 STRIDE_LENGTH_FACTOR: Final = 2.0
 #: Leg length / body height (Winter).
 LEG_PER_HEIGHT: Final = 0.53
+#: Joint constraints (:func:`joint_stats`): low-pass before the fit, Hz; window, s; longest stretch judged, s.
+JOINT_LOWPASS_HZ: Final = 8.0
+JOINT_WINDOW_S: Final = 3.0
+JOINT_MAX_S: Final = 60.0
+#: Time-base factors and gyroscope scales searched.
+JOINT_FACTOR_RANGE: Final = (0.3, 3.0)
+JOINT_SCALE_RANGE: Final = (0.3, 3.0)
+#: Best-fitting time-base factor accepted as the stated rate. Measured (``scripts/joint_check_margins.py``):
+#: untouched 0.883–1.082 on the twelve CMU trials and their 20 s excerpts, 0.870–1.049 on the 40
+#: predicted recordings, the averaged stride, the predicted walk and the semi-real running; with the
+#: motion × 0.4–0.8 or × 1.25–2 the estimate is 0.76–1.07 × the true factor, so mislabels near × 0.8
+#: and × 1.25 are caught only in part (see ``docs/bad_input.md``).
+JOINT_RATE_OK: Final = (0.85, 1.12)
+#: Best-fitting gyroscope scale accepted per segment kind. Measured untouched: femur 0.59–1.49 (CMU;
+#: soft tissue and the hip fit), tibia 0.75–1.07, foot 0.82–1.38; with gyr_z × 0.5 the estimate is
+#: ≥ 1.22 (femur), ≥ 1.55 (tibia), ≥ 1.64 (foot). The pelvis turns too little to judge.
+JOINT_SCALE_OK: Final[dict[str, tuple[float, float]]] = {"femur": (0.5, 1.6), "tibia": (0.6, 1.3), "foot": (0.65, 1.5)}
+#: Residual gain with acc_x (or a leg sensor's gyr_z) negated above which a sensor looks mirrored.
+#: Measured: untouched ≤ 0.79 with acc_x negated, ≤ 0.54 with a leg gyr_z negated (every sensor,
+#: every recording above); acc_x negated ≥ 1.26 (pelvis), ≥ 1.78 (femur), ≥ 2.83 (tibia), ≥ 3.21 (foot).
+JOINT_MIRROR_WARN: Final = 1.1
 _KINDS: Final = ("femur", "tibia", "foot")
 
 
@@ -168,9 +207,10 @@ def check_recording(rec: Recording, source: str) -> None:
     warn(findings)
 
 
-def recording_findings(rec: Recording, source: str, leg_pairing: bool = True) -> list[str]:
+def recording_findings(rec: Recording, source: str, leg_pairing: bool = True, joints_judged: bool = True) -> list[str]:
     """Warnings about the IMU signals of ``rec`` (module docstring; without the leg pairing
-    where the caller ran :func:`leg_phase_findings` itself); raises for the impossible."""
+    where the caller ran :func:`leg_phase_findings` itself, and then ``joints_judged=False`` where
+    it found the legs mixed up); raises for the impossible."""
     imu, segments = rec.imu, tuple(rec.segments)
     if imu.shape[0] < 10:
         return []
@@ -185,11 +225,14 @@ def recording_findings(rec: Recording, source: str, leg_pairing: bool = True) ->
     found += _periodicity_findings(imu, segments, rhythm, source)
     rates = {s: imu[:, i, 2] for i, s in enumerate(segments)} if leg_pairing else {}
     window = min(max(4 * rhythm.period_s, 2.0), imu.shape[0] / RATE_HZ)
+    legs = []
     for side, bad in leg_phase_findings(rates, RATE_HZ, 1 / rhythm.period_s, [(0, imu.shape[0])], window).items():
         pairs = "; ".join(f"{a} leads {b} by {phase:+.0f}° (one leg: {expected:+.0f}° ± 90°)" for a, b, phase, expected in bad)
-        found.append(f"{source}: the {side}-leg sensors do not move like one leg (stride-frequency phase of their gyr_z: "
-                     f"{pairs}): a sensor of the other leg (left/right columns swapped) or a negated gyroscope")
-    return found + _knee_skew_findings(imu, segments, source)
+        legs.append(f"{source}: the {side}-leg sensors do not move like one leg (stride-frequency phase of their gyr_z: "
+                    f"{pairs}): a sensor of the other leg (left/right columns swapped) or a negated gyroscope")
+    legs += _knee_skew_findings(imu, segments, source)
+    # sensors on another leg's segments or all gyroscopes negated break several joints at once: the joints are not judged then
+    return found + (joint_findings(imu, segments, source) if joints_judged and not legs else []) + legs
 
 
 def _gravity_findings(imu: np.ndarray, segments: tuple[str, ...], angles: dict[str, float], source: str) -> list[str]:
@@ -351,10 +394,38 @@ def leg_phase_findings(rates: dict[str, np.ndarray], rate_hz: float, stride_hz: 
 
 
 # ------------------------------------------------------------------------------------ labels
+def mean_vertical_force_findings(what: str, mean_n: float, mass: float, strict: bool = False) -> list[str]:
+    """The one check of a mean summed vertical force (``mean_n``, N, both feet, over a recording
+    or a GRF file; ``what`` names it) against the body weight of ``mass`` kg: outside
+    :data:`LABEL_MEAN_BW_RANGE` a warning (a wrong mass, a missing plate, time off the treadmill;
+    periodic gait averages 1). ``strict`` (a GRF file on import): negative (the vertical axis
+    points down) or outside :data:`MEAN_VERTICAL_BW_PLAUSIBLE` (another unit, named when one
+    fits) raises :class:`ImpossibleSignalError`."""
+    weight = mass * GRAVITY
+    ratio = mean_n / weight
+    text = f"{what} average {mean_n:.4g} N, {ratio:.3g} × the body weight ({weight:.0f} N for {mass:g} kg)"
+    low, high = MEAN_VERTICAL_BW_PLAUSIBLE
+    ok = LABEL_MEAN_BW_RANGE
+    if strict and ratio < 0:
+        hint = ("the vertical axis points down: negate the vertical columns (y up is assumed)" if low <= -ratio <= high
+                else "negative and not near body weight: check the columns, their sign and unit")
+        raise ImpossibleSignalError(f"{text}: {hint}")
+    if strict and not low <= ratio <= high:
+        guesses = {**{unit: mean_n * factor / weight for unit, factor in _FORCE_UNITS.items()},
+                   "body weights": mean_n, "N/kg": mean_n * mass / weight}
+        unit = next((u for u, r in guesses.items() if ok[0] <= r <= ok[1]), None)
+        hint = f"it looks like {unit}: give newtons" if unit else "not newtons under both feet: check the unit, the columns and the mass"
+        raise ImpossibleSignalError(f"{text}, outside {low:g}–{high:g} (newtons, both feet): {hint}")
+    if not ok[0] <= ratio <= ok[1]:
+        return [f"{text}, outside {ok[0]:g}–{ok[1]:g} (periodic gait averages 1): a wrong mass or unit, a missing plate, "
+                "or time off the treadmill"]
+    return []
+
+
 def label_findings(rec: Recording, source: str, mean_check: bool = True) -> list[str]:
     """Warnings about the GRF labels of ``rec`` against its body weight and its IMU (module
-    docstring; without the mean force where the caller judged it, as ``sspinn import`` does with
-    :func:`sspinn.imu.grf_checks.check_vertical_force`); none without GRF labels."""
+    docstring; without the mean force where the caller judged it, as ``sspinn import`` does on the
+    GRF file with :func:`mean_vertical_force_findings`); none without GRF labels."""
     labels = rec.labels
     if labels is None or labels.grf is None or rec.imu.shape[0] < 10:
         return []
@@ -368,11 +439,8 @@ def label_findings(rec: Recording, source: str, mean_check: bool = True) -> list
             found.append(f"{source}: label grf_y_{side} reaches {low:.2f} body weights ({v.min():.4g} N); the ground only pushes "
                          f"(noise down to −{NEGATIVE_GRF_TOLERANCE_BW:g}): a negated or offset force channel")
     if len(vertical) == 2 and mean_check:
-        mean = float(np.mean(vertical["r"] + vertical["l"])) / weight
-        lo, hi = LABEL_MEAN_BW_RANGE
-        if not lo <= mean <= hi:
-            found.append(f"{source}: labels grf_y_r + grf_y_l average {mean:.2f} body weights ({rec.mass:g} kg) over the recording, "
-                         f"outside {lo:g}–{hi:g} (periodic gait averages 1): a wrong mass or unit, or a missing plate")
+        found += mean_vertical_force_findings(f"{source}: labels grf_y_r + grf_y_l", float(np.mean(vertical["r"] + vertical["l"])),
+                                              rec.mass)
     imu, segments = rec.imu, tuple(rec.segments)
     rhythm = gait_rhythm(imu, segments)
     if rhythm is None or not vertical:
@@ -424,3 +492,187 @@ def estimate_findings(name: str, vertical_grf: np.ndarray, speed: np.ndarray, im
                      f"accepted ×/÷ {STRIDE_LENGTH_FACTOR:g}): the speed estimate is implausible")
     return found
 
+
+# ------------------------------------------------------------------------------------ joint constraints
+@dataclass(frozen=True)
+class JointFit:
+    """The 2D joint constraint of two sensors on neighbouring segments fitted over windows:
+    ``residual`` (sum of squared residuals, (m/s²)² · samples), ``samples``, and the median fitted
+    distances of each sensor from the joint (``reach_a``, ``reach_b``, m)."""
+
+    residual: float
+    samples: int
+    reach_a: float
+    reach_b: float
+
+
+def joint_fit(x: np.ndarray, i: int, j: int, dt: float = 1.0 / RATE_HZ, gyro_scale: tuple[float, float] = (1.0, 1.0),
+              mirror: tuple[bool, bool] = (False, False), window_s: float = JOINT_WINDOW_S) -> JointFit:
+    """Fit the joint shared by the sensors ``i`` and ``j`` of ``x`` ((T, n, 3) acc_x, acc_y, gyr_z,
+    low-passed by :func:`_joint_signals`) in windows of ``window_s``: one point of both segments
+    (the joint) has the same specific force seen from either sensor, so in complex sagittal
+    coordinates ``f_i + K_i r_i = u e^{iφ(t)} (f_j + K_j r_j)`` with ``K = iα − ω²`` (tangential and
+    centripetal terms), ``φ = ∫(ω_j − ω_i) dt`` (the joint angle from the gyroscopes), ``r`` the
+    sensors' constant positions relative to the joint and ``u`` the constant rotation between the
+    frames: linear in (r_i, u, u r_j), solved by least squares per window (Seel, Raisch and Schauer 2014, "IMU-based
+    joint angle measurement for gait analysis", Sensors 14(4):6891–6909, the same constraint in 3D).
+    ``dt`` is the sample interval assumed (s), ``gyro_scale`` and ``mirror`` (acc_x negated) the
+    hypotheses tried on each sensor."""
+    fi = (-1.0 if mirror[0] else 1.0) * x[:, i, 0] + 1j * x[:, i, 1]
+    fj = (-1.0 if mirror[1] else 1.0) * x[:, j, 0] + 1j * x[:, j, 1]
+    wi, wj = gyro_scale[0] * x[:, i, 2], gyro_scale[1] * x[:, j, 2]
+    ki = 1j * np.gradient(wi) / dt - wi**2
+    kj = 1j * np.gradient(wj) / dt - wj**2
+    n = int(window_s * RATE_HZ)
+    total, count, reach = 0.0, 0, []
+    for s in range(0, len(fi) - n + 1, n):
+        w = slice(s, s + n)
+        turn = np.exp(1j * np.cumsum(wj[w] - wi[w]) * dt)
+        design = np.column_stack([-ki[w], turn * fj[w], turn * kj[w]])
+        sol, *_ = np.linalg.lstsq(design, fi[w], rcond=None)
+        total += float(np.sum(np.abs(fi[w] - design @ sol) ** 2))
+        count += n
+        reach.append((abs(sol[0]), abs(sol[2] / sol[1]) if sol[1] != 0 else np.inf))
+    a, b = np.median(reach, axis=0) if reach else (np.nan, np.nan)
+    return JointFit(total, count, float(a), float(b))
+
+
+def _joint_signals(imu: np.ndarray) -> np.ndarray:
+    """The IMU array low-passed at :data:`JOINT_LOWPASS_HZ` (the constraint holds for the rigid
+    body motion; vibration and soft tissue above it only add noise), at most
+    :data:`JOINT_MAX_S` of it."""
+    n = min(imu.shape[0], int(JOINT_MAX_S * RATE_HZ))
+    sos = butter(2, JOINT_LOWPASS_HZ, fs=RATE_HZ, output="sos")
+    return sosfiltfilt(sos, imu[:n], axis=0)
+
+
+def joints(segments: Sequence[str]) -> list[tuple[str, str]]:
+    """The neighbouring segments of ``segments`` that share a joint (hips, knees, ankles)."""
+    chain = [("pelvis", "femur_{}"), ("femur_{}", "tibia_{}"), ("tibia_{}", "foot_{}")]
+    return [(a.format(side), b.format(side)) for side in ("r", "l") for a, b in chain
+            if a.format(side) in segments and b.format(side) in segments]
+
+
+def _residual(x: np.ndarray, segments: tuple[str, ...], pairs: list[tuple[str, str]], dt: float = 1.0 / RATE_HZ,
+              scale: dict[str, float] | None = None, mirrored: str | None = None) -> float:
+    scale = scale or {}
+    total = 0.0
+    for a, b in pairs:
+        fit = joint_fit(x, segments.index(a), segments.index(b), dt, (scale.get(a, 1.0), scale.get(b, 1.0)),
+                        (a == mirrored, b == mirrored))
+        total += fit.residual
+    return total
+
+
+def _best_factor(cost, lo: float, hi: float) -> tuple[float, float]:
+    """(argmin, min) of ``cost`` over factors in [lo, hi] (a log grid refined by a bounded search)."""
+    from scipy.optimize import minimize_scalar
+
+    grid = np.exp(np.linspace(np.log(lo), np.log(hi), 17))
+    values = [cost(g) for g in grid]
+    k = int(np.argmin(values))
+    a, b = np.log(grid[max(k - 1, 0)]), np.log(grid[min(k + 1, len(grid) - 1)])
+    res = minimize_scalar(lambda z: cost(float(np.exp(z))), bounds=(a, b), method="bounded", options={"xatol": 0.005})
+    if res.fun < values[k]:
+        return float(np.exp(res.x)), float(res.fun)
+    return float(grid[k]), float(values[k])
+
+
+@dataclass(frozen=True)
+class JointStats:
+    """What the joint constraints say about a recording (:func:`joint_stats`): ``factor`` — the
+    speed-up of the motion that fits the joints best (1: the stated rate is right), ``factor_gain``
+    — how much smaller the residual is at that factor than at 1; per sensor ``mirror`` — how much
+    smaller its joints' residual is with its acc_x negated, ``negated`` — with its gyr_z negated,
+    ``scale`` — the factor on its gyr_z that fits best and the gain (None for the pelvis); ``rms``
+    the residual specific force at the stated rate, m/s² RMS; ``excluded`` the suspected sensors
+    whose joints the factor was not fitted on."""
+
+    factor: float
+    factor_gain: float
+    mirror: dict[str, float]
+    negated: dict[str, float]
+    scale: dict[str, tuple[float, float] | None]
+    rms: float
+    excluded: tuple[str, ...]
+
+
+def joint_stats(imu: np.ndarray, segments: tuple[str, ...], per_sensor: bool = True) -> JointStats | None:
+    """The :class:`JointStats` of ``imu`` (T, n, 3), or None without two neighbouring segments.
+    The sensors are judged at the stated rate first; the time-base factor is then fitted on the
+    joints of the sensors not suspected (:func:`_suspects`), so that one wrong sensor does not
+    pass for a wrong rate (``per_sensor=False``: the factor alone, on every joint)."""
+    pairs = joints(segments)
+    if not pairs:
+        return None
+    x = _joint_signals(imu)
+    base = _residual(x, segments, pairs)
+    if base <= 0:
+        return None
+    legs = {f"{k}_{side}" for k in _KINDS for side in ("r", "l")}
+    mirror, negated, scale = {}, {}, {}
+    for s in segments if per_sensor else ():
+        own = [p for p in pairs if s in p]
+        if not own:
+            continue
+        mine = _residual(x, segments, own)
+        mirror[s] = mine / max(_residual(x, segments, own, mirrored=s), 1e-12)
+        if s not in legs:  # the pelvis turns too little to weigh its gyroscope's sign or scale
+            scale[s] = None
+            continue
+        negated[s] = mine / max(_residual(x, segments, own, scale={s: -1.0}), 1e-12)
+        g, best_s = _best_factor(lambda v, own=own, s=s: _residual(x, segments, own, scale={s: v}), *JOINT_SCALE_RANGE)
+        scale[s] = (g, mine / max(best_s, 1e-12))
+    stats = JointStats(1.0, 1.0, mirror, negated, scale, float(np.sqrt(base / (len(pairs) * x.shape[0]))), ())
+    excluded = tuple(s for _, s, _ in _suspects(stats))
+    kept = [p for p in pairs if not set(p) & set(excluded)] or pairs
+    at_one = _residual(x, segments, kept)
+    factor, best = _best_factor(lambda f: _residual(x, segments, kept, dt=f / RATE_HZ), *JOINT_FACTOR_RANGE)
+    return replace(stats, factor=factor, factor_gain=at_one / max(best, 1e-12), excluded=excluded)
+
+
+def _suspects(stats: JointStats) -> list[tuple[float, str, str]]:
+    """(gain, sensor, what) for every sensor whose joints fit clearly better with one mistake undone."""
+    found = []
+    for s in stats.mirror:
+        if stats.mirror[s] > JOINT_MIRROR_WARN:
+            found.append((stats.mirror[s], s, f"its joints fit {stats.mirror[s]:.1f} times better with acc_x negated "
+                          f"(untouched recordings: below {JOINT_MIRROR_WARN:g}): acc_x points backwards (on a 3D sensor: a "
+                          "negated gyroscope or two swapped accelerometer axes, which the calibration turns into a "
+                          "mirrored acc_x)"))
+        elif stats.negated.get(s, 0.0) > JOINT_MIRROR_WARN:
+            found.append((stats.negated[s], s, f"its joints fit {stats.negated[s]:.1f} times better with gyr_z negated "
+                          f"(untouched recordings: below {JOINT_MIRROR_WARN:g}): the gyroscope is negated"))
+        elif stats.scale.get(s) is not None:
+            scale, gain = stats.scale[s]
+            lo, hi = JOINT_SCALE_OK[s.split("_")[0]]
+            if not lo <= scale <= hi:
+                found.append((gain, s, f"its joints fit best with gyr_z × {scale:.2f} (residual {gain:.2f} times smaller; "
+                              f"untouched recordings: {lo:g}–{hi:g}): the gyroscope reads × {1 / scale:.2f} of the true "
+                              "rate (a unit or range setting?)"))
+    return found
+
+
+def joint_findings(imu: np.ndarray, segments: tuple[str, ...], source: str) -> list[str]:
+    """The joint-constraint checks of the module docstring on a recording with gait: the time base
+    (the factor that makes the joints fit best; then nothing is said of single sensors), else per
+    sensor a mirrored acc_x, a negated or a mis-scaled gyroscope; empty without two neighbouring
+    segments. Not called where the leg pairing or the knee-angle skew found sensors on another
+    leg's segments or all gyroscopes negated (several joints broken at once)."""
+    stats = joint_stats(imu, segments)
+    if stats is None:
+        return []
+    lo, hi = JOINT_RATE_OK
+    if not lo <= stats.factor <= hi:
+        return [f"{source}: the sensors' joints (hips, knees, ankles) fit best if the motion ran {stats.factor:.2f} times as "
+                f"fast as stamped (residual {stats.factor_gain:.2f} times smaller than at the stated rate; untouched "
+                f"recordings: {lo:g}–{hi:g}): the sample rate is likely wrong (recorded at ≈ {RATE_HZ / stats.factor:.3g} Hz?): "
+                "resample to 100 Hz with the true rate"]
+    # a wrong sensor spoils its neighbours' joints too: name the clearest one of each neighbourhood
+    pairs, named, found = joints(segments), set(), []
+    for _, s, text in sorted(_suspects(stats), reverse=True):
+        if any(n in named for p in pairs if s in p for n in p):
+            continue
+        named.add(s)
+        found.append(f"{source}: sensor {s}: {text}")
+    return found

@@ -54,9 +54,11 @@ _KINDS: Final = ("femur", "tibia", "foot")
 
 
 def check_mounting(signals: dict[str, tuple[np.ndarray, np.ndarray]], cal: Calibration,
-                   assignments: dict[str, SensorAssignment], sources: dict[str, str]) -> None:
+                   assignments: dict[str, SensorAssignment], sources: dict[str, str]) -> bool:
     """Run the three checks of the module docstring and add their findings to ``cal.warnings``
-    (and the side check's correlation to ``cal.notes``).
+    (and the side check's correlation to ``cal.notes``); True if the legs look mixed up (then the
+    joint constraints of :func:`sspinn.data.signal_checks.joint_findings` are not judged: several
+    joints are broken at once).
 
     Args:
         signals: segment → (acc (n, 3) m/s², gyr (n, 3) rad/s) in the sensor frame, as calibrated.
@@ -64,8 +66,9 @@ def check_mounting(signals: dict[str, tuple[np.ndarray, np.ndarray]], cal: Calib
         sources: segment → the file(s) the sensor was read from, for messages.
     """
     cal.warnings += upside_down_warnings(cal, assignments, sources)
-    cal.warnings += leg_pairing_warnings(signals, cal, sources)
-    cal.warnings += side_warnings(signals, cal, sources)
+    mixed = leg_pairing_warnings(signals, cal, sources) + side_warnings(signals, cal, sources)
+    cal.warnings += mixed
+    return bool(mixed)
 
 
 def _who(cal: Calibration, seg: str) -> str:

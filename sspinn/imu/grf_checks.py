@@ -7,7 +7,8 @@ average (the body's vertical momentum is periodic), and at least one foot is alw
 (walking has no flight phase).
 
 * :func:`check_vertical_force` — the mean of the summed vertical force over the file against body
-  weight: negative (the vertical axis points down) or far from it (another unit) is an error
+  weight (:func:`sspinn.data.signal_checks.mean_vertical_force_findings`, the check GRF labels
+  get too): negative (the vertical axis points down) or far from it (another unit) is an error
   naming the file, the columns and the likely unit; somewhat off is a warning (a wrong mass, a
   missing plate, time off the treadmill).
 * :func:`unloaded_share_warning` — the share of the samples with the subject on the treadmill
@@ -25,23 +26,16 @@ from typing import Final
 
 import numpy as np
 
+from sspinn.data.signal_checks import ImpossibleSignalError, mean_vertical_force_findings
 from sspinn.errors import DataFormatError
 from sspinn.model.conventions import GRAVITY
 
-#: Mean summed vertical force / body weight accepted without a word. The twelve CMU trials: 0.95–1.00.
-MEAN_VERTICAL_BW_OK: Final = (0.8, 1.2)
-#: Outside this range the force is not in newtons (or not vertical, or not both feet): an error.
-#: Between it and :data:`MEAN_VERTICAL_BW_OK`: a warning.
-MEAN_VERTICAL_BW_PLAUSIBLE: Final = (0.5, 2.0)
 #: A foot is unloaded below this vertical force, body weights (the gait-event threshold).
 UNLOADED_BW: Final = 0.05
 #: Largest share of the samples on the treadmill with both feet unloaded before a warning. The
 #: twelve CMU trials: at most 0.01 % (Sub05's files begin with 1.9 s and 5.0 s before the
 #: subject steps on: outside the span).
 UNLOADED_SHARE_WARN: Final = 0.10
-#: Units the vertical force may be in instead of newtons: name → newtons per unit (× body
-#: weight in N for body weights, × mass in kg for N/kg).
-_UNITS: Final = {"kN": 1000.0, "mN": 1e-3, "kgf (kilograms)": GRAVITY}
 
 
 class GRFFileError(DataFormatError):
@@ -54,28 +48,14 @@ def check_vertical_force(path: str | Path, forces: dict[str, np.ndarray], column
     """Warnings about the mean summed vertical force of ``forces`` (side → (n, 2) horizontal,
     vertical, N, as :func:`sspinn.imu.vendor_readers.read_treadmill_grf_columns` gives them, with
     ``columns`` their names) for a subject of ``mass`` kg; raises :class:`GRFFileError` (module
-    docstring, thresholds :data:`MEAN_VERTICAL_BW_PLAUSIBLE`)."""
-    weight = mass * GRAVITY
+    docstring; the one check of the mean force, :func:`sspinn.data.signal_checks.mean_vertical_force_findings`,
+    that GRF labels get too)."""
     mean = float(np.mean(sum(f[:, 1] for f in forces.values())))
-    ratio = mean / weight
-    what = (f"{path}: the mean vertical force ({' + '.join(c[1] for c in columns.values())}) over the file is {mean:.4g}, "
-            f"{ratio:.3g} × the body weight ({weight:.0f} N for {mass:g} kg)")
-    low, high = MEAN_VERTICAL_BW_PLAUSIBLE
-    if ratio < 0:
-        hint = ("the vertical axis points down: negate the vertical columns (lab y up is assumed)" if low <= -ratio <= high
-                else "negative and not near body weight: check the columns, their sign and unit")
-        raise GRFFileError(f"{what}: {hint}")
-    if not low <= ratio <= high:
-        guesses = {**{unit: mean * factor / weight for unit, factor in _UNITS.items()},
-                   "body weights": mean, "N/kg": mean * mass / weight}
-        unit = next((u for u, r in guesses.items() if MEAN_VERTICAL_BW_OK[0] <= r <= MEAN_VERTICAL_BW_OK[1]), None)
-        hint = (f"it looks like {unit}: give newtons" if unit else
-                "not newtons under both feet: check the unit, the columns and the subject's mass")
-        raise GRFFileError(f"{what}, outside {low:g}–{high:g} (newtons, both feet, on a treadmill): {hint}")
-    if not MEAN_VERTICAL_BW_OK[0] <= ratio <= MEAN_VERTICAL_BW_OK[1]:
-        return [f"{what}, outside {MEAN_VERTICAL_BW_OK[0]:g}–{MEAN_VERTICAL_BW_OK[1]:g} (walking on a treadmill averages "
-                "1): check the subject's mass, that both feet's plates are in the file and the time spent off the treadmill"]
-    return []
+    what = f"{path}: the vertical forces ({' + '.join(c[1] for c in columns.values())}) over the file"
+    try:
+        return mean_vertical_force_findings(what, mean, mass, strict=True)
+    except ImpossibleSignalError as exc:
+        raise GRFFileError(str(exc)) from None
 
 
 def unloaded_share_warning(path: str | Path, vertical_r: np.ndarray, vertical_l: np.ndarray, mass: float) -> str | None:

@@ -117,7 +117,7 @@ def import_imu(
     by_segment = smap.by_segment()
     signals = {seg: (stream.sensors[a.sensor].acc, stream.sensors[a.sensor].gyr) for seg, a in by_segment.items()}
     cal = calibrate(signals, by_segment, RATE_HZ, standing="auto" if standing else None, source=stream.source)
-    check_mounting(signals, cal, by_segment, {seg: stream.sensors[a.sensor].source for seg, a in by_segment.items()})
+    legs_mixed = check_mounting(signals, cal, by_segment, {seg: stream.sensors[a.sensor].source for seg, a in by_segment.items()})
     cal.warnings[:0] = stream.warnings
     projected = {seg: cal.sensors[seg].project(*signals[seg]) for seg in by_segment}
     imu = np.stack([projected[seg] for seg in smap.segments], axis=1)
@@ -159,7 +159,7 @@ def import_imu(
             provenance=provenance,
         )
         # the signal checks of every path into the estimator (leg pairing: check_mounting above)
-        findings = recording_findings(rec, stream.source, leg_pairing=False) + label_findings(rec, f"{stream.source} + {grf}", mean_check=False)
+        findings = recording_findings(rec, stream.source, leg_pairing=False, joints_judged=not legs_mixed) + label_findings(rec, f"{stream.source} + {grf}", mean_check=False)
     except DataFormatError as exc:
         raise IMUImportError(f"{stream.source} after calibration: {exc}") from None
     cal.warnings += findings

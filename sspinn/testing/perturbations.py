@@ -12,7 +12,13 @@ the way a mistake would, and names what it did. Kinds (:data:`KINDS`):
 * ``rate`` — data recorded at ``100 / factor`` Hz stamped as 100 Hz (the motion runs ``factor``
   times as fast);
 * ``dead_gyro`` — gyr_z of one sensor replaced by white noise;
-* ``on_table`` — one sensor lying still: gravity in a fixed orientation plus sensor noise.
+* ``on_table`` — one sensor lying still: gravity in a fixed orientation plus sensor noise;
+* ``rate_near`` — a rate mislabel the cadence cannot tell: the motion × 0.4–0.8 or × 1.25–2
+  (uniform in log; 60 Hz stamped as 100 Hz is × 1.67);
+* ``acc_x_sign`` — acc_x of one sensor negated: what a negated 3D gyroscope, or two swapped
+  accelerometer axes (Y/Z), of one sensor become after ``sspinn import``'s calibration (it votes
+  gyr_z's sign from the gait and keeps a right-handed frame, so acc_x comes out mirrored);
+* ``gyro_scale`` — gyr_z of one shank or foot sensor × 0.5.
 """
 
 from __future__ import annotations
@@ -24,16 +30,20 @@ from scipy.interpolate import CubicSpline
 
 from sspinn.model.conventions import GRAVITY
 
-KINDS: tuple[str, ...] = ("acc_sign", "gyro_sign", "acc_swap", "side_swap", "rate", "dead_gyro", "on_table")
+KINDS: tuple[str, ...] = ("acc_sign", "gyro_sign", "acc_swap", "side_swap", "rate", "dead_gyro", "on_table", "rate_near",
+                          "acc_x_sign", "gyro_scale")
 #: Mistakes the checks do not claim to detect (measured by ``scripts/signal_check_rates.py``):
-#: acc_x alone negated on one sensor (gravity stays within a few degrees of the segment axis),
-#: the pelvis's gyr_z negated (not in a leg pair; the knee-angle check needs thighs and shanks),
-#: one gyroscope scaled (× 0.5), thigh and shank of one leg swapped (their phases stay within
-#: 90° of the expected ones), and all sensors of the two legs swapped (the sagittal signals of
-#: the two legs differ only by half a stride).
-KINDS_NOT_CLAIMED: tuple[str, ...] = ("acc_x_sign", "pelvis_gyro_sign", "gyro_scale", "thigh_shank_swap", "all_sides_swap")
+#: the pelvis's gyr_z negated or scaled (it turns too little for the joint constraints), a
+#: thigh's gyr_z × 0.5 (the best-fitting thigh scale spans 0.59–1.49 on the untouched CMU trials,
+#: so × 0.5 is caught only where the thigh fits near 1), thigh
+#: and shank of one leg swapped (their phases stay within 90° of the expected ones), and all
+#: sensors of the two legs swapped (the sagittal signals of the two legs differ only by half a
+#: stride).
+KINDS_NOT_CLAIMED: tuple[str, ...] = ("pelvis_gyro_sign", "thigh_shank_swap", "all_sides_swap")
 #: Rate factors the cadence check detects on walking (steps/s at 100 Hz outside 0.5–3.5).
 DETECTABLE_RATE_FACTORS: tuple[float, ...] = (0.1, 0.15, 0.2, 0.25, 2.5, 3.0, 5.0, 10.0)
+#: Range of the ``rate_near`` factors (and of their inverses), which the joint constraints judge.
+NEAR_RATE_FACTORS: tuple[float, float] = (1.25, 2.0)
 
 
 @dataclass(frozen=True)
@@ -78,13 +88,18 @@ def perturb(imu: np.ndarray, segments: tuple[str, ...], kind: str, rng: np.rando
         r, left = segments.index(f"{k}_r"), segments.index(f"{k}_l")
         out[:, [r, left]] = imu[:, [left, r]]
         return out, Perturbation(kind, f"{k}_r", f"columns of {k}_r and {k}_l swapped")
-    if kind == "rate":
-        f = float(rng.choice(DETECTABLE_RATE_FACTORS)) if factor is None else float(factor)
+    if kind in ("rate", "rate_near"):
+        if factor is not None:
+            f = float(factor)
+        elif kind == "rate":
+            f = float(rng.choice(DETECTABLE_RATE_FACTORS))
+        else:
+            f = float(np.exp(rng.choice([-1.0, 1.0]) * rng.uniform(*np.log(NEAR_RATE_FACTORS))))
         n = imu.shape[0]
         t = np.arange(n) / 100.0
         t_new = np.arange(int((n - 1) / f) + 1) * f / 100.0
         out = CubicSpline(t, imu, axis=0)(t_new[t_new <= t[-1]])
-        return out, Perturbation(kind, "all", f"recorded at {100 / f:.4g} Hz, stamped as 100 Hz (× {f:g})")
+        return out, Perturbation(kind, "all", f"recorded at {100 / f:.4g} Hz, stamped as 100 Hz (× {f:.3g})")
     if kind == "dead_gyro":
         sigma = float(rng.uniform(0.02, 1.0))
         out[:, i, 2] = rng.normal(float(rng.uniform(-0.05, 0.05)), sigma, size=imu.shape[0])
@@ -103,8 +118,9 @@ def perturb(imu: np.ndarray, segments: tuple[str, ...], kind: str, rng: np.rando
         out[:, segments.index("pelvis"), 2] *= -1
         return out, Perturbation(kind, "pelvis", "gyr_z of pelvis negated")
     if kind == "gyro_scale":
-        out[:, i, 2] *= 0.5
-        return out, Perturbation(kind, one, f"gyr_z of {one} × 0.5")
+        leg = str(rng.choice([s for s in legs if not s.startswith("femur")]))
+        out[:, segments.index(leg), 2] *= 0.5
+        return out, Perturbation(kind, leg, f"gyr_z of {leg} × 0.5")
     if kind == "thigh_shank_swap":
         side = str(rng.choice(["r", "l"]))
         a, b = segments.index(f"femur_{side}"), segments.index(f"tibia_{side}")

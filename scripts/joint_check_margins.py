@@ -1,0 +1,125 @@
+"""Margins of the joint-constraint checks of :mod:`sspinn.data.signal_checks` (:func:`joint_stats`):
+the best-fitting time-base factor, the gains with one sensor's acc_x or gyr_z negated and the
+best-fitting gyroscope scale per sensor, on untouched recordings (the twelve CMU trials imported
+with ``sspinn import``, whole and as 20 s excerpts every 10 s; the predicted recordings of
+``--synth`` folders; the averaged real stride; a predicted walk of the test fixtures; the
+semi-real running) and with one mistake applied to 20 s excerpts (a rate × 0.4–0.8 or
+× 1.25–2, gyr_z × 0.5, acc_x negated). Prints the ranges that the thresholds' docstrings quote.
+
+Usage::
+
+    python scripts/joint_check_margins.py --synth /work/fresh2/data/synth_default /work/demo_run/data/synth_default
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import os
+import sys
+import tempfile
+import warnings
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from sspinn.data.csv_readers import read_averaged_stride  # noqa: E402
+from sspinn.data.dataset import Recording  # noqa: E402
+from sspinn.data.signal_checks import joint_stats  # noqa: E402
+from sspinn.imu import pipeline  # noqa: E402
+from sspinn.model.conventions import SEGMENTS  # noqa: E402
+from sspinn.testing.perturbations import perturb  # noqa: E402
+from sspinn.validation.sensor_mounting import read_gait_csv, synthetic_walk  # noqa: E402
+
+SHARED = Path(os.environ.get("SSPINN_SHARED_DATA") or ROOT.parent / "shared" / "data")
+SUBJECTS = {"Sub01": (1.81, 66.7), "Sub02": (1.65, 56.0), "Sub03": (1.87, 78.6), "Sub04": (1.67, 70.5),
+            "Sub05": (1.90, 81.6), "Sub06": (1.64, 69.7)}
+EXCERPT = 2000  # samples (20 s)
+
+
+def cmu(folder: Path) -> dict[str, tuple[np.ndarray, tuple[str, ...]]]:
+    out = {}
+    pipeline.plot_calibration = lambda path, *a, **k: Path(path)
+    for subject, (height, mass) in SUBJECTS.items():
+        for condition in ("CSBaseline", "CSStiffKnee"):
+            src = SHARED / "cmu_treadmill_imu_grf" / subject / condition
+            with contextlib.redirect_stdout(io.StringIO()), warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                rec = pipeline.import_imu([src / f"OpenSim_{subject}_{condition}_Accel.trc.gz"],
+                                          ROOT / "configs" / "sensor_maps" / "cmu_treadmill.yaml", height, mass, folder,
+                                          name=f"{subject}_{condition}").recording
+            out[rec.name] = (rec.imu, tuple(rec.segments))
+    return out
+
+
+def others(synth: list[Path]) -> dict[str, tuple[np.ndarray, tuple[str, ...]]]:
+    out = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for root in synth:
+            for csv in sorted(root.glob("*.csv")):
+                rec = Recording.load(csv)
+                out[f"{root.parent.parent.name}:{csv.stem}"] = (rec.imu, tuple(rec.segments))
+        stride = read_averaged_stride(SHARED / "dorschky_P03_walking", periods=10)
+        out["averaged stride × 10"] = (stride.imu, tuple(stride.segments))
+        gait = read_gait_csv(ROOT / "tests" / "fixtures" / "predicted_walk_1.3.csv")
+        out["predicted walk"] = (synthetic_walk(gait.q, gait.u, gait.qdd, strides=20, standing_s=2.0), tuple(SEGMENTS))
+        from sspinn.validation.semi_real_running import hamner_running_recording
+
+        run = hamner_running_recording(SHARED / "opensim_hamner_run")
+        out["semi-real running"] = (run.imu, tuple(run.segments))
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--synth", type=Path, nargs="*", default=[], help="folders of predicted recordings")
+    parser.add_argument("--seed", type=int, default=1)
+    args = parser.parse_args()
+    rng = np.random.default_rng(args.seed)
+    real = cmu(Path(tempfile.mkdtemp(prefix="joint_margins_")))
+    sets = {"CMU": {**real, **{f"{k}@{s // 100}s": (imu[s:s + EXCERPT], segs) for k, (imu, segs) in real.items()
+                               for s in range(0, imu.shape[0] - EXCERPT + 1, 1000)}},
+            "other": others(args.synth)}
+    for label, recs in sets.items():
+        factor, mirror, negated, scale = [], [], [], defaultdict(list)
+        for imu, segs in recs.values():
+            st = joint_stats(imu, segs)
+            factor.append(st.factor)
+            mirror += list(st.mirror.values())
+            negated += list(st.negated.values())
+            for s, v in st.scale.items():
+                if v is not None:
+                    scale[s.split("_")[0]].append(v[0])
+        print(f"untouched {label} ({len(recs)} recordings): factor {min(factor):.3f}–{max(factor):.3f}, acc_x-negated gain "
+              f"≤ {max(mirror):.2f}, gyr_z-negated gain ≤ {max(negated):.2f}, gyro scale "
+              + ", ".join(f"{k} {min(v):.2f}–{max(v):.2f}" for k, v in scale.items()))
+    for label, recs in (("CMU", real), ("other", sets["other"])):
+        ratio, mirror, scale = [], defaultdict(list), defaultdict(list)
+        for imu, segs in recs.values():
+            start = int(rng.integers(0, max(1, imu.shape[0] - EXCERPT)))
+            near, what = perturb(imu, segs, "rate_near", rng)
+            f = float(what.description.split("× ")[-1].rstrip(")"))
+            ratio.append(joint_stats(near[:EXCERPT], segs, per_sensor=False).factor / f)
+            ex = imu[start:start + EXCERPT]
+            for j, s in enumerate(segs):
+                half = ex.copy()
+                half[:, j, 2] *= 0.5
+                v = joint_stats(half, segs).scale.get(s)
+                if v is not None:
+                    scale[s.split("_")[0]].append(v[0])
+                flipped = ex.copy()
+                flipped[:, j, 0] *= -1
+                mirror[s.split("_")[0]].append(joint_stats(flipped, segs).mirror[s])
+        print(f"mistakes {label}: rate estimate / true factor {min(ratio):.2f}–{max(ratio):.2f}; gyr_z × 0.5: estimate "
+              + ", ".join(f"{k} ≥ {min(v):.2f}" for k, v in scale.items()) + "; acc_x negated: gain "
+              + ", ".join(f"{k} ≥ {min(v):.2f}" for k, v in mirror.items()))
+
+
+if __name__ == "__main__":
+    main()
