@@ -6,6 +6,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
+import envs.kernels  # noqa: F401  (before torch: OpenMP threads that wait passively, see envs.kernels)
 from sspinn.errors import ArgumentParser, bounded
 from sspinn.yaml_config import add_config_flags, flag_overrides
 

@@ -56,11 +56,10 @@ from typing import Any
 
 import numba
 import numpy as np
-import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from envs import kernels  # noqa: E402
+from envs import kernels  # noqa: E402  (before torch: the threading layer, see envs.kernels)
 from envs.batched import BatchedSagittalWalker  # noqa: E402
 from envs.sagittal_walker import SagittalWalkerEnv  # noqa: E402
 from envs.vector import SagittalWalkerVectorEnv  # noqa: E402
@@ -69,6 +68,9 @@ from sspinn.model.body import BodyParameters  # noqa: E402
 from sspinn.model.contact import ContactParameters  # noqa: E402
 from sspinn.model.simulation import METHODS, advance  # noqa: E402
 from sspinn.run_folder import atomic_write_text  # noqa: E402
+
+# isort: split
+import torch  # noqa: E402  (after envs.kernels, which sets OpenMP's wait policy before torch loads it)
 
 TARGET_SINGLE_RATIO = 1.0
 TARGET_BATCH_RATIO = 100.0
@@ -255,12 +257,13 @@ def bench_physics(repeats: int) -> dict[str, float]:
     grf = np.zeros(4)
     no_passive = np.zeros(14)
     method = METHODS.index("semi_implicit_euler")
+    p, c = env.body_vector, env.contact_vector  # properties that build the vectors: outside the timing
 
     def in_place() -> None:
-        advance(q0.copy(), u0.copy(), tau, no_passive, env.body_vector, env.contact_vector, 2e-4, 50, method, True, grf)
+        advance(q0.copy(), u0.copy(), tau, no_passive, p, c, 2e-4, 50, method, True, grf)
 
     def on_copies() -> None:
-        simulation.step(q0, u0, tau, env.body_vector, env.contact_vector, 2e-4, 50, "semi_implicit_euler", True)
+        simulation.step(q0, u0, tau, p, c, 2e-4, 50, "semi_implicit_euler", True)
 
     in_place()
     on_copies()

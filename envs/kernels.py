@@ -33,6 +33,7 @@ make a walker's noise depend on the thread schedule; hence the hand-written gene
 from __future__ import annotations
 
 import math
+import os
 from typing import Final
 
 import numba
@@ -77,15 +78,58 @@ N_OUT: Final[int] = 8
 HISTORY: Final[int] = 51
 OBS_SIZE: Final[int] = task.OBS_SIZE
 
-#: numba's threading layer for :func:`step_parallel`, unless the user chose one
-#: (``NUMBA_THREADING_LAYER``): numba's own ``workqueue``. Its default choice here, GNU OpenMP,
-#: busy-waits at the end of every parallel region; on a 2-core machine shared with other work that
-#: made one vector step of 8 walkers take 10–20 ms instead of 0.8 ms (measured beside other jobs,
-#: ``OMP_WAIT_POLICY=passive`` also fixed it). Set before the first parallel call; the project has
-#: no other parallel numba code.
-PARALLEL_LAYER: Final[str] = "workqueue"
-if numba.config.THREADING_LAYER == "default":
-    numba.config.THREADING_LAYER = PARALLEL_LAYER
+def _openmp_loaded() -> bool:
+    """Whether GNU OpenMP is already loaded in this process (Linux: ``/proc/self/maps``; torch
+    loads it on import), after which its wait policy can no longer be chosen."""
+    try:
+        with open("/proc/self/maps") as maps:
+            return any("libgomp" in line for line in maps)
+    except OSError:
+        return False
+
+
+def _choose_threading_layer() -> str:
+    """numba's threading layer for :func:`step_parallel`, unless the user chose one
+    (``NUMBA_THREADING_LAYER``): GNU OpenMP with passive waiting when it can still be had, else
+    numba's own ``workqueue``.
+
+    Measured on the 2-core development machine, :class:`~envs.vector.SagittalWalkerVectorEnv`
+    with random actions, µs per vector step:
+
+    ======================================  ========  ==========  ==================================
+    layer                                   N = 64    N = 512     N = 8 / 64 beside a busy process
+    ======================================  ========  ==========  ==================================
+    workqueue                               1,315     7,681       402 / 1,707
+    OpenMP, default wait policy (spinning)  843       6,519       438 / 3,009
+    OpenMP, ``OMP_WAIT_POLICY=passive``     895       6,537       239 / 1,674
+    ======================================  ========  ==========  ==================================
+
+    (one thread: 1,699 and 13,154). workqueue's parallel region costs 70–80 µs even when empty
+    (OpenMP: 1.5 µs spinning, 45 µs passive), so passive OpenMP is the fastest alone and as good
+    as workqueue beside other work, where spinning OpenMP loses. The wait policy is read once,
+    when libgomp loads: this sets ``OMP_WAIT_POLICY=passive`` (unless set) if libgomp is not loaded
+    yet, keeps OpenMP if the variable already says passive, and otherwise falls back to
+    workqueue. Import ``envs`` before torch (``python -m agents`` does) to get passive OpenMP. The
+    policy then also applies to torch's OpenMP threads: multi-threaded torch ops wait passively too
+    (the batched torch environment at N = 4,096 on 2 threads: 12 k instead of 24 k steps/s; on one
+    thread, the agents' default, unchanged).
+    """
+    if numba.config.THREADING_LAYER != "default":
+        return str(numba.config.THREADING_LAYER)
+    policy = os.environ.get("OMP_WAIT_POLICY")
+    if policy is None and not _openmp_loaded():
+        os.environ["OMP_WAIT_POLICY"] = policy = "passive"
+    if policy is not None and policy.lower() == "passive":  # OpenMP first where numba has it
+        numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
+    else:
+        numba.config.THREADING_LAYER = "workqueue"
+    return str(numba.config.THREADING_LAYER) if numba.config.THREADING_LAYER != "default" else "omp"
+
+
+#: The threading layer asked for at import (:func:`_choose_threading_layer`; "omp": OpenMP where
+#: numba finds it, else its next layer). ``numba.threading_layer()`` names the one in use after
+#: the first parallel call.
+PARALLEL_LAYER: Final[str] = _choose_threading_layer()
 
 _tracking_term = numba.njit(cache=True)(task.tracking_term)
 _step_reward = numba.njit(cache=True)(task.step_reward)
