@@ -173,7 +173,13 @@ def _calibrate_quality(args: argparse.Namespace) -> int:
     estimates = [est.predict(r) for r in recs]
     cal, _, _ = calibrate(est.network_, est.segments_, est.imu_std_, est.config_.joint_limits, recs, estimates, args.model,
                           f"{args.data} ({', '.join(args.split)})")
-    out = save_calibration(cal, args.out or calibration_path(args.model))
+    target = Path(args.out or calibration_path(args.model))
+    if target.exists() and not args.overwrite:
+        if target.read_text() == cal.to_json() + "\n":  # the same calibration again (a rerun of make demo)
+            print(f"{target}: unchanged")
+            return 0
+        raise UserError(f"{target}: holds another quality calibration; replace it with --overwrite")
+    out = save_calibration(cal, target)
     fit = cal.fit
     print(f"calibrated on {len(recs)} recordings ({int(fit['n_windows'])} windows of {cal.window_s:g} s): threshold "
           f"{cal.threshold:.3g} flags {fit['flag_rate']:.0%} of them (precision {fit['precision']:.0%}, recall "
@@ -267,6 +273,7 @@ def _main(argv: list[str]) -> int:
     _data_args(cq)
     cq.add_argument("--split", nargs="+", default=["train"], help="labelled split(s) to calibrate on (not those you evaluate on)")
     cq.add_argument("--out", type=Path, default=None, help="calibration file (default: <model>.quality.json)")
+    cq.add_argument("--overwrite", action="store_true", help="replace a different calibration already in --out")
 
     ex = sub.add_parser("export", help="torch.export program of one streaming step of a trained network (.pt2)")
     ex.add_argument("--model", type=Path, required=True)

@@ -112,6 +112,12 @@ def test_infer_writes_the_quality_and_warns(model, tiny_run, tmp_path, capsys):
     assert main(["calibrate-quality", "--model", str(model), "--data", str(data)]) == 0
     assert "calibrated on 2 recordings" in capsys.readouterr().out
     assert calibration_path(model).exists()
+    # the same calibration again leaves the file alone; a different one needs --overwrite
+    assert main(["calibrate-quality", "--model", str(model), "--data", str(data)]) == 0
+    assert "unchanged" in capsys.readouterr().out
+    before = calibration_path(model).read_text()
+    assert main(["calibrate-quality", "--model", str(model), "--data", str(data), "--split", "train", "test"]) == 2
+    assert "--overwrite" in capsys.readouterr().err and calibration_path(model).read_text() == before
     # a recording far from the calibration data: a short, light subject with noisy IMUs
     rec = _noisy(dataclasses.replace(walking_recording(650), name="odd", height=1.5, mass=45.0))
     Dataset.write(tmp_path / "odd", {"test": [rec]})
