@@ -165,7 +165,16 @@ def _infer(args: argparse.Namespace) -> int:
 
 
 def _calibrate_quality(args: argparse.Namespace) -> int:
-    from sspinn.estimator.quality import ERROR_QUANTILE, calibrate, calibration_path, save_calibration
+    import warnings
+
+    from sspinn.estimator.quality import (
+        ERROR_QUANTILE,
+        MIN_CALIBRATION_WINDOWS,
+        QualityWarning,
+        calibrate,
+        calibration_path,
+        save_calibration,
+    )
     from sspinn.estimator.sspinnpose import SSPINNpose
 
     est = SSPINNpose.load(args.model)
@@ -181,6 +190,10 @@ def _calibrate_quality(args: argparse.Namespace) -> int:
         raise UserError(f"{target}: holds another quality calibration; replace it with --overwrite")
     out = save_calibration(cal, target)
     fit = cal.fit
+    if fit["n_windows"] < MIN_CALIBRATION_WINDOWS:
+        warnings.warn(f"{out}: calibrated on only {int(fit['n_windows'])} windows of {cal.window_s:g} s; a threshold "
+                      f"needs at least {MIN_CALIBRATION_WINDOWS} (more labelled recordings in --split)", QualityWarning,
+                      stacklevel=1)
     print(f"calibrated on {len(recs)} recordings ({int(fit['n_windows'])} windows of {cal.window_s:g} s): threshold "
           f"{cal.threshold:.3g} flags {fit['flag_rate']:.0%} of them (precision {fit['precision']:.0%}, recall "
           f"{fit['recall']:.0%} for the {1 - ERROR_QUANTILE:.0%} with the largest error) → {out}")

@@ -41,7 +41,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
 import numpy as np
 import torch
@@ -81,6 +81,11 @@ TERM_FLOOR = 1e-12
 
 class QualityCalibrationError(UserError):
     """A quality calibration file is malformed, or calibration data cannot calibrate."""
+
+
+#: Fewest calibration windows for a meaningful threshold (``sspinn calibrate-quality`` warns below):
+#: with the 10 % largest errors as the positives, 20 windows hold two of them.
+MIN_CALIBRATION_WINDOWS: Final = 20
 
 
 class QualityWarning(InputWarning):
