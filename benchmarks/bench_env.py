@@ -297,7 +297,8 @@ def bench_batched(batch: int, steps: int, device: str, compile: bool | str = Fal
         if device == "cuda":
             torch.cuda.synchronize()
         seconds = time.perf_counter() - t0
-    return {"env_steps_per_s": batch * steps / seconds, "seconds_per_step": seconds / steps, "warm_up_s": warm_up}
+    return {"env_steps_per_s": batch * steps / seconds, "seconds_per_step": seconds / steps, "warm_up_s": warm_up,
+            "final_q": env.q.detach().cpu().numpy()}
 
 
 def batched_only(sizes: Sequence[int], steps: int, rounds: int, json_path: Path | None) -> dict[str, Any]:
@@ -317,11 +318,12 @@ def batched_only(sizes: Sequence[int], steps: int, rounds: int, json_path: Path 
     name = torch.cuda.get_device_name() if device == "cuda" else platform.processor() or platform.machine()
     print(f"single environment (CPU, unwrapped): {single:,.0f} env steps/s (median of {rounds} rounds of 2,000 steps)")
     print(f"\n## Batched torch environment on {device} ({name}), float32, {steps} steps after one warm-up step\n")
-    print("| batch | compiled | env steps/s | s per batched step | warm-up s | ratio to single env | target |\n"
-          "|---:|---|---:|---:|---:|---:|---|")
+    print("| batch | compiled | env steps/s | s per batched step | warm-up s | ratio to single env | target | "
+          "median / max abs. difference of the final q from eager |\n|---:|---|---:|---:|---:|---:|---|---|")
     results: dict[str, Any] = {"device": device, "device_name": name, "single_env_steps_per_s": single, "rows": []}
-    modes: tuple[bool | str, ...] = (False, True, "reduce-overhead") if device == "cuda" else (False, True)
+    modes: tuple[bool | str, ...] = (False, True, "reduce-overhead", "step-graph") if device == "cuda" else (False, True)
     for batch in sizes:
+        eager_q = None
         for compiled in modes:
             try:
                 res = bench_batched(batch, steps, device, compile=compiled)
@@ -330,9 +332,13 @@ def batched_only(sizes: Sequence[int], steps: int, rounds: int, json_path: Path 
                 continue
             ratio = res["env_steps_per_s"] / single
             verdict = "met" if ratio >= TARGET_BATCH_RATIO else "NOT met"
+            final_q = res.pop("final_q")
+            eager_q = final_q if compiled is False else eager_q
+            diff = np.abs(final_q - eager_q)
+            res["diff_median"], res["diff_max"] = float(np.median(diff)), float(diff.max())
             print(f"| {batch:,} | {'no' if compiled is False else 'yes' if compiled is True else compiled} | {res['env_steps_per_s']:,.0f} | "
-                  f"{res['seconds_per_step']:.4f} | {res['warm_up_s']:.1f} | {ratio:.1f}× | ≥ {TARGET_BATCH_RATIO:.0f}×: {verdict} |",
-                  flush=True)
+                  f"{res['seconds_per_step']:.4f} | {res['warm_up_s']:.1f} | {ratio:.1f}× | ≥ {TARGET_BATCH_RATIO:.0f}×: {verdict} | "
+                  f"{res['diff_median']:.1e} / {res['diff_max']:.1e} |", flush=True)
             results["rows"].append({"batch": batch, "compiled": compiled, "ratio_to_single": ratio, **res})
             if json_path is not None:
                 atomic_write_text(json_path, json.dumps(results, indent=2))
@@ -495,7 +501,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         # to gain from threads, and on a loaded 2-core machine the threads' synchronisation costs more)
         for threads in sorted({torch_threads, 1}, reverse=True) if device == "cpu" else [torch_threads]:
             torch.set_num_threads(threads)
-            batched[f"{device}, {threads} thread(s)"] = bench_batched(batch, steps, device)
+            batched[f"{device}, {threads} thread(s)"] = {k: v for k, v in bench_batched(batch, steps, device).items() if k != "final_q"}
     torch.set_num_threads(torch_threads)
     print(f"\n## Batched torch environment, batch {batch:,}, float32, {steps} steps after one warm-up step\n")
     print("| device | env steps/s | s per batched step | ratio to single env | target |\n|---|---:|---:|---:|---|")

@@ -62,10 +62,12 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         seed: seed of the torch generator used for initial states and target speeds.
         compile: run each physics substep through ``torch.compile`` (inductor fuses the generated
             code's elementwise operations into a handful of kernels): False (eager), True
-            (inductor's default mode) or a ``torch.compile`` mode name, e.g. "reduce-overhead"
-            (CUDA graphs: each substep replays one recorded graph; for rollouts without gradients).
-            Worth it on a GPU, where the eager substep is bound by kernel launches; the first step
-            compiles (about 20 s). Same formulas: results agree with the eager path to round-off.
+            (inductor's default mode), a ``torch.compile`` mode name, e.g. "reduce-overhead"
+            (CUDA graphs: each substep replays one recorded graph), or "step-graph" (CUDA only:
+            the compiled substeps of a whole control interval recorded once as one CUDA graph and
+            replayed every step). The graph modes are for rollouts without gradients. Worth it on a
+            GPU, where the eager substep is bound by kernel launches; the first step compiles
+            (about 20 s). Same formulas: results agree with the eager path to round-off.
         config: the task and physics configuration, a :class:`~envs.config.WalkerConfig` (the one
             of the single environment); None → ``WalkerConfig()``.
         **overrides: fields of :class:`~envs.config.WalkerConfig` (height, mass, body, target_speed,
@@ -124,8 +126,12 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         self._lower, self._upper = tensor(passive[:N_TAU]), tensor(passive[N_TAU : 2 * N_TAU])
         self._k, self._b = float(passive[12]), float(passive[13])
         self._graphs = compile == "reduce-overhead"
+        self._whole_step_graph = compile == "step-graph"
+        if self._whole_step_graph and self.device.type != "cuda":
+            raise ValueError(f'compile="step-graph" records a CUDA graph: it needs a CUDA device, got {self.device}')
+        self._recorded: tuple[Any, list[torch.Tensor], tuple[torch.Tensor, torch.Tensor]] | None = None
         if compile:
-            mode = None if compile is True else compile
+            mode = None if compile in (True, "step-graph") else compile
             self._substep = torch.compile(self._eager_substep, dynamic=False, mode=mode)
         else:
             self._substep = self._eager_substep
@@ -237,6 +243,48 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
 
         return INTEGRATORS[self.method](qdd)(q, u, self.physics_dt, (tau + passive,))
 
+    def _physics(self, q: torch.Tensor, u: torch.Tensor, tau: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(q, u) after one control interval (``substeps`` substeps) under the torques ``tau``."""
+        if self._whole_step_graph:
+            return self._replay(q, u, tau)
+        for _ in range(self.substeps):
+            if self._graphs:  # a graph's outputs live in its pool until copied out
+                torch.compiler.cudagraph_mark_step_begin()
+                q, u = (x.clone() for x in self._substep(q, u, tau))
+            else:
+                q, u = self._substep(q, u, tau)
+        return q, u
+
+    def _substeps(self, q: torch.Tensor, u: torch.Tensor, tau: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        for _ in range(self.substeps):
+            q, u = self._substep(q, u, tau)
+        return q, u
+
+    def _replay(self, q: torch.Tensor, u: torch.Tensor, tau: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """``compile="step-graph"``: the control interval as one recorded CUDA graph. Recorded at
+        the first step (after two warm-up runs on a side stream, which also compile the substep)
+        on static copies of q, u and tau; every step copies its inputs in, replays, and copies the
+        outputs out of the graph's memory pool."""
+        if torch.is_grad_enabled() and (q.requires_grad or u.requires_grad or tau.requires_grad):
+            raise ValueError('compile="step-graph" replays a recorded graph without gradients; use compile=True')
+        if self._recorded is None:
+            static = [q.detach().clone(), u.detach().clone(), tau.detach().clone()]
+            side = torch.cuda.Stream(self.device)
+            side.wait_stream(torch.cuda.current_stream(self.device))
+            with torch.cuda.stream(side), torch.no_grad():
+                for _ in range(2):
+                    self._substeps(*static)
+            torch.cuda.current_stream(self.device).wait_stream(side)
+            graph = torch.cuda.CUDAGraph()
+            with torch.cuda.graph(graph), torch.no_grad():
+                out = self._substeps(*static)
+            self._recorded = (graph, static, out)
+        graph, static, out = self._recorded
+        for buffer, value in zip(static, (q, u, tau)):
+            buffer.copy_(value)
+        graph.replay()
+        return out[0].clone(), out[1].clone()
+
     def step(self, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, dict[str, Any]]:
         """Advance all environments by one control interval (0.01 s) under ``actions`` (N, 6) in
         [−1, 1] (clipped; a non-finite action is a ``ValueError``); returns (obs, reward,
@@ -254,13 +302,7 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         a = a.clamp(-1.0, 1.0)
         tau = a * self._tau_max
         q0, u0 = self.q, self.u
-        q, u = q0, u0
-        for _ in range(self.substeps):
-            if self._graphs:  # a graph's outputs live in its pool until copied out
-                torch.compiler.cudagraph_mark_step_begin()
-                q, u = (x.clone() for x in self._substep(q, u, tau))
-            else:
-                q, u = self._substep(q, u, tau)
+        q, u = self._physics(q0, u0, tau)
         grf = self._contact(q, u)
         finite = torch.isfinite(q).all(-1) & torch.isfinite(u).all(-1) & torch.isfinite(grf).all(-1)
         if not bool(finite.all()):  # keep the last finite state of failed rows
