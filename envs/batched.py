@@ -48,9 +48,9 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
     ``auto_reset=False`` (``DISABLED``) finished rows keep stepping until :meth:`reset` is called.
 
     **Speed** (``benchmarks/bench_env.py --batched-only``, float32, random actions; docs/environment.md):
-    on an NVIDIA H200 with ``compile="reduce-overhead"``, 3.4 M environment steps/s at N = 65,536
-    (232× the single environment on that machine's CPU; ``compile=True`` 2.3 M) and 0.21 M at
-    N = 4,096, where a step's 50 substep launches, not arithmetic, bound it; eager, 0.12 M at
+    on an NVIDIA H200 with ``compile="step-graph"``, 11.8 M environment steps/s at N = 65,536 (542×
+    the single environment on that machine's CPU) and 1.4 M at N = 4,096, where the replay of 50
+    substeps' kernels, not arithmetic, bounds a step; ``compile=True`` 1.4 M, eager 0.14 M at
     65,536. On a 2-core CPU, eager is fastest (≈ 23 k steps/s at N = 4,096 on one thread, about the
     single environment's rate): use the native vector environment there.
 
