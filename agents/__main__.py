@@ -6,7 +6,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-import envs.kernels  # noqa: F401  (before torch: OpenMP threads that wait passively, see envs.kernels)
+from envs.openmp import prefer_passive_openmp
 from sspinn.errors import ArgumentParser, bounded
 from sspinn.yaml_config import add_config_flags, flag_overrides
 
@@ -68,6 +68,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ``--debug`` for the traceback; see :func:`sspinn.errors.run_cli`)."""
     from sspinn.errors import run_cli
 
+    prefer_passive_openmp()  # before torch loads OpenMP: the vector environment's threads wait passively
     return run_cli(_main, "python -m agents", argv, user_errors=(ValueError,))
 
 

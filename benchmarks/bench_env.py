@@ -59,7 +59,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from envs import kernels  # noqa: E402  (before torch: the threading layer, see envs.kernels)
+from envs.openmp import prefer_passive_openmp  # noqa: E402
+
+prefer_passive_openmp()  # as python -m agents does: OpenMP for the vector environment (envs.kernels)
+
+from envs import kernels  # noqa: E402
 from envs.batched import BatchedSagittalWalker  # noqa: E402
 from envs.sagittal_walker import SagittalWalkerEnv  # noqa: E402
 from envs.vector import SagittalWalkerVectorEnv  # noqa: E402
@@ -70,7 +74,7 @@ from sspinn.model.simulation import METHODS, advance  # noqa: E402
 from sspinn.run_folder import atomic_write_text  # noqa: E402
 
 # isort: split
-import torch  # noqa: E402  (after envs.kernels, which sets OpenMP's wait policy before torch loads it)
+import torch  # noqa: E402  (after prefer_passive_openmp: torch loads OpenMP)
 
 TARGET_SINGLE_RATIO = 1.0
 TARGET_BATCH_RATIO = 100.0

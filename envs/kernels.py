@@ -78,20 +78,11 @@ N_OUT: Final[int] = 8
 HISTORY: Final[int] = 51
 OBS_SIZE: Final[int] = task.OBS_SIZE
 
-def _openmp_loaded() -> bool:
-    """Whether GNU OpenMP is already loaded in this process (Linux: ``/proc/self/maps``; torch
-    loads it on import), after which its wait policy can no longer be chosen."""
-    try:
-        with open("/proc/self/maps") as maps:
-            return any("libgomp" in line for line in maps)
-    except OSError:
-        return False
-
-
 def _choose_threading_layer() -> str:
     """numba's threading layer for :func:`step_parallel`, unless the user chose one
-    (``NUMBA_THREADING_LAYER``): GNU OpenMP with passive waiting when it can still be had, else
-    numba's own ``workqueue``.
+    (``NUMBA_THREADING_LAYER``): GNU OpenMP when its threads wait passively
+    (``OMP_WAIT_POLICY=passive``, see :func:`envs.openmp.prefer_passive_openmp`), else numba's own
+    ``workqueue``.
 
     Measured on the 2-core development machine, :class:`~envs.vector.SagittalWalkerVectorEnv`
     with random actions, µs per vector step:
@@ -106,24 +97,18 @@ def _choose_threading_layer() -> str:
 
     (one thread: 1,699 and 13,154). workqueue's parallel region costs 70–80 µs even when empty
     (OpenMP: 1.5 µs spinning, 45 µs passive), so passive OpenMP is the fastest alone and as good
-    as workqueue beside other work, where spinning OpenMP loses. The wait policy is read once,
-    when libgomp loads: this sets ``OMP_WAIT_POLICY=passive`` (unless set) if libgomp is not loaded
-    yet, keeps OpenMP if the variable already says passive, and otherwise falls back to
-    workqueue. Import ``envs`` before torch (``python -m agents`` does) to get passive OpenMP. The
-    policy then also applies to torch's OpenMP threads: multi-threaded torch ops wait passively too
-    (the batched torch environment at N = 4,096 on 2 threads: 12 k instead of 24 k steps/s; on one
-    thread, the agents' default, unchanged).
+    as workqueue beside other work, where spinning OpenMP loses. The policy is a process-wide
+    setting read once, when libgomp loads, and it would also slow torch's multi-threaded
+    operations; so the environment does not set it on import, and a process that did not ask for
+    it gets workqueue.
     """
     if numba.config.THREADING_LAYER != "default":
         return str(numba.config.THREADING_LAYER)
-    policy = os.environ.get("OMP_WAIT_POLICY")
-    if policy is None and not _openmp_loaded():
-        os.environ["OMP_WAIT_POLICY"] = policy = "passive"
-    if policy is not None and policy.lower() == "passive":  # OpenMP first where numba has it
+    if os.environ.get("OMP_WAIT_POLICY", "").lower() == "passive":  # OpenMP first where numba has it
         numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
-    else:
-        numba.config.THREADING_LAYER = "workqueue"
-    return str(numba.config.THREADING_LAYER) if numba.config.THREADING_LAYER != "default" else "omp"
+        return "omp"
+    numba.config.THREADING_LAYER = "workqueue"
+    return "workqueue"
 
 
 #: The threading layer asked for at import (:func:`_choose_threading_layer`; "omp": OpenMP where

@@ -250,3 +250,19 @@ def test_info_arrays_are_each_steps_own_and_writable(mode: str) -> None:
         final["_distance"][0] = False
         assert not info["_distance"][0] and final["_target_speed"].all()
         assert info["_speed"].all()  # the flipped mask, nowhere else
+
+
+def test_passive_openmp_is_asked_for_only_before_openmp_loads(monkeypatch) -> None:
+    """``prefer_passive_openmp`` sets ``OMP_WAIT_POLICY=passive`` only while OpenMP is not loaded
+    and the user has not chosen a policy (libgomp reads it once, when it loads)."""
+    import os
+
+    from envs import openmp
+
+    monkeypatch.delenv("OMP_WAIT_POLICY", raising=False)
+    monkeypatch.setattr(openmp, "openmp_loaded", lambda: True)
+    assert not openmp.prefer_passive_openmp() and "OMP_WAIT_POLICY" not in os.environ
+    monkeypatch.setattr(openmp, "openmp_loaded", lambda: False)
+    assert openmp.prefer_passive_openmp() and os.environ["OMP_WAIT_POLICY"] == "passive"
+    monkeypatch.setenv("OMP_WAIT_POLICY", "active")
+    assert not openmp.prefer_passive_openmp() and os.environ["OMP_WAIT_POLICY"] == "active"
