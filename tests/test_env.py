@@ -275,6 +275,15 @@ def test_compiled_batched_env_agrees_with_the_eager_one() -> None:
         BatchedSagittalWalker(2, compile=1)
 
 
+def test_batched_env_compile_option_is_checked() -> None:
+    """``compile`` takes a bool or a mode name; the recorded control interval needs CUDA."""
+    with pytest.raises(ValueError, match="compile must be a bool or a torch.compile mode"):
+        BatchedSagittalWalker(2, compile=1)
+    if not torch.cuda.is_available():
+        with pytest.raises(ValueError, match="needs a CUDA device"):
+            BatchedSagittalWalker(2, compile="step-graph")
+
+
 def test_rendered_frame_has_the_right_shape_and_is_not_blank(env: SagittalWalkerEnv) -> None:
     env.reset(seed=0)
     q, u = env.state
