@@ -130,6 +130,7 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         if self._whole_step_graph and self.device.type != "cuda":
             raise ValueError(f'compile="step-graph" records a CUDA graph: it needs a CUDA device, got {self.device}')
         self._recorded: tuple[Any, list[torch.Tensor], tuple[torch.Tensor, torch.Tensor]] | None = None
+        self._integrate = INTEGRATORS[self.method](self._qdd)
         if compile:
             mode = None if compile in (True, "step-graph") else compile
             self._substep = torch.compile(self._eager_substep, dynamic=False, mode=mode)
@@ -237,25 +238,25 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
         (q, u) under the forward-simulation contact (as :func:`sspinn.model.simulation.step_torch`,
         without its ground reaction forces at every substep: the step needs them only at its end)."""
         passive = task.passive_torque(q[:, 3:], u[:, 3:], self._lower, self._upper, self._k, self._b)
+        return self._integrate(q, u, self.physics_dt, (tau + passive,))
 
-        def qdd(q_: torch.Tensor, u_: torch.Tensor, tau_: torch.Tensor) -> torch.Tensor:
-            return dynamics.forward_dynamics_with_contact(q_, u_, tau_, self._p, self._c)[0]
-
-        return INTEGRATORS[self.method](qdd)(q, u, self.physics_dt, (tau + passive,))
+    def _qdd(self, q: torch.Tensor, u: torch.Tensor, tau: torch.Tensor) -> torch.Tensor:
+        """q̈ under the torques ``tau`` and the forward-simulation contact."""
+        return dynamics.forward_dynamics_with_contact(q, u, tau, self._p, self._c)[0]
 
     def _physics(self, q: torch.Tensor, u: torch.Tensor, tau: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """(q, u) after one control interval (``substeps`` substeps) under the torques ``tau``."""
         if self._whole_step_graph:
             return self._replay(q, u, tau)
-        for _ in range(self.substeps):
-            if self._graphs:  # a graph's outputs live in its pool until copied out
-                torch.compiler.cudagraph_mark_step_begin()
-                q, u = (x.clone() for x in self._substep(q, u, tau))
-            else:
-                q, u = self._substep(q, u, tau)
+        if not self._graphs:
+            return self._substeps(q, u, tau)
+        for _ in range(self.substeps):  # a graph's outputs live in its pool until copied out
+            torch.compiler.cudagraph_mark_step_begin()
+            q, u = (x.clone() for x in self._substep(q, u, tau))
         return q, u
 
     def _substeps(self, q: torch.Tensor, u: torch.Tensor, tau: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """``substeps`` calls of the (compiled or eager) substep."""
         for _ in range(self.substeps):
             q, u = self._substep(q, u, tau)
         return q, u
