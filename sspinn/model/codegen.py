@@ -141,6 +141,18 @@ def _used_inputs(model: SymbolicModel, groups: tuple[str, ...], exprs: list[sp.E
     return {g: [(i, s) for i, s in enumerate(model.inputs[g]) if s in free] for g in groups}
 
 
+def _take_lines(groups: tuple[str, ...], used) -> list[str]:
+    """Lines unpacking the used symbols of each input group with ``ops.take`` (array functions)."""
+    lines = []
+    for g in groups:
+        pairs = used[g]
+        if pairs:
+            names = ", ".join(str(s) for _, s in pairs)
+            idx = ", ".join(str(i) for i, _ in pairs)
+            lines.append(f"    {names}, = ops.take({g}, ({idx},))")
+    return lines
+
+
 def _body(printer: _Printer, replacements, indent: str = "    ") -> list[str]:
     return [f"{indent}{sym} = {printer.doprint(expr)}" for sym, expr in replacements]
 
@@ -164,12 +176,7 @@ def generate_expr(model: SymbolicModel) -> str:
         out.append(f"\ndef {name}(ops, {', '.join(spec.inputs)}):")
         sizes = ", ".join(f"{g} ({len(model.inputs[g])})" for g in spec.inputs)
         out.append(f'    """{spec.doc}\n\n    Inputs (last-axis sizes): {sizes}.\n    """')
-        for g in spec.inputs:
-            pairs = used[g]
-            if pairs:
-                names = ", ".join(str(s) for _, s in pairs)
-                idx = ", ".join(str(i) for i, _ in pairs)
-                out.append(f"    {names}, = ops.take({g}, ({idx},))")
+        out.extend(_take_lines(spec.inputs, used))
         out.extend(_body(printer, repl))
         elems = ", ".join(printer.doprint(e) for e in reduced)
         out.append(f"    return ops.pack([{elems}], {shape})")
@@ -285,10 +292,7 @@ def generate_forward_dynamics(model: SymbolicModel, printer: _Printer) -> list[s
         f"    Inputs (last-axis sizes): {', '.join(f'{g} ({len(model.inputs[g])})' for g in inputs)}.\n"
         '    """',
     ]
-    for g in inputs:
-        pairs = used[g]
-        if pairs:
-            out.append(f"    {', '.join(str(s) for _, s in pairs)}, = ops.take({g}, ({', '.join(str(i) for i, _ in pairs)},))")
+    out.extend(_take_lines(inputs, used))
     out.extend(_body(printer, repl))
     for (i, j), e in zip(upper, reduced[: len(upper)]):
         out.append(f"    m{i}_{j} = {printer.doprint(e)}")
