@@ -537,6 +537,17 @@ def joint_fit(x: np.ndarray, i: int, j: int, dt: float = 1.0 / RATE_HZ, gyro_sca
     return JointFit(total, count, float(a), float(b))
 
 
+def hip_residual_rms(imu: np.ndarray, segments: Sequence[str]) -> float | None:
+    """The RMS residual (m/s²) of the hip constraints of :func:`joint_fit` between the ``pelvis``
+    sensor of ``imu`` ((T, n, 3) sagittal signals in the order of ``segments``) and the thigh
+    sensors, both hips pooled; None without a pelvis and a thigh or with less than one window."""
+    pairs = [(a, b) for a, b in joints(segments) if a == "pelvis"]
+    x = _joint_signals(imu)
+    fits = [joint_fit(x, list(segments).index(a), list(segments).index(b)) for a, b in pairs]
+    samples = sum(f.samples for f in fits)
+    return float(np.sqrt(sum(f.residual for f in fits) / samples)) if samples else None
+
+
 def _joint_signals(imu: np.ndarray) -> np.ndarray:
     """The IMU array low-passed at :data:`JOINT_LOWPASS_HZ` (the constraint holds for the rigid
     body motion; vibration and soft tissue above it only add noise), at most

@@ -47,12 +47,13 @@ from scipy.signal import butter, sosfiltfilt
 
 from sspinn.data.dataset import FORMAT, SPLITS, DataFormatError, Dataset, Labels, Recording
 from sspinn.data.signal_checks import label_findings, recording_findings
+from sspinn.errors import UserError
 from sspinn.imu.calibration import Calibration, calibrate
 from sspinn.imu.calibration_report import calibration_markdown, plot_calibration
-from sspinn.imu.cross_sensor_checks import check_mounting
+from sspinn.imu.cross_sensor_checks import check_mounting, pelvis_candidate_warnings
 from sspinn.imu.grf_checks import check_vertical_force, unloaded_share_warning
 from sspinn.imu.sensor_map import SensorMap
-from sspinn.imu.stream import ANTI_ALIAS_HZ, DEFAULT_MAX_GAP_S, RATE_HZ, IMUImportError, resample
+from sspinn.imu.stream import ANTI_ALIAS_HZ, DEFAULT_MAX_GAP_S, RATE_HZ, IMUImportError, IMUStream, resample
 from sspinn.imu.time_alignment import Alignment, align_to_grf, walking_direction_sign
 from sspinn.imu.vendor_readers import read_imu_files, read_treadmill_grf_columns
 from sspinn.model.conventions import GRF
@@ -82,6 +83,23 @@ def default_name(files: list[Path]) -> str:
     return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name) or "imported"
 
 
+def ignored_signals(ignored: IMUStream, grid: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """The sensors the map ignores on the imported ``grid`` (s), for
+    :func:`~sspinn.imu.cross_sensor_checks.pelvis_candidate_warnings`; a sensor that cannot be
+    resampled there (gaps, a dead axis, a shorter span) is left out: it is not imported."""
+    out = {}
+    margin = 0.05  # s of samples kept around the grid for the spline
+    for name, sensor in ignored.sensors.items():
+        t0 = float(sensor.time[0])
+        try:
+            one = IMUStream({name: sensor}, ignored.source).crop(max(0.0, grid[0] - t0 - margin), grid[-1] - t0 + margin)
+            _, one = resample(one, grid=grid)
+        except UserError:
+            continue
+        out[name] = (one.sensors[name].acc, one.sensors[name].gyr)
+    return out
+
+
 def import_imu(
     imu_files: list[str | Path],
     sensor_map: SensorMap | str | Path,
@@ -109,6 +127,7 @@ def import_imu(
     name = name or default_name(files)
     stream = read_imu_files(files, imu_rate_hz, known=(*smap.assignments, *smap.ignore))
     smap.check_sensors(stream.names, stream.source)
+    ignored = IMUStream({s: stream.sensors[s] for s in stream.names if s in smap.ignore}, stream.source)
     stream.sensors = {s: stream.sensors[s] for s in stream.names if s in smap.assignments}
     t_file0 = min(float(s.time[0]) for s in stream.sensors.values())
     if start_s is not None or end_s is not None:
@@ -117,7 +136,9 @@ def import_imu(
     by_segment = smap.by_segment()
     signals = {seg: (stream.sensors[a.sensor].acc, stream.sensors[a.sensor].gyr) for seg, a in by_segment.items()}
     cal = calibrate(signals, by_segment, RATE_HZ, standing="auto" if standing else None, source=stream.source)
-    legs_mixed = check_mounting(signals, cal, by_segment, {seg: stream.sensors[a.sensor].source for seg, a in by_segment.items()})
+    sources = {seg: stream.sensors[a.sensor].source for seg, a in by_segment.items()}
+    legs_mixed = check_mounting(signals, cal, by_segment, sources)
+    cal.warnings += pelvis_candidate_warnings(ignored_signals(ignored, grid), signals, cal, by_segment, sources)
     cal.warnings[:0] = stream.warnings
     projected = {seg: cal.sensors[seg].project(*signals[seg]) for seg in by_segment}
     imu = np.stack([projected[seg] for seg in smap.segments], axis=1)

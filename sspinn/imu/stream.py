@@ -274,8 +274,10 @@ def find_gaps(s: SensorSignals) -> list[Gap]:
     return sorted(gaps, key=lambda g: g.start_s)
 
 
-def resample(stream: IMUStream, max_gap_s: float = DEFAULT_MAX_GAP_S, rate_hz: float = RATE_HZ) -> tuple[np.ndarray, IMUStream]:
-    """Every sensor on one grid at ``rate_hz`` over the span all sensors cover.
+def resample(stream: IMUStream, max_gap_s: float = DEFAULT_MAX_GAP_S, rate_hz: float = RATE_HZ,
+             grid: np.ndarray | None = None) -> tuple[np.ndarray, IMUStream]:
+    """Every sensor on one grid at ``rate_hz`` over the span all sensors cover (or on ``grid``, s,
+    which every sensor must cover: the grid of another resampled stream).
 
     Returns (time grid (m,) on the stream's clock, the resampled stream). Each sensor is first
     checked (:func:`check_sensor`) and its gaps found (:func:`find_gaps`); gaps up to
@@ -301,7 +303,10 @@ def resample(stream: IMUStream, max_gap_s: float = DEFAULT_MAX_GAP_S, rate_hz: f
     if t1 - t0 < 2.0 / rate_hz:
         spans = ", ".join(f"{n}: {s.time[0]:.3f}–{s.time[-1]:.3f} s" for n, s in stream.sensors.items())
         raise IMUImportError(f"{stream.source}: the sensors' time spans do not overlap ({spans}); they must share one clock")
-    grid = t0 + np.arange(int(np.floor((t1 - t0) * rate_hz + 1e-9)) + 1) / rate_hz
+    if grid is None:
+        grid = t0 + np.arange(int(np.floor((t1 - t0) * rate_hz + 1e-9)) + 1) / rate_hz
+    elif grid[0] < t0 - 1e-9 or grid[-1] > t1 + 1e-9:
+        raise IMUImportError(f"{stream.source}: the sensors cover {t0:.3f}–{t1:.3f} s, not the grid's {grid[0]:.3f}–{grid[-1]:.3f} s")
     out: dict[str, SensorSignals] = {}
     for name, s in stream.sensors.items():
         ok = np.isfinite(s.acc).all(axis=1) & np.isfinite(s.gyr).all(axis=1)

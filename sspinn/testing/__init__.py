@@ -247,6 +247,17 @@ def sensor_map_edited(path: Path, swap: tuple[str, ...] = (), **entries: object)
     return data
 
 
+def sensor_map_with_pelvis(path: Path, sensor: str) -> dict:
+    """The sensor map YAML at ``path`` as a dict with ``sensor`` (an ignored one, e.g. the torso's)
+    mapped as the pelvis and the pelvis sensor of the map ignored instead: a wrong map for tests."""
+    data = sensor_map_edited(path)
+    pelvis = next(name for name, entry in data["sensors"].items() if (entry if isinstance(entry, str) else entry["segment"]) == "pelvis")
+    del data["sensors"][pelvis]
+    data["sensors"][sensor] = "pelvis"
+    data["ignore"] = [name for name in data.get("ignore", []) if name != sensor] + [pelvis]
+    return data
+
+
 # ---------------------------------------------------------------------------------- GRF files
 #: An edit of a GRF table: (column names, (rows, columns) values, time (rows,) s) → new values.
 GRFEdit = Callable[[list[str], np.ndarray, np.ndarray], np.ndarray]
