@@ -79,6 +79,19 @@ def test_time_stamp_gap_and_reset_clock(rng) -> None:
         find_gaps(SensorSignals("s", "f.txt", t, acc, gyr))
 
 
+def test_resampling_onto_another_streams_grid(rng) -> None:
+    """A sensor resampled onto a given grid keeps its values at its own sample times; a grid it does
+    not cover is an error naming the spans."""
+    acc, gyr = walking_like_3d(400, rng)
+    t = np.arange(400) / 100.0
+    stream = IMUStream({"s": SensorSignals("s", "f.txt", t, acc, gyr)}, "f.txt")
+    grid, same = resample(stream, grid=t[10:300])
+    np.testing.assert_array_equal(grid, t[10:300])
+    np.testing.assert_allclose(same.sensors["s"].acc, acc[10:300], atol=1e-12)
+    with pytest.raises(IMUImportError, match=r"f\.txt: the sensors cover 0\.000–3\.990 s, not the grid's 1\.000–5\.000 s"):
+        resample(stream, grid=np.arange(100, 501) / 100.0)
+
+
 @pytest.mark.parametrize("compress", [False, True])
 def test_opensense_round_trip(tmp_path, rng, compress) -> None:
     sensors = {f"{n}_imu": walking_like_3d(300, rng) for n in ("pelvis", "femur_r")}
