@@ -17,6 +17,13 @@ successful starts whose right heel strike lies at the data's first sample (± 5 
 averaged stride is cut there), the lowest objective wins (label-free). With these, starts from
 0.9–1.5 m/s reached the same solution on the real data; the data-free
 :meth:`~predictive.ocp.collocation.PredictiveGaitProblem.generic_guess` is less robust.
+
+Cost: building an NLP's IPOPT solver (CasADi's exact derivatives of the whole collocation
+problem) costs about as much as an IPOPT run, and every predictive guess is a multi-start of its
+own. By default (``starts="shared"``) the guesses come from one predictive NLP by speed
+continuation and all starts share one tracking NLP and solver; a coarser or cheaper guess (fewer
+nodes, the middle speed's gait for every start) was tried and cost more tracking iterations than
+it saved, or ended one start in another optimum.
 """
 
 from __future__ import annotations
@@ -223,12 +230,22 @@ def solve_imu_tracking(
             winning (None: the lowest objective alone). On the real averaged walking stride the
             lowest objective alone chose a start whose heel strike came 7.5 % of the cycle early
             (moment correlation r 0.37 instead of 0.63).
+        starts: how the multi-start is built (:data:`StartMode`): "shared" (default) solves
+            the predictive guesses by speed continuation on one NLP
+            (:func:`predictive_guesses`: a multi-start at the middle speed only) and every
+            start, both continuation steps included, on one tracking NLP and IPOPT solver
+            (:func:`~predictive.ocp.tracking.track_starts`); "independent" runs a predictive
+            multi-start (:func:`predictive_guess`) and builds a tracking NLP per start. Both
+            reach the same optimum on the real and synthetic strides of
+            ``benchmarks/bench_imu_tracking.py``; "shared" in less than half the time. With a
+            fixed speed the starts are independent.
         **settings: further :class:`TrackingSettings` fields.
 
     Returns:
         The tracking result; ``result.solution`` holds angles, torques, GRFs and the speed;
         ``result.info`` the scaling used, the starts, ``wall_time_s`` (everything: predictive
-        guesses, NLP construction, all IPOPT runs) and ``ipopt_time_s`` (all IPOPT runs).
+        guesses, NLP construction, all IPOPT runs), ``guess_time_s`` (the predictive guesses)
+        and ``ipopt_time_s`` (all IPOPT runs of the tracking).
     """
     t_start = time.perf_counter()
     body = body if body is not None else BodyParameters.from_anthropometry(recording.height, recording.mass)
