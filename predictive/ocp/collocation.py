@@ -532,9 +532,14 @@ class PredictiveGaitProblem:
         ipopt_options: Mapping[str, Any] | None = None,
         verbose: bool = False,
         raise_on_failure: bool = True,
+        agree_rtol: float | None = None,
     ) -> GaitSolution:
         """Solve from the data-free guess once per start and return the successful solution
         with the lowest objective (the others listed in its ``starts``).
+
+        With ``agree_rtol``, the starts stop as soon as two successful ones reach the same
+        objective within this relative tolerance (two IPOPT paths to one optimum); the starts
+        left out are listed with status "skipped".
 
         Raises:
             OCPError: no start succeeded (and ``raise_on_failure``); its solution is the best
@@ -542,21 +547,26 @@ class PredictiveGaitProblem:
         """
         if not starts:
             raise ValueError("a multi-start needs at least one Start")
-        solutions = [
-            self.solve(
+        solutions: list[GaitSolution] = []
+        for start in starts:
+            new = self.solve(
                 self.generic_guess(start.amplitude),
                 ipopt_options={**(start.ipopt_options or {}), **(ipopt_options or {})},
                 verbose=verbose,
                 raise_on_failure=False,
             )
-            for start in starts
-        ]
+            agreed = agree_rtol is not None and new.success and any(
+                s.success and math.isclose(s.objective, new.objective, rel_tol=agree_rtol) for s in solutions
+            )
+            solutions.append(new)
+            if agreed:
+                break
         best = min(range(len(solutions)), key=lambda i: solutions[i].start_rank)
         sol = solutions[best]
         sol.starts = [
             {**start.describe(), "status": s.status, "objective": s.objective, "iterations": s.iterations, "chosen": i == best}
             for i, (start, s) in enumerate(zip(starts, solutions))
-        ]
+        ] + [{**start.describe(), "status": "skipped", "chosen": False} for start in starts[len(solutions) :]]
         if not sol.success and raise_on_failure:
             raise OCPError(
                 sol.status,
