@@ -119,7 +119,8 @@ def report(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
+    """Run the benchmark; returns its rows (one per case and path)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="averaged-stride folder (skipped when absent)")
     parser.add_argument("--nodes", type=int, default=100, help="collocation nodes per stride")
@@ -149,8 +150,8 @@ def main(argv: list[str] | None = None) -> int:
         from sspinn.run_folder import atomic_write_text
 
         atomic_write_text(args.json, json.dumps(rows, indent=1) + "\n")
-    return 0
+    return rows
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    main(sys.argv[1:])
