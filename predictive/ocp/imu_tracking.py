@@ -21,9 +21,11 @@ averaged stride is cut there), the lowest objective wins (label-free). With thes
 Cost: building an NLP's IPOPT solver (CasADi's exact derivatives of the whole collocation
 problem) costs about as much as an IPOPT run, and every predictive guess is a multi-start of its
 own. By default (``starts="shared"``) the guesses come from one predictive NLP by speed
-continuation and all starts share one tracking NLP and solver; a coarser or cheaper guess (fewer
-nodes, the middle speed's gait for every start) was tried and cost more tracking iterations than
-it saved, or ended one start in another optimum.
+continuation and all starts share one tracking NLP and solver; cheaper guesses were tried on the
+real walking stride and did not pay: 25 instead of 50 nodes per half cycle, or the middle speed's
+gait for every start, cost more tracking iterations than they saved or ended one start in
+another optimum, and a 25-node middle-speed multi-start refined on 50 nodes took as long
+(11.9 vs 11.6 s of guesses, 9.4 vs 6.9 s of tracking IPOPT).
 """
 
 from __future__ import annotations
