@@ -5,6 +5,7 @@ recovery of known solutions and the IMU tracking baseline on the real averaged s
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -120,6 +121,10 @@ def test_a_problem_keeps_its_solver_and_resolves_identically() -> None:
     nodes_own = problem.guess_from_solution(first)[:-2].reshape(10, -1)
     np.testing.assert_allclose(nodes[:, 1:9], nodes_own[:, 1:9])
     np.testing.assert_allclose(nodes[:, 0] - nodes_own[:, 0], (0.9 - 1.2) * np.arange(10) * 1.2 / 20, atol=1e-12)  # half cycle: 20 intervals
+    # a multi-start that stops once two successful starts agree (any objectives agree at rel_tol inf)
+    multi = problem.solve_multistart(raise_on_failure=False, agree_rtol=math.inf)
+    assert [s["status"] for s in multi.starts] == ["Solve_Succeeded", "Solve_Succeeded", "skipped"]
+    assert [s["status"] for s in problem.solve_multistart(raise_on_failure=False).starts] == ["Solve_Succeeded"] * 3
 
 
 def test_tracking_inputs_are_validated(reference: GaitSolution) -> None:

@@ -480,7 +480,10 @@ class PredictiveGaitProblem:
         scaled decision vector) and return the solution.
 
         ``fixed_speed`` (m/s) fixes the average speed for this solve only, e.g. the first step of
-        a continuation of a ``free_speed`` problem (solve at a fixed speed, then free it).
+        a continuation of a ``free_speed`` problem (solve at a fixed speed, then free it), or one
+        speed of several solved on one problem (a :class:`GaitSolution` guess is then resampled
+        at that speed). The IPOPT solver is built on the first solve with these options and
+        kept for the next.
 
         Raises:
             OCPError: if IPOPT's status is not ``Solve_Succeeded`` and ``raise_on_failure``.
