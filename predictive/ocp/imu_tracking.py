@@ -24,8 +24,11 @@ own. By default (``starts="shared"``) the guesses come from one predictive NLP b
 continuation and all starts share one tracking NLP and solver; cheaper guesses were tried on the
 real walking stride and did not pay: 25 instead of 50 nodes per half cycle, or the middle speed's
 gait for every start, cost more tracking iterations than they saved or ended one start in
-another optimum, and a 25-node middle-speed multi-start refined on 50 nodes took as long
-(11.9 vs 11.6 s of guesses, 9.4 vs 6.9 s of tracking IPOPT).
+another optimum; a 25-node middle-speed multi-start refined on 50 nodes took as long (11.9 vs
+11.6 s of guesses, 9.4 vs 6.9 s of tracking IPOPT); starting the middle speed from the shipped
+1.3 m/s walking gait (``configs/agents/gaits/walk_1.3.npz``, 134–150 instead of 178–280
+iterations) saved guess time but cost more in tracking (IPOPT 8.6 vs 6.5 s on the real stride,
+20.7 vs 15.8 s on the synthetic one).
 """
 
 from __future__ import annotations
