@@ -46,6 +46,18 @@ def test_bench_dynamics(tmp_path: Path, capsys: pytest.CaptureFixture[str], torc
     assert {row["method"] for row in saved["rows"]} >= {"naive", "ours", "forward_dynamics"}
 
 
+def test_bench_imu_tracking(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    _, rows = run_quick("bench_imu_tracking", tmp_path / "bench.json")
+    out = capsys.readouterr().out
+    assert "faster than the baseline" in out and "angles" in out
+    assert [(r["case"], r["path"]) for r in rows] == [("synthetic", "independent"), ("synthetic", "shared")]
+    assert all(r["status"] == "Solve_Succeeded" and r["wall_s"] > 0 for r in rows)
+    # both paths report the same optimum and accuracy, side by side
+    assert rows[1]["objective"] == pytest.approx(rows[0]["objective"], rel=1e-6)
+    assert rows[1]["angle_rmsd_deg"] == pytest.approx(rows[0]["angle_rmsd_deg"], abs=0.01)
+    assert json.loads((tmp_path / "bench.json").read_text())[1]["path"] == "shared"
+
+
 def test_bench_env(tmp_path: Path, capsys: pytest.CaptureFixture[str], torch_threads) -> None:
     _, results = run_quick("bench_env", tmp_path / "bench.json")
     out = capsys.readouterr().out

@@ -5,6 +5,7 @@ recovery of known solutions and the IMU tracking baseline on the real averaged s
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -12,13 +13,13 @@ import pytest
 
 from predictive import GaitSolution, solve_predictive
 from predictive.__main__ import main as cli_main
-from predictive.experiments.solution_vs_labels import compare_with_labels, solution_at_times
-from predictive.ocp.imu_tracking import IMU_SIGNALS, roll_cycle, solve_imu_tracking
+from predictive.experiments.solution_vs_labels import compare_with_labels, recording_from_solution
+from predictive.ocp.collocation import OCPSettings, PredictiveGaitProblem
+from predictive.ocp.imu_tracking import roll_cycle, solve_imu_tracking
 from predictive.ocp.tracking import TrackedSignal, TrackingGaitProblem, TrackingSettings, solve_tracking
 from predictive.ocp.tracking_data import signals_from_solution
-from sspinn.data.dataset import SAMPLE_RATE_HZ, Labels, Recording
 from sspinn.model.body import IMUPlacement
-from sspinn.model.conventions import COORDINATES, GRF, JOINTS, SEGMENTS
+from sspinn.model.conventions import COORDINATES
 
 #: every test here solves optimal-control problems, generates data or trains: the quick loop skips them
 pytestmark = pytest.mark.slow
@@ -38,24 +39,6 @@ def reference() -> GaitSolution:
     """The predictive gait, started at its right heel strike like an averaged stride."""
     sol = solve_predictive(SPEED, n_nodes=HALF_NODES, duration=DURATION)
     return roll_cycle(sol, sol.right_heel_strike())
-
-
-def _recording_from_solution(sol: GaitSolution, placement: IMUPlacement) -> Recording:
-    """The solution's virtual IMU signals and labels at 100 Hz (periodic linear interpolation of
-    the nodes, which lie on the 100 Hz grid, so resampling back to the nodes is exact)."""
-    signals = signals_from_solution(sol, IMU_SIGNALS, placement)
-    t = np.arange(int(round(sol.duration * SAMPLE_RATE_HZ))) / SAMPLE_RATE_HZ
-    imu = np.stack([np.interp(t, sol.time, s.target, period=sol.duration) for s in signals], -1)
-    est = solution_at_times(sol, t)
-    columns = {c: est.q[:, i] for i, c in enumerate(COORDINATES)}
-    columns |= {f"tau_{j}": est.tau[:, i] for i, j in enumerate(JOINTS)}
-    columns |= {g: est.grf[:, i] for i, g in enumerate(GRF)}
-    columns["speed"] = np.full(len(t), sol.speed)
-    return Recording(
-        name="synthetic", imu=imu.reshape(len(t), len(SEGMENTS), 3), segments=SEGMENTS, height=1.75, mass=70.0,
-        placement=placement, labels=Labels.from_columns(columns, len(t)),
-        provenance={"stride_duration_s": sol.duration},
-    )
 
 
 def test_tracking_own_kinematics_recovers_the_solution(reference: GaitSolution) -> None:
@@ -81,7 +64,7 @@ def test_tracking_own_kinematics_recovers_the_solution(reference: GaitSolution) 
 
 def test_imu_tracking_recovers_angles_and_speed(reference: GaitSolution) -> None:
     placement = IMUPlacement.default(1.75)
-    rec = _recording_from_solution(reference, placement)
+    rec = recording_from_solution(reference, placement)
     # label-free, speed free: the default multi-start from the stride duration's speed guess
     # (1.0 m/s here, × 0.85 / 1 / 1.2), as `python -m predictive track-imu` runs it
     result = solve_imu_tracking(rec, n_nodes=2 * HALF_NODES, imu_scales="std")
@@ -104,6 +87,44 @@ def test_imu_tracking_recovers_angles_and_speed(reference: GaitSolution) -> None
     # between two nodes, so two node intervals
     offset = abs(cmp.heel_strike_model_pct - cmp.heel_strike_labels_pct)
     assert min(offset, 100 - offset) <= 2 * 100 / sol.n_nodes
+
+
+def test_shared_starts_reach_the_optimum_of_independent_starts(reference: GaitSolution) -> None:
+    # The default multi-start ("shared": predictive guesses by speed continuation on one NLP, one
+    # tracking NLP and solver for every start) against a predictive multi-start and a tracking
+    # NLP per start ("independent"): the same label-free choice, the same optimum.
+    rec = recording_from_solution(reference, IMUPlacement.default(1.75))
+    shared = solve_imu_tracking(rec, n_nodes=2 * HALF_NODES, imu_scales="std")
+    independent = solve_imu_tracking(rec, n_nodes=2 * HALF_NODES, imu_scales="std", starts="independent")
+    a, b = shared.solution, independent.solution
+    assert a.success and b.success
+    assert [s["speed_guess"] for s in shared.info["starts"]] == [s["speed_guess"] for s in independent.info["starts"]]
+    assert a.objective == pytest.approx(b.objective, rel=1e-6)
+    assert a.speed == pytest.approx(b.speed, abs=1e-4)
+    np.testing.assert_allclose(a.q[:, 1:], b.q[:, 1:], atol=1e-4)
+    np.testing.assert_allclose(a.tau, b.tau, atol=0.5)  # N·m
+    with pytest.raises(ValueError, match="starts must be"):
+        solve_imu_tracking(rec, n_nodes=2 * HALF_NODES, starts="parallel")  # type: ignore[arg-type]
+
+
+def test_a_problem_keeps_its_solver_and_resolves_identically() -> None:
+    # The solver is built once per problem and IPOPT options; a second solve from the same guess
+    # is the same run (nothing of the first run carries over).
+    problem = PredictiveGaitProblem(OCPSettings(speed=1.2, n_nodes=10, duration=1.2))
+    first = problem.solve(raise_on_failure=False)
+    second = problem.solve(raise_on_failure=False)
+    assert second.build_time < 0.1 * first.build_time
+    assert second.iterations == first.iterations and second.objective == first.objective
+    np.testing.assert_array_equal(second.q, first.q)
+    # a guess resampled at another speed moves pelvis_tx at that speed, the other coordinates unchanged
+    nodes = problem.guess_from_solution(first, speed=0.9)[:-2].reshape(10, -1)
+    nodes_own = problem.guess_from_solution(first)[:-2].reshape(10, -1)
+    np.testing.assert_allclose(nodes[:, 1:9], nodes_own[:, 1:9])
+    np.testing.assert_allclose(nodes[:, 0] - nodes_own[:, 0], (0.9 - 1.2) * np.arange(10) * 1.2 / 20, atol=1e-12)  # half cycle: 20 intervals
+    # a multi-start that stops once two successful starts agree (any objectives agree at rel_tol inf)
+    multi = problem.solve_multistart(raise_on_failure=False, agree_rtol=math.inf)
+    assert [s["status"] for s in multi.starts] == ["Solve_Succeeded", "Solve_Succeeded", "skipped"]
+    assert [s["status"] for s in problem.solve_multistart(raise_on_failure=False).starts] == ["Solve_Succeeded"] * 3
 
 
 def test_tracking_inputs_are_validated(reference: GaitSolution) -> None:

@@ -25,12 +25,13 @@ import numpy as np
 
 from predictive.ocp.solution import GaitSolution
 from predictive.ocp.tracking import TrackingResult
-from predictive.ocp.tracking_data import stride_duration
-from sspinn.data.dataset import Recording
+from predictive.ocp.tracking_data import signals_from_solution, stride_duration
+from sspinn.data.dataset import SAMPLE_RATE_HZ, Labels, Recording
 from sspinn.data.gait_events import CONTACT_THRESHOLD_BW, contact_onsets
 from sspinn.estimator.evaluation import compute_metrics
 from sspinn.estimator.inference import GaitEstimate
-from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, JOINTS
+from sspinn.model.body import IMUPlacement
+from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, IMU_CHANNELS, JOINTS, SEGMENTS, imu_columns
 from sspinn.model.drawing import save_figure
 from sspinn.run_folder import atomic_write_json
 
@@ -121,6 +122,29 @@ def solution_at_times(sol: GaitSolution, times: np.ndarray, shift: float = 0.0, 
     times = np.asarray(times, dtype=float)
     at = sol.resample(times + shift, period=sol.duration, speed=sol.speed)
     return GaitEstimate(**{**at.arrays(), "time": times}, name=name)
+
+
+def recording_from_solution(sol: GaitSolution, placement: IMUPlacement, name: str = "synthetic") -> Recording:
+    """A synthetic averaged stride from a solution: its virtual IMU signals (every sagittal
+    channel, :func:`~predictive.ocp.tracking_data.signals_from_solution`) and its labels
+    (angles, torques, GRFs, speed) at :data:`~sspinn.data.dataset.SAMPLE_RATE_HZ`, by periodic
+    linear interpolation of the nodes (exact at nodes on that grid). Its stride starts where the
+    solution does (start it at right heel strike with
+    :func:`~predictive.ocp.imu_tracking.roll_cycle` to mimic an averaged stride)."""
+    names = imu_columns()
+    signals = signals_from_solution(sol, names, placement)
+    t = np.arange(int(round(sol.duration * SAMPLE_RATE_HZ))) / SAMPLE_RATE_HZ
+    imu = np.stack([np.interp(t, sol.time, s.target, period=sol.duration) for s in signals], -1)
+    est = solution_at_times(sol, t)
+    columns = {c: est.q[:, i] for i, c in enumerate(COORDINATES)}
+    columns |= {f"tau_{j}": est.tau[:, i] for i, j in enumerate(JOINTS)}
+    columns |= {g: est.grf[:, i] for i, g in enumerate(GRF)}
+    columns["speed"] = np.full(len(t), sol.speed)
+    return Recording(
+        name=name, imu=imu.reshape(len(t), len(SEGMENTS), len(IMU_CHANNELS)), segments=SEGMENTS,
+        height=sol.body.height, mass=sol.body.mass, placement=placement,
+        labels=Labels.from_columns(columns, len(t)), provenance={"stride_duration_s": sol.duration},
+    )
 
 
 def _heel_strike_pct(fy_bw: np.ndarray) -> float:

@@ -310,6 +310,7 @@ class PredictiveGaitProblem:
         self.res_scale = scales["res_scale"]
         self._node_fun = self._build_node_function()
         self._nlp, self._bounds = self._build_nlp()
+        self._solvers: dict[str, ca.Function] = {}
 
     # ----------------------------------------------------------------- building blocks
     def _build_node_function(self) -> ca.Function:
@@ -396,9 +397,15 @@ class PredictiveGaitProblem:
         return effort + self.settings.w_acc * reg
 
     def _get_solver(self, ipopt_options: Mapping[str, Any] | None, verbose: bool) -> ca.Function:
+        """The IPOPT solver of this NLP with these options, built on first use and kept: building
+        it (CasADi's derivatives of the whole NLP) costs about as much as an IPOPT run, and only
+        the initial guess and the bounds change between the solves of one problem."""
         opts = self.settings.ipopt_options(ipopt_options, verbose)
-        plugin_opts = {"ipopt": opts, "print_time": False, "error_on_fail": False}
-        return ca.nlpsol("predictive_gait", "ipopt", self._nlp, plugin_opts)
+        key = repr(sorted(opts.items()))
+        if key not in self._solvers:
+            plugin_opts = {"ipopt": opts, "print_time": False, "error_on_fail": False}
+            self._solvers[key] = ca.nlpsol("predictive_gait", "ipopt", self._nlp, plugin_opts)
+        return self._solvers[key]
 
     # ----------------------------------------------------------------- guesses
     def generic_guess(self, amplitude: float = 1.0) -> np.ndarray:
@@ -412,11 +419,13 @@ class PredictiveGaitProblem:
         q = generic_gait(s.speed, T, t, self.body, amplitude)
         return self._pack_guess(t, q, T, n_cycle)
 
-    def guess_from_solution(self, sol: GaitSolution) -> np.ndarray:
+    def guess_from_solution(self, sol: GaitSolution, speed: float | None = None) -> np.ndarray:
         """Initial guess (scaled decision vector) from a previous solution, resampled to this
         grid by periodic linear interpolation over the normalised cycle; pelvis_tx is rescaled
-        to this problem's speed and the duration kept (clipped to the bounds)."""
+        to ``speed`` (m/s; default this problem's speed) and the duration kept (clipped to the
+        bounds)."""
         s = self.settings
+        v = s.speed if speed is None else float(speed)
         T = float(np.clip(sol.duration, *s.duration_bounds)) if s.free_duration else s.stride_duration
         n_cycle = self._n_intervals_per_cycle
         t = np.arange(n_cycle) * T / n_cycle
@@ -425,32 +434,36 @@ class PredictiveGaitProblem:
         for i in range(N_Q):
             y = sol.q[:, i] - (sol.speed * sol.time if i == 0 else 0.0)
             q[:, i] = np.interp(t / T, frac_src, y, period=1.0)
-        q[:, 0] += s.speed * t
+        q[:, 0] += v * t
         tau = np.empty((n_cycle, N_TAU))
         for j in range(N_TAU):
             tau[:, j] = np.interp(t / T, frac_src, sol.tau[:, j], period=1.0)
-        return self._pack_guess(t, q, T, n_cycle, tau)
+        return self._pack_guess(t, q, T, n_cycle, tau, speed=v)
 
-    def cycle_differences(self, q: np.ndarray, T: float, n_cycle: int) -> tuple[np.ndarray, np.ndarray]:
+    def cycle_differences(
+        self, q: np.ndarray, T: float, n_cycle: int, speed: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """u and q̈ of a periodic cycle of ``n_cycle`` samples of q over duration T (s): the backward
-        differences the collocation uses, wrapping around one stride (pelvis_tx moved back by v·T)."""
+        differences the collocation uses, wrapping around one stride (pelvis_tx moved back by v·T,
+        v = ``speed``, default this problem's speed)."""
         h = T / n_cycle
         q_prev = np.roll(q, 1, axis=0)
-        q_prev[0, 0] -= self.settings.speed * T
+        q_prev[0, 0] -= (self.settings.speed if speed is None else speed) * T
         u = (q - q_prev) / h
         return u, (u - np.roll(u, 1, axis=0)) / h
 
     def _pack_guess(
-        self, t: np.ndarray, q: np.ndarray, T: float, n_cycle: int, tau: np.ndarray | None = None
+        self, t: np.ndarray, q: np.ndarray, T: float, n_cycle: int, tau: np.ndarray | None = None, speed: float | None = None
     ) -> np.ndarray:
         s, lay = self.settings, self.layout
-        u, a = self.cycle_differences(q, T, n_cycle)
+        v = s.speed if speed is None else speed
+        u, a = self.cycle_differences(q, T, n_cycle, v)
         tau = np.zeros((n_cycle, N_TAU)) if tau is None else tau
         n = lay.n
         nodes = np.concatenate(
             [q[:n] / self.q_scale, u[:n] / self.u_scale, a[:n] / self.a_scale, tau[:n] / self.tau_max], axis=1
         )
-        z0 = np.concatenate([nodes.ravel(), [T, s.speed]])
+        z0 = np.concatenate([nodes.ravel(), [T, v]])
         return np.clip(z0, self._bounds["lbx"], self._bounds["ubx"])
 
     # ----------------------------------------------------------------- solving
@@ -467,7 +480,10 @@ class PredictiveGaitProblem:
         scaled decision vector) and return the solution.
 
         ``fixed_speed`` (m/s) fixes the average speed for this solve only, e.g. the first step of
-        a continuation of a ``free_speed`` problem (solve at a fixed speed, then free it).
+        a continuation of a ``free_speed`` problem (solve at a fixed speed, then free it), or one
+        speed of several solved on one problem (a :class:`GaitSolution` guess is then resampled
+        at that speed). The IPOPT solver is built on the first solve with these options and
+        kept for the next.
 
         Raises:
             OCPError: if IPOPT's status is not ``Solve_Succeeded`` and ``raise_on_failure``.
@@ -475,7 +491,7 @@ class PredictiveGaitProblem:
         if guess is None:
             z0 = self.generic_guess()
         elif isinstance(guess, GaitSolution):
-            z0 = self.guess_from_solution(guess)
+            z0 = self.guess_from_solution(guess, speed=fixed_speed)
         else:
             z0 = np.asarray(guess, dtype=float)
             if z0.shape != (self.layout.size,):
@@ -519,9 +535,14 @@ class PredictiveGaitProblem:
         ipopt_options: Mapping[str, Any] | None = None,
         verbose: bool = False,
         raise_on_failure: bool = True,
+        agree_rtol: float | None = None,
     ) -> GaitSolution:
         """Solve from the data-free guess once per start and return the successful solution
         with the lowest objective (the others listed in its ``starts``).
+
+        With ``agree_rtol``, the starts stop as soon as two successful ones reach the same
+        objective within this relative tolerance (two IPOPT paths to one optimum); the starts
+        left out are listed with status "skipped".
 
         Raises:
             OCPError: no start succeeded (and ``raise_on_failure``); its solution is the best
@@ -529,21 +550,26 @@ class PredictiveGaitProblem:
         """
         if not starts:
             raise ValueError("a multi-start needs at least one Start")
-        solutions = [
-            self.solve(
+        solutions: list[GaitSolution] = []
+        for start in starts:
+            new = self.solve(
                 self.generic_guess(start.amplitude),
                 ipopt_options={**(start.ipopt_options or {}), **(ipopt_options or {})},
                 verbose=verbose,
                 raise_on_failure=False,
             )
-            for start in starts
-        ]
+            agreed = agree_rtol is not None and new.success and any(
+                s.success and math.isclose(s.objective, new.objective, rel_tol=agree_rtol) for s in solutions
+            )
+            solutions.append(new)
+            if agreed:
+                break
         best = min(range(len(solutions)), key=lambda i: solutions[i].start_rank)
         sol = solutions[best]
         sol.starts = [
             {**start.describe(), "status": s.status, "objective": s.objective, "iterations": s.iterations, "chosen": i == best}
             for i, (start, s) in enumerate(zip(starts, solutions))
-        ]
+        ] + [{**start.describe(), "status": "skipped", "chosen": False} for start in starts[len(solutions) :]]
         if not sol.success and raise_on_failure:
             raise OCPError(
                 sol.status,

@@ -17,6 +17,18 @@ successful starts whose right heel strike lies at the data's first sample (± 5 
 averaged stride is cut there), the lowest objective wins (label-free). With these, starts from
 0.9–1.5 m/s reached the same solution on the real data; the data-free
 :meth:`~predictive.ocp.collocation.PredictiveGaitProblem.generic_guess` is less robust.
+
+Cost: building an NLP's IPOPT solver (CasADi's exact derivatives of the whole collocation
+problem) costs about as much as an IPOPT run, and every predictive guess is a multi-start of its
+own. By default (``starts="shared"``) the guesses come from one predictive NLP by speed
+continuation and all starts share one tracking NLP and solver; cheaper guesses were tried on the
+real walking stride and did not pay: 25 instead of 50 nodes per half cycle, or the middle speed's
+gait for every start, cost more tracking iterations than they saved or ended one start in
+another optimum; a 25-node middle-speed multi-start refined on 50 nodes took as long (11.9 vs
+11.6 s of guesses, 9.4 vs 6.9 s of tracking IPOPT); starting the middle speed from the shipped
+1.3 m/s walking gait (``configs/agents/gaits/walk_1.3.npz``, 134–150 instead of 178–280
+iterations) saved guess time but cost more in tracking (IPOPT 8.6 vs 6.5 s on the real stride,
+20.7 vs 15.8 s on the synthetic one).
 """
 
 from __future__ import annotations
@@ -26,13 +38,13 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
-from predictive.ocp.collocation import solve_predictive
+from predictive.ocp.collocation import MONOTONE_BARRIER, OCPSettings, PredictiveGaitProblem, solve_predictive
 from predictive.ocp.solution import GaitSolution
-from predictive.ocp.tracking import TrackingResult, solve_tracking
+from predictive.ocp.tracking import TrackingResult, track_starts
 from predictive.ocp.tracking_data import averaged_stride_scales, signals_from_recording, stride_duration
 from sspinn.data.dataset import Recording
 from sspinn.model.body import BodyParameters, IMUPlacement
@@ -57,25 +69,99 @@ def predictive_guess(
     """The predictive (effort-minimising, symmetric half-cycle) gait at ``speed`` (m/s) with the
     stride ``duration`` (s), used as initial guess for tracking. With ``cache_dir`` the solution
     is stored there and reused when the speed, duration, node count and body match."""
-    path = None
-    if cache_dir is not None:
-        name = f"predictive_v{speed:.3f}_T{duration:.4f}_H{body.height:.3f}_M{body.mass:.1f}_n{n_nodes}"
-        path = Path(cache_dir) / name
-        if path.with_name(name + ".npz").exists():
-            cached = GaitSolution.load(path)
-            same = (
-                cached.success
-                and cached.body == body
-                and cached.settings.get("n_nodes") == n_nodes
-                and math.isclose(cached.speed, speed, abs_tol=1e-9)
-                and math.isclose(cached.duration, duration, abs_tol=1e-9)
-            )
-            if same:
-                return cached
+    path = _cache_path(cache_dir, "predictive", speed, duration, body, n_nodes)
+    cached = _load_cached(path, speed, duration, body, n_nodes)
+    if cached is not None:
+        return cached
     sol = solve_predictive(speed, body, n_nodes=n_nodes, duration=duration, verbose=verbose)
     if path is not None:
         sol.save(path)
     return sol
+
+
+#: Relative tolerance on the objective at which two starts of a predictive multi-start agree.
+AGREE_RTOL: float = 1e-4
+
+
+def predictive_guesses(
+    speeds: Sequence[float],
+    duration: float,
+    body: BodyParameters,
+    *,
+    n_nodes: int = 50,
+    cache_dir: str | Path | None = None,
+    verbose: bool = False,
+) -> list[GaitSolution]:
+    """The predictive gaits of :func:`predictive_guess` at several ``speeds`` (m/s), by speed
+    continuation on one NLP: the median speed from the data-free multi-start
+    (:data:`~predictive.ocp.collocation.DEFAULT_STARTS`, stopped once two starts agree on the
+    objective within :data:`AGREE_RTOL`), every other speed from the solution at its neighbour
+    towards the median (one IPOPT run with the monotone barrier of
+    :data:`~predictive.ocp.collocation.MONOTONE_BARRIER`, the speed fixed by its bounds). One
+    problem and its solvers serve all speeds, so the NLP is built once. A continuation that
+    fails falls back to :func:`predictive_guess`. Cached in ``cache_dir`` like
+    :func:`predictive_guess` (under their own names). Returned in the order of ``speeds``.
+
+    Measured (50 nodes per half cycle, the continuation from the median to × 0.85 and × 1.2, on
+    the real walking stride and a synthetic 1.2 s one): with IPOPT's adaptive barrier the two
+    runs took 322 and 457 iterations per stride, with the monotone barrier from 0.1 277 and 290
+    (and it reached the lower of two optima at 0.85 m/s on the 1.2 s stride); in the five
+    predictive multi-starts measured there (1.0–1.47 m/s) the third start never found a lower
+    objective than two agreeing ones."""
+    order = np.argsort(speeds, kind="stable")
+    anchor = int(order[(len(order) - 1) // 2])
+    paths = [_cache_path(cache_dir, "continued", v, duration, body, n_nodes) for v in speeds]
+    out: list[GaitSolution | None] = [_load_cached(p, v, duration, body, n_nodes) for p, v in zip(paths, speeds)]
+    if all(sol is not None for sol in out):
+        return [sol for sol in out if sol is not None]
+    cfg = OCPSettings(speed=float(speeds[anchor]), n_nodes=n_nodes, duration=duration)
+    problem = PredictiveGaitProblem(cfg, body)
+    if out[anchor] is None:
+        out[anchor] = problem.solve_multistart(verbose=verbose, agree_rtol=AGREE_RTOL)
+    rank = int(np.flatnonzero(order == anchor)[0])
+    for chain in (order[:rank][::-1], order[rank + 1 :]):  # outwards from the median speed
+        prev = out[anchor]
+        for i in chain:
+            sol = out[i]
+            if sol is None:
+                sol = problem.solve(
+                    prev, fixed_speed=float(speeds[i]), ipopt_options=MONOTONE_BARRIER, verbose=verbose, raise_on_failure=False
+                )
+                if not sol.success:
+                    sol = predictive_guess(float(speeds[i]), duration, body, n_nodes=n_nodes, verbose=verbose)
+                out[i] = sol
+            prev = sol
+    for path, sol in zip(paths, out):
+        if path is not None and sol is not None and not path.with_name(path.name + ".npz").exists():
+            sol.save(path)
+    return [sol for sol in out if sol is not None]
+
+
+def _cache_path(
+    cache_dir: str | Path | None, tag: str, speed: float, duration: float, body: BodyParameters, n_nodes: int
+) -> Path | None:
+    """Where a guess is cached (without suffix), or None without ``cache_dir``."""
+    if cache_dir is None:
+        return None
+    return Path(cache_dir) / f"{tag}_v{speed:.3f}_T{duration:.4f}_H{body.height:.3f}_M{body.mass:.1f}_n{n_nodes}"
+
+
+def _load_cached(
+    path: Path | None, speed: float, duration: float, body: BodyParameters, n_nodes: int
+) -> GaitSolution | None:
+    """The cached successful guess at ``path`` if its speed, duration, node count and body
+    match, else None."""
+    if path is None or not path.with_name(path.name + ".npz").exists():
+        return None
+    cached = GaitSolution.load(path)
+    same = (
+        cached.success
+        and cached.body == body
+        and cached.settings.get("n_nodes") == n_nodes
+        and math.isclose(cached.speed, speed, abs_tol=1e-9)
+        and math.isclose(cached.duration, duration, abs_tol=1e-9)
+    )
+    return cached if same else None
 
 
 def roll_cycle(sol: GaitSolution, start: int) -> GaitSolution:
@@ -92,6 +178,12 @@ def roll_cycle(sol: GaitSolution, start: int) -> GaitSolution:
 
 #: Default multi-start of :func:`solve_imu_tracking`: factors on the stride-duration speed guess.
 DEFAULT_SPEED_FACTORS: tuple[float, ...] = (0.85, 1.0, 1.2)
+
+#: How the starts of :func:`solve_imu_tracking`'s multi-start are built: "shared" (one
+#: predictive NLP for the guesses by speed continuation, :func:`predictive_guesses`, and one
+#: tracking NLP for all starts, :func:`~predictive.ocp.tracking.track_starts`) or "independent"
+#: (a predictive multi-start and a tracking NLP per start).
+StartMode = Literal["shared", "independent"]
 
 #: IMU channels tracked by default: every sagittal channel of every IMU.
 IMU_SIGNALS: tuple[str, ...] = tuple(imu_columns())
@@ -115,6 +207,7 @@ def solve_imu_tracking(
     verbose: bool = False,
     raise_on_failure: bool = False,
     heel_strike_tolerance: float | None = 0.05,
+    starts: StartMode = "shared",
     **settings: Any,
 ) -> TrackingResult:
     """Label-free gait estimation from one averaged stride of IMU data (Dorschky et al. 2019).
@@ -157,12 +250,22 @@ def solve_imu_tracking(
             winning (None: the lowest objective alone). On the real averaged walking stride the
             lowest objective alone chose a start whose heel strike came 7.5 % of the cycle early
             (moment correlation r 0.37 instead of 0.63).
+        starts: how the multi-start is built (:data:`StartMode`): "shared" (default) solves
+            the predictive guesses by speed continuation on one NLP
+            (:func:`predictive_guesses`: a multi-start at the middle speed only) and every
+            start, both continuation steps included, on one tracking NLP and IPOPT solver
+            (:func:`~predictive.ocp.tracking.track_starts`); "independent" runs a predictive
+            multi-start (:func:`predictive_guess`) and builds a tracking NLP per start. Both
+            reach the same optimum on the real and synthetic strides of
+            ``benchmarks/bench_imu_tracking.py``; "shared" in less than half the time. With a
+            fixed speed the starts are independent.
         **settings: further :class:`TrackingSettings` fields.
 
     Returns:
         The tracking result; ``result.solution`` holds angles, torques, GRFs and the speed;
         ``result.info`` the scaling used, the starts, ``wall_time_s`` (everything: predictive
-        guesses, NLP construction, all IPOPT runs) and ``ipopt_time_s`` (all IPOPT runs).
+        guesses, NLP construction, all IPOPT runs), ``guess_time_s`` (the predictive guesses)
+        and ``ipopt_time_s`` (all IPOPT runs of the tracking).
     """
     t_start = time.perf_counter()
     body = body if body is not None else BodyParameters.from_anthropometry(recording.height, recording.mass)
@@ -179,30 +282,37 @@ def solve_imu_tracking(
     )
     if isinstance(guess, str) and guess not in ("predictive", "generic"):
         raise ValueError(f"guess must be 'predictive', 'generic' or a GaitSolution, got {guess!r}")
-    results: list[TrackingResult] = []
-    for v0 in speeds:
-        if guess == "predictive":
-            predicted = predictive_guess(v0, duration, body, n_nodes=max(n_nodes // 2, 4), cache_dir=guess_cache)
-            guess_sol: GaitSolution | None = roll_cycle(predicted, predicted.right_heel_strike())
+    if starts not in ("shared", "independent"):
+        raise ValueError(f"starts must be 'shared' or 'independent', got {starts!r}")
+    shared = starts == "shared" and free_speed
+    t_guess = time.perf_counter()
+    guesses: list[GaitSolution | None]
+    if guess == "predictive":
+        half = max(n_nodes // 2, 4)
+        if shared:
+            predicted = predictive_guesses(speeds, duration, body, n_nodes=half, cache_dir=guess_cache)
         else:
-            guess_sol = guess if isinstance(guess, GaitSolution) else None
-        results.append(
-            solve_tracking(
-                signals,
-                duration,
-                v0,
-                body,
-                free_speed=free_speed,
-                effort_weight=effort_weight,
-                w_acc=w_acc,
-                guess=guess_sol,
-                placement=placement if placement is not None else recording.placement,
-                ipopt_options=ipopt_options,
-                verbose=verbose,
-                raise_on_failure=raise_on_failure,
-                **settings,
-            )
+            predicted = [predictive_guess(v0, duration, body, n_nodes=half, cache_dir=guess_cache) for v0 in speeds]
+        guesses = [roll_cycle(p, p.right_heel_strike()) for p in predicted]
+    else:
+        guesses = [guess if isinstance(guess, GaitSolution) else None] * len(speeds)
+    guess_time = time.perf_counter() - t_guess
+    kw: dict[str, Any] = {
+        "free_speed": free_speed,
+        "effort_weight": effort_weight,
+        "w_acc": w_acc,
+        "placement": placement if placement is not None else recording.placement,
+        "ipopt_options": ipopt_options,
+        "verbose": verbose,
+        "raise_on_failure": raise_on_failure,
+        **settings,
+    }
+    if shared:
+        results = track_starts(
+            signals, duration, float(np.median(speeds)), body, guesses=guesses, start_speeds=speeds, **kw
         )
+    else:
+        results = [track_starts(signals, duration, v0, body, guesses=[g], **kw)[0] for v0, g in zip(speeds, guesses)]
     best = min(results, key=lambda r: _start_rank(r.solution, heel_strike_tolerance))
     best.info = {
         "scaling": scaling,
@@ -221,6 +331,7 @@ def solve_imu_tracking(
             for v0, r in zip(speeds, results)
         ],
         "ipopt_time_s": float(sum(r.solution.solve_time for r in results)),
+        "guess_time_s": guess_time,
         "wall_time_s": time.perf_counter() - t_start,
     }
     return best

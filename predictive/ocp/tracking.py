@@ -271,18 +271,21 @@ class TrackingGaitProblem(PredictiveGaitProblem):
         self,
         guess: GaitSolution | None = None,
         *,
+        speed: float | None = None,
         ipopt_options: Mapping[str, Any] | None = None,
         verbose: bool = False,
         raise_on_failure: bool = True,
     ) -> GaitSolution:
         """For a free-speed problem: solve first with the speed fixed to the initial guess
-        ``settings.speed``, then with the speed free from that solution. Without the first step,
-        IPOPT sometimes drifted from a walking guess to standing (speed 0, a poor local optimum)
-        on the real IMU data. The returned solution's iterations and times are the sums of both
-        steps."""
+        ``speed`` (m/s; default ``settings.speed``), then with the speed free from that solution.
+        Without the first step, IPOPT sometimes drifted from a walking guess to standing (speed 0,
+        a poor local optimum) on the real IMU data. Both steps use the problem's one solver, so
+        a multi-start over initial speeds builds the NLP once. The returned solution's
+        iterations and times are the sums of both steps."""
         kw: dict[str, Any] = {"ipopt_options": ipopt_options, "verbose": verbose}
-        first = self.solve(guess, raise_on_failure=False, fixed_speed=self.settings.speed, **kw)
-        second = self.solve(first, raise_on_failure=raise_on_failure, **kw)
+        v0 = self.settings.speed if speed is None else float(speed)
+        first = self.solve(guess, raise_on_failure=False, fixed_speed=v0, **kw)
+        second = self.solve(self.guess_from_solution(first, speed=first.speed), raise_on_failure=raise_on_failure, **kw)
         return dataclasses.replace(
             second,
             iterations=first.iterations + second.iterations,
@@ -358,6 +361,66 @@ class TrackingResult:
 # ---------------------------------------------------------------------------------------------
 # Solvers
 # ---------------------------------------------------------------------------------------------
+def track_starts(
+    signals: Sequence[TrackedSignal],
+    duration: float,
+    speed: float,
+    body: BodyParameters | None = None,
+    *,
+    guesses: Sequence[GaitSolution | None] = (None,),
+    start_speeds: Sequence[float] | None = None,
+    free_speed: bool = False,
+    speed_continuation: bool = True,
+    effort_weight: float = 1.0,
+    placement: IMUPlacement | None = None,
+    contact: ContactParameters | None = None,
+    joint_limits: JointLimits | None = None,
+    ipopt_options: Mapping[str, Any] | None = None,
+    verbose: bool = False,
+    raise_on_failure: bool = False,
+    **settings: Any,
+) -> list[TrackingResult]:
+    """One tracking solve per start, all on one NLP and one IPOPT solver (built once: only the
+    initial guess and the bounds differ between starts); the arguments are those of
+    :func:`solve_tracking`, plus:
+
+    Args:
+        guesses: one initial guess per start (None: the default guess of :func:`solve_tracking`).
+        start_speeds: with ``free_speed``, each start's initial speed, m/s (the fixed speed of
+            the first step of the speed continuation and the speed its guess is resampled to);
+            default ``speed`` for every start. The NLP's scaling uses ``speed``.
+        raise_on_failure: raise when a start fails (default False: its result is returned).
+
+    Returns:
+        The results in the order of ``guesses``.
+    """
+    n_nodes = len(signals[0].target) if signals else 0
+    cfg = TrackingSettings(
+        speed=float(speed),
+        n_nodes=n_nodes,
+        duration=float(duration),
+        free_speed=free_speed,
+        effort_weight=effort_weight,
+        **settings,
+    )
+    speeds = [float(speed)] * len(guesses) if start_speeds is None else [float(v) for v in start_speeds]
+    if len(speeds) != len(guesses):
+        raise ValueError(f"{len(speeds)} start speeds for {len(guesses)} guesses")
+    if start_speeds is not None and not free_speed:
+        raise ValueError("start_speeds needs free_speed (a fixed speed is the same for every start)")
+    problem = TrackingGaitProblem(cfg, signals, body, contact, joint_limits, placement)
+    kw: dict[str, Any] = {"ipopt_options": ipopt_options, "verbose": verbose, "raise_on_failure": raise_on_failure}
+    results: list[TrackingResult] = []
+    for start, v0 in zip(guesses, speeds):
+        g = start if start is not None else problem.guess_from_signals()
+        if free_speed and speed_continuation:
+            sol = problem.solve_with_speed_continuation(g, speed=v0, **kw)
+        else:
+            sol = problem.solve(problem.guess_from_solution(g, speed=v0) if isinstance(g, GaitSolution) else g, **kw)
+        results.append(problem.result(sol))
+    return results
+
+
 def solve_tracking(
     signals: Sequence[TrackedSignal],
     duration: float,
@@ -393,38 +456,32 @@ def solve_tracking(
             (:meth:`TrackingGaitProblem.guess_from_signals`: the data's kinematics and their
             inverse-dynamics torques), else the data-free generic guess at ``speed``. A list: a multi-start, one solve from each (None: the default), the
             successful one with the lowest objective returned; all are listed in
-            ``result.info["starts"]``.
+            ``result.info["starts"]`` (:func:`track_starts`: one NLP for all starts).
         placement: IMU placement (needed for IMU channels).
         **settings: further :class:`TrackingSettings` fields (``w_acc``, ``speed_bounds``, …).
 
     Raises:
         predictive.ocp.collocation.OCPError: IPOPT failed and ``raise_on_failure``.
     """
-    n_nodes = len(signals[0].target) if signals else 0
-    cfg = TrackingSettings(
-        speed=float(speed),
-        n_nodes=n_nodes,
-        duration=float(duration),
-        free_speed=free_speed,
-        effort_weight=effort_weight,
-        **settings,
-    )
-    problem = TrackingGaitProblem(cfg, signals, body, contact, joint_limits, placement)
     multi = isinstance(guess, (list, tuple))
     starts = list(guess) if isinstance(guess, (list, tuple)) else [guess]
-    kw: dict[str, Any] = {
-        "ipopt_options": ipopt_options,
-        "verbose": verbose,
-        "raise_on_failure": raise_on_failure and not multi,
-    }
-    results: list[TrackingResult] = []
-    for start in starts:
-        g = start if start is not None else problem.guess_from_signals()
-        if free_speed and speed_continuation:
-            sol = problem.solve_with_speed_continuation(g, **kw)
-        else:
-            sol = problem.solve(g, **kw)
-        results.append(problem.result(sol))
+    results = track_starts(
+        signals,
+        duration,
+        speed,
+        body,
+        guesses=starts,
+        free_speed=free_speed,
+        speed_continuation=speed_continuation,
+        effort_weight=effort_weight,
+        placement=placement,
+        contact=contact,
+        joint_limits=joint_limits,
+        ipopt_options=ipopt_options,
+        verbose=verbose,
+        raise_on_failure=raise_on_failure and not multi,
+        **settings,
+    )
     best = min(results, key=lambda r: r.solution.start_rank)
     if multi:
         if raise_on_failure and not best.solution.success:
