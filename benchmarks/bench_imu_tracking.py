@@ -31,18 +31,14 @@ shared machine are contended: compare them only within one run.
 
 from __future__ import annotations
 
+import argparse
+import json
 import os
-
-for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS", "TORCH_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
-
-import argparse  # noqa: E402
-import json  # noqa: E402
-import platform  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
-from typing import Any  # noqa: E402
+import platform
+import sys
+import time
+from pathlib import Path
+from typing import Any
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = REPO.parent / "shared" / "data" / "dorschky_P03_walking"
@@ -144,7 +140,7 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
         print("synthetic stride", flush=True)
         rows += run_case("synthetic", synthetic_stride(args.nodes), args.nodes, "std")
     print()
-    print(f"{platform.processor() or platform.machine()}, OMP_NUM_THREADS={os.environ['OMP_NUM_THREADS']}")
+    print(f"{platform.processor() or platform.machine()}, OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}")
     print(report(rows))
     if args.json is not None:
         from sspinn.run_folder import atomic_write_text
@@ -154,4 +150,8 @@ def main(argv: list[str] | None = None) -> list[dict[str, Any]]:
 
 
 if __name__ == "__main__":
+    # one thread, before numba, BLAS and torch start theirs (they are imported lazily); a run
+    # in-process (the smoke test) leaves the caller's settings alone
+    for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS", "TORCH_NUM_THREADS"):
+        os.environ.setdefault(_var, "1")
     main(sys.argv[1:])
