@@ -29,9 +29,9 @@ demo: $(STAMP)
 	$(BIN)/python -m predictive synth --config $(SYNTH_CONFIG) --out $(SYNTH) $(if $(CACHE),--cache-dir $(CACHE))
 	$(BIN)/python -m sspinn train --config $(TRAIN_CONFIG) --data $(SYNTH) --out $(DEMO)/run --auto-resume
 	$(BIN)/python -m sspinn calibrate-quality --model $(DEMO)/run/model.pt --data $(SYNTH) --split train
-	$(BIN)/python -m sspinn evaluate --model $(DEMO)/run/model.pt --data $(SYNTH) --split test --out $(DEMO)/test
+	$(BIN)/python -m sspinn evaluate --model $(DEMO)/run/model.pt --data $(SYNTH) --split test --out $(DEMO)/test --overwrite
 	$(BIN)/python -m sspinn adapt --model $(DEMO)/run/model.pt --data $(SYNTH) --split test --out $(DEMO)/adapted --auto-resume $(ADAPT_FLAGS)
-	$(BIN)/python -m sspinn evaluate --model $(DEMO)/adapted/model.pt --data $(SYNTH) --split test --out $(DEMO)/test_adapted
+	$(BIN)/python -m sspinn evaluate --model $(DEMO)/adapted/model.pt --data $(SYNTH) --split test --out $(DEMO)/test_adapted --overwrite
 
 # CI: the main job's path end to end from a cold start (tiny dataset generated into a fresh cache,
 # 20 training steps, evaluation, report), so that a broken `make demo` cannot land.

@@ -84,6 +84,10 @@ class Case:
     call: Callable[[], Outcome]
 
 
+#: A progress bar's line on stderr (tqdm: "training:  50%|…"), not a message.
+PROGRESS = re.compile(r"^[\w ]+:\s+\d+%\|")
+
+
 def cli(main: Callable[[list[str]], int], argv: list[str], shown: str | None = None) -> Outcome:
     """Run a command line in-process: its exit status and last stderr line, or, when it succeeds
     and ``shown`` (a regular expression) is given, the stdout lines matching it (joined by " / ")."""
@@ -93,7 +97,7 @@ def cli(main: Callable[[list[str]], int], argv: list[str], shown: str | None = N
             code = main(argv)
         except SystemExit as exc:  # argparse
             code = exc.code
-    lines = [line for line in err.getvalue().splitlines() if line.strip()]
+    lines = [line for line in err.getvalue().splitlines() if line.strip() and not PROGRESS.match(line)]
     if code == 0 and lines and all(line.startswith("WARNING: ") for line in lines):  # warnings of a run that succeeds
         return Outcome("exit 0", " / ".join(lines))
     status = f"exit {code}" + ("" if len(lines) == 1 or (code == 0 and not lines) else f" ({len(lines)} lines)")
@@ -196,6 +200,16 @@ def main() -> None:
                                                   "command": "sspinn train ..."}))
         return raises(lambda: RunLock(folder).acquire().release())
 
+    def evaluate_twice() -> Outcome:
+        args = ["evaluate", "--model", str(model), "--data", str(data), "--out", str(tmp / "evaluated")]
+        cli(sspinn_main, args)
+        return cli(sspinn_main, args, shown="^NOTE:")
+
+    def import_other_subject() -> Outcome:
+        folder = tmp / "two_subjects"
+        imu_import(extra=("--subject", "A"), out=folder)
+        return imu_import(extra=("--subject", "B"), out=folder)
+
     def busy() -> Outcome:
         with RunLock(tmp / "busy"):
             return cli(sspinn_main, [*train, "--out", str(tmp / "busy")])
@@ -289,7 +303,8 @@ def main() -> None:
     cmu = read_opensense_raw(CMU_ACCEL, end_s=12.0) if CMU_ACCEL.exists() else None
     cmu_30s = read_opensense_raw(CMU_ACCEL, end_s=32.0) if CMU_ACCEL.exists() else None
 
-    def imu_import(edit: OpenSenseEdit | None = None, smap: dict | None = None, shown: str = "WARNING:", end_s: int = 10) -> Outcome:
+    def imu_import(edit: OpenSenseEdit | None = None, smap: dict | None = None, shown: str = "WARNING:", end_s: int = 10,
+                   extra: tuple[str, ...] = (), out: Path | None = None) -> Outcome:
         """``sspinn import --end <end_s>`` of an (edited) copy of the CMU excerpt (12 s, or 32 s for
         ``end_s`` > 10) with the CMU map or ``smap``."""
         if cmu is None:
@@ -304,7 +319,7 @@ def main() -> None:
             path = folder / "map.yaml"
             path.write_text(yaml.safe_dump(smap, sort_keys=False))
         return cli(sspinn_main, ["import", "--imu", str(accel), "--sensor-map", str(path), "--height", "1.81", "--mass", "66.7",
-                                 "--end", str(end_s), "--out", str(folder / "out")], shown)
+                                 "--end", str(end_s), "--out", str(out or folder / "out"), *extra], shown)
 
     def imu_import_news(edit: OpenSenseEdit) -> Outcome:
         """:func:`imu_import` of an edited copy, less the warnings the untouched copy prints too."""
@@ -402,6 +417,18 @@ def main() -> None:
         # 1. one run per folder
         Case("1", "second training into a folder in use", "sspinn train --out <run in use>", "exit 2", "in use by PID", busy),
         Case("1", "stale lock of a dead process", "sspinn train --out <folder of a killed run>", "UserWarning", "stale lock of PID", stale_lock),
+        Case("1", "training into the folder of a finished run (a new folder instead)", "sspinn train --out <finished run>", "exit 0",
+             "holds a run (model.pt, checkpoint.pt); writing to", lambda: cli(sspinn_main, [*train, "--out", str(run), "--steps", "2"], shown="^NOTE:")),
+        Case("1", "adapting into the folder of the model it starts from", "sspinn adapt --model run/model.pt --out run", "exit 2",
+             "is the folder of the model", lambda: cli(sspinn_main, ["adapt", "--model", str(model), "--data", str(data), "--out", str(run)])),
+        Case("1", "evaluating into a folder holding an evaluation (a new folder instead)", "sspinn evaluate --out <evaluated>", "exit 0",
+             "holds an evaluation; writing to", lambda: evaluate_twice()),
+        Case("1", "import: a recording named dataset", "sspinn import --name dataset", "exit 2", "'dataset' is not a usable recording name",
+             lambda: imu_import(extra=("--name", "dataset"))),
+        Case("1", "import: a recording name with a path", "sspinn import --name ../../x", "exit 2", "'../../x' is not a usable recording name",
+             lambda: imu_import(extra=("--name", "../../x"))),
+        Case("1", "import: another subject's recording of the same name into one folder", "sspinn import --subject B (after --subject A)",
+             "exit 2", "already holds a recording", lambda: import_other_subject()),
         # 2. model files
         Case("2", "crafted pickle that runs a shell command", "sspinn infer --model evil.pt", "exit 2", "could run code",
              lambda: infer_with(model_file("evil.pt", lambda p: torch.save({"model": RunsCode()}, p)))),

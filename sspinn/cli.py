@@ -14,13 +14,14 @@ import argparse
 import json
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from sspinn.data.dataset import Dataset
 from sspinn.data.loading import open_recordings
 from sspinn.errors import ArgumentParser, UserError, bounded, run_cli
 from sspinn.estimator.inference import ImplausibleEstimateError, NonFiniteEstimateError
-from sspinn.run_folder import RunLock
+from sspinn.run_folder import RunLock, free_folder
 from sspinn.yaml_config import add_config_flags, flag_overrides, shipped_path
 
 #: Fields of :class:`~sspinn.estimator.training.TrainConfig` that ``train`` and ``finetune`` take as flags.
@@ -63,32 +64,55 @@ def _train(args: argparse.Namespace, command: str) -> int:
     return 0
 
 
-def _check_run_folder(args: argparse.Namespace, command: str) -> None:
-    """A finished run is never replaced without ``--overwrite``; adapt and finetune never write
-    into the folder of the model they start from."""
-    if int(os.environ.get("RANK", "0")) != 0:  # under torchrun rank 0 owns (and checks) the folder
+#: Files of a run folder that make it a (finished or resumable) run.
+RUN_FILES = ("model.pt", "checkpoint.pt")
+
+
+def _holds_run(folder: Path) -> bool:
+    return any((folder / name).exists() for name in RUN_FILES)
+
+
+def _new_output_folder(args: argparse.Namespace, holds_result: Callable[[Path], bool], what: str, hint: str) -> None:
+    """A finished result is never replaced without ``--overwrite``: when ``args.out`` holds one
+    (``holds_result``), the command writes to the first free ``<out>_2``, ``<out>_3``, … instead
+    and says so."""
+    if getattr(args, "overwrite", False) or not holds_result(args.out):
         return
+    new = free_folder(args.out, holds_result)
+    print(f"NOTE: {args.out} holds {what}; writing to {new} instead ({hint}replace it with --overwrite)")
+    args.out = new
+
+
+def _check_run_folder(args: argparse.Namespace, command: str) -> None:
+    """A finished run is never replaced without ``--overwrite`` (a new run goes to a new folder,
+    :func:`_new_output_folder`); adapt and finetune never write into the folder of the model they
+    start from. Under ``torchrun`` (several processes) a folder holding a run is refused instead:
+    every rank must write to the same folder."""
     out = args.out
     model = getattr(args, "model", None)
     if model is not None and out.resolve() == Path(model).resolve().parent:
         raise RunFolderError(f"{out}: is the folder of the model {model} that {command} starts from; choose another --out")
+    if int(os.environ.get("RANK", "0")) != 0:  # under torchrun rank 0 owns (and checks) the folder
+        return
     if args.resume or args.auto_resume or getattr(args, "overwrite", False):
         return
     if out.is_dir():
         with RunLock(out):  # a run still training there is named first (RunFolderBusyError)
             pass
-    finished = [name for name in ("model.pt", "checkpoint.pt") if (out / name).exists()]
-    if finished:
+    if int(os.environ.get("WORLD_SIZE", "1")) > 1 and _holds_run(out):
         raise RunFolderError(
-            f"{out}: holds a run ({', '.join(finished)}); continue it with --resume, replace it with --overwrite, "
-            "or choose another --out"
+            f"{out}: holds a run ({', '.join(n for n in RUN_FILES if (out / n).exists())}); continue it with --resume, "
+            "replace it with --overwrite, or choose another --out"
         )
+    _new_output_folder(args, _holds_run, f"a run ({', '.join(n for n in RUN_FILES if (out / n).exists())})",
+                       "continue it with --resume, ")
 
 
 def _evaluate(args: argparse.Namespace) -> int:
     from sspinn.estimator.evaluation import EvaluationError, evaluate
     from sspinn.estimator.sspinnpose import SSPINNpose
 
+    _new_output_folder(args, lambda f: (f / "metrics.json").exists() or (f / "report.md").exists(), "an evaluation", "")
     est = SSPINNpose.load(args.model)
     reference = None
     if (args.data / "dataset.json").exists():  # one read of the index for both splits
@@ -135,6 +159,7 @@ def _infer(args: argparse.Namespace) -> int:
     )
     from sspinn.estimator.sspinnpose import SSPINNpose
 
+    _new_output_folder(args, lambda f: any(f.glob("*_estimate.csv")), "estimates", "")
     recs = open_recordings(args.data, args.split, args.periods, args.height, args.mass)
     est = SSPINNpose.load(args.model)
     quality_file = args.quality or calibration_path(args.model)
@@ -251,7 +276,8 @@ def _main(argv: list[str]) -> int:
         p.add_argument("--out", type=Path, required=True, help="run folder (checkpoints, TensorBoard, model.pt)")
         p.add_argument("--resume", action="store_true", help="continue from <out>/checkpoint.pt")
         p.add_argument("--auto-resume", action="store_true", help="continue from <out>/checkpoint.pt if it exists, else start")
-        p.add_argument("--overwrite", action="store_true", help="replace a run already in --out (its model and checkpoint)")
+        p.add_argument("--overwrite", action="store_true",
+                       help="replace a run already in --out (its model and checkpoint; else a new folder <out>_2 …)")
         # flags that override config fields: typed, checked and documented by TrainConfig itself
         add_config_flags(
             p, TrainConfig, TRAIN_FLAGS + (("lr",) if name == "adapt" else ()), flags={"time_limit_s": "--time-limit"},
@@ -272,12 +298,14 @@ def _main(argv: list[str]) -> int:
     ev.add_argument("--split", default="test")
     ev.add_argument("--skip", type=int, default=50, help="samples of LSTM warm-up excluded from the metrics")
     ev.add_argument("--out", type=Path, required=True)
+    ev.add_argument("--overwrite", action="store_true", help="replace an evaluation already in --out (else a new folder <out>_2 …)")
 
     inf = sub.add_parser("infer", help="estimates of recordings without labels → CSV")
     inf.add_argument("--model", type=Path, required=True)
     _data_args(inf)
     inf.add_argument("--split", default="test")
     inf.add_argument("--out", type=Path, required=True)
+    inf.add_argument("--overwrite", action="store_true", help="replace estimates already in --out (else a new folder <out>_2 …)")
     inf.add_argument("--quality", type=Path, default=None,
                      help="quality calibration file (default: <model>.quality.json beside the model, if there)")
 

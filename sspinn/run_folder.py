@@ -141,6 +141,19 @@ class RunLock:
         self.release()
 
 
+def free_folder(out: str | Path, holds_result: Callable[[Path], bool]) -> Path:
+    """``out`` if ``holds_result(out)`` is false, else the first of ``out_2``, ``out_3``, … for which
+    it is: where a command writes when ``out`` holds a finished result that only an explicit
+    ``--overwrite`` may replace."""
+    out = Path(out)
+    k = 1
+    candidate = out
+    while holds_result(candidate):
+        k += 1
+        candidate = out.with_name(f"{out.name}_{k}")
+    return candidate
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a unique temporary path beside ``path``; replace ``path`` with it on success."""

@@ -87,11 +87,21 @@ def test_named_configs_resolve_from_any_folder(monkeypatch: pytest.MonkeyPatch, 
     assert resolve_train_config(Path("configs/sspinn/demo.yaml")).window > 0  # the CLI's default, outside the repository
 
 
-def test_the_cli_refuses_to_replace_a_finished_run(tiny: tuple[Path, Path, Path], capsys: pytest.CaptureFixture[str]) -> None:
+def test_the_cli_never_replaces_a_finished_result(tiny: tuple[Path, Path, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    """A second run, evaluation or inference into a folder holding a finished one goes to a new
+    folder and says so; ``--overwrite`` replaces; adapt refuses its source model's folder."""
     data, cfg, run = tiny
     before = (run / "model.pt").read_bytes()
-    assert main(["train", "--config", str(cfg), "--data", str(data), "--out", str(run)]) == 2
-    assert "--overwrite" in capsys.readouterr().err
-    assert (run / "model.pt").read_bytes() == before
+    assert main(["train", "--config", str(cfg), "--data", str(data), "--out", str(run), "--steps", "2"]) == 0
+    out = capsys.readouterr().out
+    assert f"NOTE: {run} holds a run (model.pt, checkpoint.pt); writing to {run}_2 instead" in out and "--overwrite" in out
+    assert (run / "model.pt").read_bytes() == before and (run.parent / f"{run.name}_2" / "model.pt").exists()
     assert main(["adapt", "--model", str(run / "model.pt"), "--data", str(data), "--out", str(run)]) == 2
     assert "starts from" in capsys.readouterr().err
+    for command, result in (("evaluate", "metrics.json"), ("infer", "*_estimate.csv")):
+        out_dir = run.parent / command
+        args = [command, "--model", str(run / "model.pt"), "--data", str(data), "--out", str(out_dir)]
+        assert main(args) == 0 and main(args) == 0
+        assert f"writing to {out_dir}_2 instead" in capsys.readouterr().out
+        assert list(out_dir.glob(result)) and list((out_dir.parent / f"{command}_2").glob(result))
+        assert main([*args, "--overwrite"]) == 0 and not (out_dir.parent / f"{command}_3").exists()
