@@ -99,13 +99,12 @@ def _check_run_folder(args: argparse.Namespace, command: str) -> None:
     if out.is_dir():
         with RunLock(out):  # a run still training there is named first (RunFolderBusyError)
             pass
-    if int(os.environ.get("WORLD_SIZE", "1")) > 1 and _holds_run(out):
+    present = ", ".join(name for name in RUN_FILES if (out / name).exists())
+    if int(os.environ.get("WORLD_SIZE", "1")) > 1 and present:
         raise RunFolderError(
-            f"{out}: holds a run ({', '.join(n for n in RUN_FILES if (out / n).exists())}); continue it with --resume, "
-            "replace it with --overwrite, or choose another --out"
+            f"{out}: holds a run ({present}); continue it with --resume, replace it with --overwrite, or choose another --out"
         )
-    _new_output_folder(args, _holds_run, f"a run ({', '.join(n for n in RUN_FILES if (out / n).exists())})",
-                       "continue it with --resume, ")
+    _new_output_folder(args, _holds_run, f"a run ({present})", "continue it with --resume, ")
 
 
 def _evaluate(args: argparse.Namespace) -> int:

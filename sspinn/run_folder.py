@@ -143,7 +143,7 @@ class RunLock:
 
 def free_folder(out: str | Path, holds_result: Callable[[Path], bool]) -> Path:
     """``out`` if ``holds_result(out)`` is false, else the first of ``out_2``, ``out_3``, … for which
-    it is: where a command writes when ``out`` holds a finished result that only an explicit
+    it is false: where a command writes when ``out`` holds a finished result that only an explicit
     ``--overwrite`` may replace."""
     out = Path(out)
     k = 1

@@ -194,23 +194,23 @@ def pelvis_candidate_warnings(candidates: dict[str, tuple[np.ndarray, np.ndarray
     if "pelvis" not in signals or not thighs or not candidates or len(signals["pelvis"][0]) < PELVIS_CHECK_MIN_S * cal.rate_hz:
         return []
     segments = ["pelvis", *thighs]
+    projected_thighs = [cal.sensors[seg].project(*signals[seg]) for seg in thighs]
 
-    def residual(pelvis: np.ndarray, thigh_cal: Calibration) -> float | None:
-        imu = np.stack([pelvis, *(thigh_cal.sensors[seg].project(*signals[seg]) for seg in thighs)], axis=1)
-        return hip_residual_rms(imu, segments)
+    def residual(pelvis: np.ndarray) -> float | None:
+        return hip_residual_rms(np.stack([pelvis, *projected_thighs], axis=1), segments)
 
-    mapped = residual(cal.sensors["pelvis"].project(*signals["pelvis"]), cal)
+    mapped = residual(cal.sensors["pelvis"].project(*signals["pelvis"]))
     if mapped is None:
         return []
     found = []
     for name, (acc, gyr) in candidates.items():
         trial = {**signals, "pelvis": (acc, gyr)}
-        try:
+        try:  # the legs are calibrated with it (stride period, standing), as they were for the mapped pelvis
             other = calibrate(trial, {**assignments, "pelvis": SensorAssignment(name, "pelvis")}, cal.rate_hz,
                               standing=cal.standing, source=sources.get("pelvis", "<stream>"))
         except UserError:  # not calibratable as a pelvis (e.g. it does not move with the body)
             continue
-        fit = residual(other.sensors["pelvis"].project(acc, gyr), other)
+        fit = residual(other.sensors["pelvis"].project(acc, gyr))
         if fit is not None and fit < mapped:
             found.append(
                 f"{sources.get('pelvis', '<stream>')}: the ignored sensor {name!r} fits the hip joints better than "

@@ -13,8 +13,10 @@ Pipeline (:func:`import_imu`):
    (:func:`sspinn.imu.calibration.calibrate`) and project: ``acc_x, acc_y, gyr_z`` in the
    segment frame (placement angle 0; positions: the project's default, the map's forefoot or
    explicit ones); check the sensors against each other (:func:`sspinn.imu.cross_sensor_checks.check_mounting`:
-   a sensor upside down compared with the others, legs mixed up in the map) — warnings, printed and
-   stored in the provenance and the report;
+   a sensor upside down compared with the others, legs mixed up in the map; and
+   :func:`~sspinn.imu.cross_sensor_checks.pelvis_candidate_warnings`: an ignored sensor that fits
+   the hips better than the mapped pelvis sensor) — warnings, printed and stored in the provenance
+   and the report;
 3. optionally read the GRF (``.mot``; :func:`sspinn.imu.vendor_readers.read_treadmill_grf_columns`;
    above 100 Hz low-pass filtered at 40 Hz first), check it against the subject
    (:mod:`sspinn.imu.grf_checks`: the vertical force's sign and unit are errors, a mean away from body
