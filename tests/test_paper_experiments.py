@@ -73,7 +73,7 @@ def test_sensor_sets_run_resume_and_overwrite(tiny, tmp_path, capsys):
     results = json.loads((out / "results.json").read_text())
     _finite_metrics(results, ["all", "feet_shanks"])
     assert results["arms"]["shanks_pelvis"]["status"] == "not run"
-    assert results["arms"]["single_segment"]["status"] == "not built"
+    assert results["arms"]["feet"]["status"] == "not run"  # the single-segment sets are arms too
     text = (out / "report.md").read_text()
     assert "## walk" in text and "## run" in text and "trivial predictors" in text and "9.1" in text  # the paper's row
     assert "the Froude speed (the same data's mean Froude number" in text
@@ -93,6 +93,25 @@ def test_sensor_sets_run_resume_and_overwrite(tiny, tmp_path, capsys):
     results = json.loads((out / "results.json").read_text())
     assert results["arms"]["all"]["steps"] == 3 and results["steps_in_all_per_arm"] == 3
     assert results["arms"]["feet_shanks"]["status"] == "not run"  # made with the old budget: removed
+
+
+def test_one_model_for_every_sensor_set_is_scored_on_each_set(tiny, tmp_path):
+    out = tmp_path / "any"
+    assert _run(tiny, out, "sensor-sets", "feet_shanks,any_subset", "--steps", "2") == 0
+    results = json.loads((out / "results.json").read_text())
+    arm = results["arms"]["any_subset"]
+    # the budget of the paper's five sets' models together (the tiny config has one start)
+    assert arm["steps"] == 10 and arm["settings"] == ["imus=all", "sensor_dropout=0.5"]
+    assert set(arm["by_subset"]) == {"all", "feet_thighs", "feet_shanks", "shanks_pelvis", "shanks_thighs", "pelvis", "thighs",
+                                     "shanks", "feet"}
+    for subset in arm["by_subset"].values():
+        for key in ("jae_deg", "jte_pct_bwbh", "grfe_pct_bw", "speed_error_mps"):
+            assert math.isfinite(subset["walk"]["model"][key])
+    text = (out / "report.md").read_text()
+    assert "## One model for every sensor set (`any_subset`)" in text
+    own = results["arms"]["feet_shanks"]["by_program"]["walk"]["model"]["jae_deg"]
+    assert f"| feet_shanks | {own:.3g} / " in text  # beside the per-set model
+    assert "| pelvis | not run / " in text
 
 
 def test_an_interrupted_arm_resumes_from_its_checkpoint(tiny, tmp_path, capsys):

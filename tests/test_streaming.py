@@ -64,6 +64,7 @@ def _assert_contact_inputs_match(streamed: dict[str, np.ndarray], model: SSPINNp
         ("shanks_pelvis", NetworkConfig(hidden=24, layers=1, dense=8, dropout=0.0)),
         ("feet_thighs", NetworkConfig(hidden=16, layers=3, dense=12, dropout=0.2)),
         ("all", NetworkConfig(hidden=32, layers=2, dense=16, dropout=0.4, grf="direct")),
+        ("feet_shanks", NetworkConfig(hidden=16, layers=2, dense=8, dropout=0.0, sensor_presence=True)),
     ],
 )
 def test_stream_matches_whole_sequence(imus, config, rng):

@@ -107,11 +107,45 @@ class GaitEstimate(Trajectory):
         return path
 
 
-def _check_segments(rec: Recording, segments: tuple[str, ...]) -> Recording:
+@dataclass
+class NetworkInputs:
+    """What the network reads of one recording (:func:`network_inputs`).
+
+    Attributes:
+        x: (1, T, n_inputs) features (:func:`~sspinn.estimator.network.input_features`), zeros in
+            the channels of a missing IMU.
+        present: (1, n_imus) presence flags for a network with sensor presence inputs, None when
+            every IMU of the model is there.
+        recording: the recording with the model's IMUs it has, in the model's order.
+    """
+
+    x: torch.Tensor
+    present: torch.Tensor | None
+    recording: Recording
+
+
+def network_inputs(model: SSPINNposeNet, rec: Recording, segments: tuple[str, ...], placement: np.ndarray | None = None) -> NetworkInputs:
+    """The model's inputs for ``rec`` (its IMUs on ``segments``; the nominal placement unless
+    ``placement`` (21,) is given). A recording without some of them is an error, unless the
+    model has presence inputs (:attr:`~sspinn.estimator.network.NetworkConfig.sensor_presence`):
+    then the missing ones are flagged absent."""
     missing = [s for s in segments if s not in rec.segments]
+    if missing and not (model.config.sensor_presence and len(missing) < len(segments)):
+        hint = "" if model.config.sensor_presence else (
+            "; a model trained with sensor_dropout > 0 accepts any subset of its IMUs")
+        raise DataFormatError(f"{rec.name}: the model needs IMUs on {list(segments)}; missing {missing}{hint}")
+    have = rec.select_imus([s for s in segments if s in rec.segments])
+    imu = np.zeros((rec.n_samples, len(segments), 3))
+    idx = [segments.index(s) for s in have.segments]
+    imu[:, idx] = have.imu
+    placement = rec.placement.vector() if placement is None else placement
+    device = next(model.parameters()).device
+    x = torch.as_tensor(input_features(imu, rec.height, rec.mass, placement, segments), dtype=torch.float32, device=device)[None]
+    present = None
     if missing:
-        raise DataFormatError(f"{rec.name}: the model needs IMUs on {list(segments)}; missing {missing}")
-    return rec.select_imus(segments)
+        flags = np.isin(np.array(segments), have.segments).astype(np.float32)
+        present = torch.as_tensor(flags, device=device)[None]
+    return NetworkInputs(x, present, have)
 
 
 def _outputs(raw: torch.Tensor, body: BodyParameters, grf: str) -> dict[str, torch.Tensor]:
@@ -129,13 +163,11 @@ def _outputs(raw: torch.Tensor, body: BodyParameters, grf: str) -> dict[str, tor
 @torch.no_grad()
 def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str, ...], placement: np.ndarray | None = None) -> GaitEstimate:
     """Run the model over a whole recording (the assumed body: Winter scaling of its height and
-    mass; the nominal IMU placement unless ``placement`` (21,) is given)."""
-    rec = _check_segments(rec, segments)
+    mass; the nominal IMU placement unless ``placement`` (21,) is given). A model with presence
+    inputs accepts a recording with a subset of its IMUs (:func:`network_inputs`)."""
     model.eval()
-    device = next(model.parameters()).device
-    placement = rec.placement.vector() if placement is None else placement
-    x = input_features(rec.imu, rec.height, rec.mass, placement, segments)
-    raw, _ = model(torch.as_tensor(x, dtype=torch.float32, device=device)[None])
+    inputs = network_inputs(model, rec, segments, placement)
+    raw, _ = model(inputs.x, present=inputs.present)
     body = BodyParameters.from_anthropometry(rec.height, rec.mass)
     out = {k: v[0].cpu().numpy() for k, v in _outputs(raw.cpu(), body, model.config.grf).items()}
     return GaitEstimate(name=rec.name, time=rec.time, **out).check_finite().check_physical(rec.height, rec.mass)
@@ -309,6 +341,8 @@ class StreamingEstimator:
         lstm, cfg = model.lstm, model.config
         mean, std = arr(model.input_mean), arr(model.input_std)
         consts = (features[n_imu:].astype(np.float32) - mean[n_imu:]) / std[n_imu:]
+        if model.config.sensor_presence:  # every IMU present: the flags are constant inputs of 1
+            consts = np.concatenate([consts, np.ones(len(self.segments), np.float32)])
         w, b = [], []
         for layer in range(cfg.layers):
             w_ih, w_hh = arr(getattr(lstm, f"weight_ih_l{layer}")), arr(getattr(lstm, f"weight_hh_l{layer}"))

@@ -71,6 +71,10 @@ class NetworkConfig:
         grf: ``"contact_model"`` (the paper's: separately estimated ankle kinematics and a
             friction factor drive the contact model) or ``"direct"`` (the ground reaction forces
             are outputs; see the module docstring).
+        sensor_presence: one presence flag per IMU (1 present, 0 missing) as an extra input, and
+            a missing IMU's normalised channels set to 0 (the training mean), so that one model
+            serves any subset of its IMUs (trained with ``TrainConfig.sensor_dropout``; see
+            :meth:`SSPINNposeNet.forward`). Not in the paper.
     """
 
     hidden: int = 512
@@ -80,6 +84,7 @@ class NetworkConfig:
     bidirectional: bool = False
     body_inputs: bool = True
     grf: str = "contact_model"
+    sensor_presence: bool = False
 
     def __post_init__(self) -> None:
         if self.hidden < 1 or self.layers < 1 or self.dense < 1:
@@ -153,8 +158,12 @@ class SSPINNposeNet(nn.Module):
         super().__init__()
         self.config = config
         self.n_inputs = n_inputs
+        #: IMUs of the input layout (:func:`input_features`: 3 channels and 3 placement values each, 2 body constants)
+        self.n_imus = (n_inputs - 2) // 6
+        if config.sensor_presence and n_inputs != 6 * self.n_imus + 2:
+            raise ValueError(f"{n_inputs} input features are not the layout of input_features (6 per IMU + 2)")
         self.lstm = nn.LSTM(
-            n_inputs,
+            n_inputs + (self.n_imus if config.sensor_presence else 0),
             config.hidden,
             num_layers=config.layers,
             dropout=config.dropout if config.layers > 1 else 0.0,
@@ -188,12 +197,25 @@ class SSPINNposeNet(nn.Module):
         self.input_std.copy_(torch.where(constant, torch.full_like(std, UNSEEN_STD), floored))
 
     def forward(
-        self, x: torch.Tensor, state: tuple[torch.Tensor, torch.Tensor] | None = None
+        self, x: torch.Tensor, state: tuple[torch.Tensor, torch.Tensor] | None = None, present: torch.Tensor | None = None
     ) -> tuple[torch.Tensor, tuple[torch.Tensor, torch.Tensor]]:
-        """x (B, T, n_inputs) in physical units → raw outputs (B, T, n_outputs) and the LSTM state."""
+        """x (B, T, n_inputs) in physical units → raw outputs (B, T, n_outputs) and the LSTM state.
+
+        ``present`` (B, n_imus), 1 for a present and 0 for a missing IMU (None: all present),
+        is only for a network with :attr:`~NetworkConfig.sensor_presence`: a missing IMU's
+        normalised channels become 0 whatever ``x`` holds there, and the flags are appended to
+        the normalised inputs."""
         if x.shape[-1] != self.n_inputs:
             raise ValueError(f"expected {self.n_inputs} input features, got {x.shape[-1]}")
-        h, state = self.lstm((x - self.input_mean) / self.input_std, state)
+        z = (x - self.input_mean) / self.input_std
+        if self.config.sensor_presence:
+            flags = torch.ones(x.shape[0], self.n_imus, dtype=z.dtype, device=z.device) if present is None else present.to(z)
+            n = 3 * self.n_imus
+            channels = z[..., :n] * flags.repeat_interleave(3, dim=-1)[:, None, :]
+            z = torch.cat([channels, z[..., n:], flags[:, None, :].expand(-1, z.shape[1], -1)], dim=-1)
+        elif present is not None:
+            raise ValueError("this network has no sensor presence inputs (NetworkConfig.sensor_presence); it needs all its IMUs")
+        h, state = self.lstm(z, state)
         return self.head(h), state
 
     def hyperparameters(self) -> dict:

@@ -80,6 +80,11 @@ class Arm:
             reports none.
         built: False for an arm the paper has and this project has no switch for (listed in the
             report as not built, never trained).
+        steps: the arm's own step budget (None: ``--steps``), for an arm that stands for several
+            others together.
+        subsets: keys of :data:`~sspinn.estimator.training.IMU_CONFIGURATIONS` the trained model
+            is also scored on, with the test recordings' other IMUs removed (a model trained
+            with ``sensor_dropout``).
     """
 
     name: str
@@ -87,17 +92,33 @@ class Arm:
     settings: tuple[str, ...] = ()
     paper: tuple[float, float, float, float] | None = None
     built: bool = True
+    steps: int | None = None
+    subsets: tuple[str, ...] = ()
 
 
 #: The paper's all-sensor result (Table 2), the reference of the sensor sets and the ablations.
 PAPER_ALL = (9.1, 3.8, 16.6, 0.15)
 
 
+#: The sensor sets of the paper's Table 2 (the rest of IMU_CONFIGURATIONS are single segments).
+PAPER_SETS = ("all", "feet_thighs", "feet_shanks", "shanks_pelvis", "shanks_thighs")
+#: ``sensor_dropout`` of the ``any_subset`` arm: each IMU of a window missing with this probability.
+ANY_SUBSET_DROPOUT = 0.5
+
+
 def _sensor_sets(base: TrainConfig, steps: int) -> list[Arm]:
     paper = {"all": PAPER_ALL, "feet_thighs": (9.8, 4.2, 18.3, 0.19), "feet_shanks": (10.5, 4.0, 17.1, 0.27),
              "shanks_pelvis": (13.6, 8.2, 30.7, 0.19), "shanks_thighs": (17.3, 6.2, 23.6, 0.33)}
     arms = [Arm(name, f"IMUs {', '.join(IMU_CONFIGURATIONS[name])}", (f"imus={name}",), paper.get(name)) for name in IMU_CONFIGURATIONS]
-    return arms + [Arm("single_segment", "one segment's IMU(s) only (the paper: no meaningful results)", built=False)]
+    # one model for every subset, with the paper's sets' per-set models' budget together (their
+    # starts included: the same number of optimiser steps in all)
+    extra = (base.starts - 1) * base.start_steps if base.starts > 1 else 0
+    total = len(PAPER_SETS) * (steps + extra) - extra
+    arms.append(Arm("any_subset", f"one model for every set: all IMUs, each missing from a training window with probability "
+                    f"{ANY_SUBSET_DROPOUT:g} (sensor_dropout), {total} steps (the {len(PAPER_SETS)} paper's sets' "
+                    "budgets together); scored on every set", ("imus=all", f"sensor_dropout={ANY_SUBSET_DROPOUT:g}"),
+                    steps=total, subsets=tuple(IMU_CONFIGURATIONS)))
+    return arms
 
 
 def _finetune(base: TrainConfig, steps: int) -> list[Arm]:
@@ -211,7 +232,7 @@ def base_config(request: Request, arm: Arm | None = None) -> TrainConfig:
 
     settings = [*request.settings, *(arm.settings if arm else ())]
     try:
-        return resolve_train_config(request.config, settings, steps=request.steps)
+        return resolve_train_config(request.config, settings, steps=arm.steps if arm and arm.steps else request.steps)
     except ConfigError as exc:
         if "must be fewer than steps" not in str(exc):
             raise
@@ -317,6 +338,9 @@ def _run_arm(request: Request, arm: Arm, train: list[Recording], test: list[Reco
         return
     result: dict[str, Any] = {"arm": arm.name, "what": arm.what, "settings": list(arm.settings), "steps": est.steps_,
                               "by_program": score(est, train, test, str(request.data))}
+    if arm.subsets:
+        result["by_subset"] = {name: score(est, train, [r.select_imus(IMU_CONFIGURATIONS[name]) for r in test], str(request.data))
+                               for name in arm.subsets}
     if request.experiment == "placement":
         result["placement"] = placement_errors(folder / "checkpoint.pt", train)
     atomic_write_text(folder / "arm.json", json_text(result, non_finite="null"))
@@ -501,9 +525,62 @@ def report(results: dict[str, Any]) -> str:
                 aft = p["after"][s]
                 lines.append(f"| {s} | " + " | ".join(f"{_cell(nom[k], '.2f')} → {_cell(aft[k], '.2f')}" for k in ("x_cm", "y_cm", "angle_deg")) + " |")
             lines.append("")
+    for name, a in finished.items():
+        if a.get("by_subset"):
+            lines += _any_subset_section(name, a, finished)
     if results["experiment"] == "sensor-sets" and finished:
         lines += ["![estimated poses per sensor set](sensor_sets.png)", ""]
     return "\n".join(lines)
+
+
+#: Largest relative difference (on every metric) at which one model for every subset counts as
+#: matching the per-set models.
+ANY_SUBSET_TOLERANCE = 0.10
+
+
+def _any_subset_section(name: str, arm: dict[str, Any], finished: dict[str, Any]) -> list[str]:
+    """The report's comparison of a model scored on several IMU subsets (``by_subset``) with the
+    models trained for one subset each (the arms named after the subsets)."""
+    heads = list(METRICS.values())
+    lines = [f"## One model for every sensor set (`{name}`)", "",
+             f"`{name}` scored with only each set's IMUs in the test recordings, beside the model trained for that set "
+             f"(its arm); Δ: relative difference, a match within ±{100 * ANY_SUBSET_TOLERANCE:.0f} % on every metric of the "
+             f"paper's sets counts as matching.", ""]
+    verdicts = []
+    programs = list(dict.fromkeys(p for r in arm["by_subset"].values() for p in r))
+    for program in programs:
+        lines += [f"### {program}", "", "| set | " + " | ".join(f"{h}: own / one model / Δ" for h in heads) + " |",
+                  "|---|" + "---|" * len(heads)]
+        for subset, by_program in arm["by_subset"].items():
+            one = by_program.get(program, {}).get("model")
+            own_arm = finished.get(subset)
+            own = own_arm["by_program"].get(program, {}).get("model") if own_arm else None
+            if one is None:
+                continue
+            cells, deltas = [], []
+            for k in METRICS:
+                if own is not None and isinstance(own[k], float) and isinstance(one[k], float) and own[k] > 0:
+                    delta = one[k] / own[k] - 1
+                    deltas.append(delta)
+                    cells.append(f"{_cell(own[k])} / {_cell(one[k])} / {100 * delta:+.0f} %")
+                else:
+                    cells.append(f"{'not run' if own is None else 'n/a'} / {_cell(one[k])} / –")
+            lines.append(f"| {subset} | " + " | ".join(cells) + " |")
+            if subset in PAPER_SETS and subset != "all":
+                if len(deltas) == len(METRICS):
+                    worst = max(deltas)
+                    verdicts.append((program, subset, worst))
+        lines.append("")
+    if verdicts:
+        bad = [v for v in verdicts if v[2] > ANY_SUBSET_TOLERANCE]
+        if bad:
+            lines.append(f"**Not within {100 * ANY_SUBSET_TOLERANCE:.0f} % of the per-set models** on "
+                         + "; ".join(f"{s} ({p}, up to {100 * w:+.0f} %)" for p, s, w in bad) + ".")
+        else:
+            lines.append(f"Within {100 * ANY_SUBSET_TOLERANCE:.0f} % of (or better than) the per-set models on every metric of "
+                         f"the paper's paired sets, walking and running (worst {100 * max(v[2] for v in verdicts):+.0f} %).")
+        lines.append("")
+    return lines
 
 
 def plot_sensor_sets(out: Path, arms: list[Arm], test: list[Recording]) -> Path | None:

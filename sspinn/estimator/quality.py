@@ -49,9 +49,9 @@ import torch
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.data.signal_checks import gait_rhythm
 from sspinn.errors import InputWarning, UserError
-from sspinn.estimator.inference import GaitEstimate
+from sspinn.estimator.inference import GaitEstimate, network_inputs
 from sspinn.estimator.losses import Batch, LossWeights, PhysicsLosses
-from sspinn.estimator.network import SSPINNposeNet, decode, input_features, output_affine
+from sspinn.estimator.network import SSPINNposeNet, decode, output_affine
 from sspinn.model.body import BodyParameters, JointLimits
 from sspinn.model.conventions import COORDINATES, GRAVITY
 from sspinn.run_folder import atomic_write_text
@@ -155,14 +155,17 @@ def window_quality(
     """The loss terms (:data:`QUALITY_TERMS`) of the model's estimate of ``rec`` on each window
     (the network runs over the whole recording, as for the estimate; the terms are then taken
     window by window, float64). ``imu_std`` is the model's IMU channel scales (its training's),
-    ``joint_limits`` its training's (``TrainConfig.joint_limits``). Needs no labels."""
+    ``joint_limits`` its training's (``TrainConfig.joint_limits``). Needs no labels. For a model
+    with presence inputs and a recording with a subset of its IMUs, L_IMU compares the IMUs
+    the recording has."""
     grf = network.config.grf
-    rec = rec.select_imus(segments)
     network.eval()
-    device = next(network.parameters()).device
     placement = rec.placement.vector()
-    x = input_features(rec.imu, rec.height, rec.mass, placement, segments)
-    raw, _ = network(torch.as_tensor(x, dtype=torch.float32, device=device)[None])
+    inputs = network_inputs(network, rec, segments, placement)
+    rec = inputs.recording
+    imu_std = imu_std[[segments.index(s) for s in rec.segments]]
+    segments = rec.segments
+    raw, _ = network(inputs.x, present=inputs.present)
     raw = raw.detach().cpu().double()
     body = BodyParameters.from_anthropometry(rec.height, rec.mass)
     scale, offset = output_affine(rec.height, rec.mass, body.standing_hip_height, body.gravity, grf)

@@ -59,13 +59,19 @@ from sspinn.run_folder import RunLock, atomic_write_text
 from sspinn.torch_files import CHECKPOINT, ModelFileError, check_finite_weights, load_torch_file, save_torch_file
 from sspinn.yaml_config import apply_setting, config_from_mapping, load_config, set_option
 
-#: Named IMU configurations of the paper (sparse sets keep λ_IMU's relative weight; see losses).
+#: Named IMU configurations: the paper's sets, then single segments (sparse sets keep λ_IMU's
+#: relative weight; see losses).
 IMU_CONFIGURATIONS: dict[str, tuple[str, ...]] = {
     "all": SEGMENTS,
     "feet_thighs": ("femur_r", "foot_r", "femur_l", "foot_l"),
     "feet_shanks": ("tibia_r", "foot_r", "tibia_l", "foot_l"),
     "shanks_pelvis": ("pelvis", "tibia_r", "tibia_l"),
     "shanks_thighs": ("femur_r", "tibia_r", "femur_l", "tibia_l"),
+    # single segments (the paper: "did not lead to meaningful results")
+    "pelvis": ("pelvis",),
+    "thighs": ("femur_r", "femur_l"),
+    "shanks": ("tibia_r", "tibia_l"),
+    "feet": ("foot_r", "foot_l"),
 }
 
 
@@ -93,6 +99,12 @@ class TrainConfig:
             with ``starts`` the starts run at ``lr`` and the chosen one continues on the schedule).
         lr_final: the cosine schedule's last learning rate, as a fraction of ``lr``.
         input_noise: η, input noise std as a fraction of each channel's std.
+        sensor_dropout: probability that an IMU is missing from a training window's inputs
+            (each IMU of each window drawn independently, at least one kept; 0 = never). The
+            network then gets presence flags (:attr:`~sspinn.estimator.network.NetworkConfig.sensor_presence`,
+            set automatically) and serves any subset of :attr:`imus`; L_IMU still compares all
+            the IMUs the training recordings have, so the network learns to reconstruct the
+            motion a missing sensor would have measured. Not in the paper.
         grad_clip: gradient-norm clipping threshold.
         seed: seed of the window draws, the noise and the initial weights.
         device: cpu, cuda or auto.
@@ -142,6 +154,7 @@ class TrainConfig:
     lr_schedule: str = "constant"
     lr_final: float = 0.1
     input_noise: float = 0.25
+    sensor_dropout: float = 0.0
     grad_clip: float = 1.0
     seed: int = 0
     device: str = "auto"
@@ -163,6 +176,10 @@ class TrainConfig:
             self.weights = LossWeights(**self.weights)
         if isinstance(self.imu_noise, dict):
             self.imu_noise = IMUNoise(**self.imu_noise)
+        if not (math.isfinite(self.sensor_dropout) and 0 <= self.sensor_dropout < 1):
+            raise ValueError(f"sensor_dropout must be in [0, 1), got {self.sensor_dropout}")
+        if self.sensor_dropout > 0 and not self.network.sensor_presence:
+            self.network = dataclasses.replace(self.network, sensor_presence=True)
         if self.imus not in IMU_CONFIGURATIONS:
             raise ValueError(f"unknown IMU configuration {self.imus!r}; choose one of {list(IMU_CONFIGURATIONS)}")
         for name in ("steps", "batch_size", "window", "log_every", "checkpoint_every", "starts", "start_steps"):
@@ -527,6 +544,14 @@ class Trainer:
     def _rng_state(self) -> dict[str, Any]:
         return {"numpy": self.rng.bit_generator.state, "torch": torch.get_rng_state()}
 
+    def _draw_presence(self, batch_size: int) -> torch.Tensor:
+        """(B, n_imus) presence flags of one batch (:attr:`TrainConfig.sensor_dropout`): each IMU
+        missing with that probability, independently; a window that lost all keeps one at random."""
+        present = self.rng.random((batch_size, len(self.segments))) >= self.config.sensor_dropout
+        for row in np.flatnonzero(~present.any(axis=1)):
+            present[row, self.rng.integers(len(self.segments))] = True
+        return torch.as_tensor(present, dtype=torch.float32, device=self.device)
+
     def _check_segments(self, segments: tuple[str, ...], path: Path) -> None:
         if tuple(segments) != self.segments:
             raise ModelFileError(
@@ -630,8 +655,9 @@ class Trainer:
                 x, batch = make_batch(self.data, which, starts, cfg.window, self.segments, self.imu_std, self.device)
                 batch.placement = self.placement[which]
                 x = x + torch.randn_like(x) * cfg.input_noise * self.noise_std
+                present = self._draw_presence(len(which)) if cfg.sensor_dropout > 0 else None
                 with autocast:
-                    raw, _ = self.net(x)
+                    raw, _ = self.net(x, present=present)
                 terms = self.physics(self.losses, raw.float(), batch, cfg.weights_at(self.step))
                 loss = terms["total"]
                 if not torch.isfinite(loss):
