@@ -8,7 +8,8 @@ STAMP  := $(VENV)/.installed
 
 # The main job on the embedded default: generate (or reuse) the synthetic dataset, train the
 # CPU-sized SSPINNpose configuration (five 500-step starts, then the chosen one to 12,000 steps;
-# rerunning continues an unfinished run), evaluate it on the six held-out test subjects (walking
+# rerunning continues an unfinished run), calibrate its quality score (training split) and its
+# 90 % intervals (validation split), evaluate it on the six held-out test subjects (walking
 # and running; test/), then adapt it, self-supervised, to their unlabeled IMU recordings (1,000
 # steps; labels never read) and evaluate again (test_adapted/). The variables let CI run the
 # same recipe on a tiny configuration (demo-smoke).
@@ -18,6 +19,8 @@ SYNTH        ?= data/synth_default
 DEMO         ?= results/demo
 ADAPT_FLAGS  ?=
 CACHE        ?=
+# labelled split, not trained on, that the 90 % intervals are calibrated on (empty: none)
+UNCERTAINTY_SPLIT ?= val
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -29,6 +32,7 @@ demo: $(STAMP)
 	$(BIN)/python -m predictive synth --config $(SYNTH_CONFIG) --out $(SYNTH) $(if $(CACHE),--cache-dir $(CACHE))
 	$(BIN)/python -m sspinn train --config $(TRAIN_CONFIG) --data $(SYNTH) --out $(DEMO)/run --auto-resume
 	$(BIN)/python -m sspinn calibrate-quality --model $(DEMO)/run/model.pt --data $(SYNTH) --split train
+	$(if $(UNCERTAINTY_SPLIT),$(BIN)/python -m sspinn calibrate-uncertainty --model $(DEMO)/run/model.pt --data $(SYNTH) --split $(UNCERTAINTY_SPLIT) --check test)
 	$(BIN)/python -m sspinn evaluate --model $(DEMO)/run/model.pt --data $(SYNTH) --split test --out $(DEMO)/test --overwrite
 	$(BIN)/python -m sspinn adapt --model $(DEMO)/run/model.pt --data $(SYNTH) --split test --out $(DEMO)/adapted --auto-resume $(ADAPT_FLAGS)
 	$(BIN)/python -m sspinn evaluate --model $(DEMO)/adapted/model.pt --data $(SYNTH) --split test --out $(DEMO)/test_adapted --overwrite
@@ -38,7 +42,8 @@ demo: $(STAMP)
 demo-smoke: $(STAMP)
 	rm -rf results/demo_smoke
 	$(MAKE) demo SYNTH_CONFIG=configs/synth/smoke.yaml TRAIN_CONFIG=configs/sspinn/smoke.yaml \
-		SYNTH=results/demo_smoke/data DEMO=results/demo_smoke CACHE=results/demo_smoke/cache ADAPT_FLAGS="--steps 5"
+		SYNTH=results/demo_smoke/data DEMO=results/demo_smoke CACHE=results/demo_smoke/cache ADAPT_FLAGS="--steps 5" \
+		UNCERTAINTY_SPLIT=
 	test -s results/demo_smoke/test/report.md
 	test -s results/demo_smoke/test_adapted/report.md
 

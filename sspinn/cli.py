@@ -121,9 +121,18 @@ def _evaluate(args: argparse.Namespace) -> int:
             reference = recs if args.split == "train" else dataset.load("train")
     else:
         recs = open_recordings(args.data, args.split, args.periods, args.height, args.mass)
+    from sspinn.estimator import uncertainty
+
+    bands_file = uncertainty.calibration_path(args.model)
+    bands = None
+    if bands_file.exists():
+        try:
+            bands = uncertainty.load_calibration(bands_file, args.model)
+        except uncertainty.UncertaintyError as exc:  # e.g. left from an earlier model: the metrics do not need it
+            print(f"WARNING: {exc}; evaluated without intervals")
     try:
         result = evaluate(est, recs, args.out, reference=reference, reference_where=str(args.data),
-                          title=f"{args.model} on {args.data} ({args.split})", skip=args.skip)
+                          title=f"{args.model} on {args.data} ({args.split})", skip=args.skip, uncertainty=bands)
     except (EvaluationError, NonFiniteEstimateError, ImplausibleEstimateError) as exc:
         raise type(exc)(f"{args.model} on {args.data} ({args.split} split), recording {exc}") from None
     print(json.dumps(result["mean"], indent=2))
@@ -142,6 +151,11 @@ def _evaluate(args: argparse.Namespace) -> int:
             print(f"  FAILURE: on {program}, {', '.join(c['worse_than_baseline'])} no better than the trivial predictor")
         if c["worse_than_froude"]:
             print(f"  FAILURE: on {program}, {', '.join(c['worse_than_froude'])} no better than the Froude speed")
+    if "interval_coverage" in result:
+        cov = result["interval_coverage"]
+        print(f"coverage of the {100 * cov['level']:.0f} % intervals ({bands_file}):")
+        for program, groups in cov["by_program"].items():
+            print(f"  {program:<5} " + "; ".join(f"{g} {100 * v:.1f} %" for g, v in groups.items()))
     print(f"report: {args.out / 'report.md'}")
     return 0
 
@@ -167,12 +181,24 @@ def _infer(args: argparse.Namespace) -> int:
         print(f"NOTE: {args.model} has no quality calibration ({quality_file}): the per-window loss terms are written "
               "without scores or flags, and the inputs are not compared with the training data's; write one with "
               f"`sspinn calibrate-quality --model {args.model} --data DATASET`")
+    from sspinn.estimator import uncertainty
+
+    uncertainty_file = args.uncertainty or uncertainty.calibration_path(args.model)
+    bands = (uncertainty.load_calibration(uncertainty_file, args.model)
+             if args.uncertainty or uncertainty_file.exists() else None)
+    if bands is None:
+        print(f"NOTE: {args.model} has no uncertainty calibration ({uncertainty_file}): no intervals are written; write one "
+              f"with `sspinn calibrate-uncertainty --model {args.model} --data DATASET --split val`")
     try:
         estimates = [est.predict(r) for r in recs]  # all checked before anything is written
+        widths = [uncertainty.intervals(bands, est.network_, est.segments_, r) for r in recs] if bands else []
     except (NonFiniteEstimateError, ImplausibleEstimateError) as exc:
         raise type(exc)(f"{args.model} on {args.data}, recording {exc}") from None
-    for rec, estimate in zip(recs, estimates):
+    for k, (rec, estimate) in enumerate(zip(recs, estimates)):
         path = estimate.to_csv(args.out / f"{estimate.name}_estimate.csv")
+        if bands is not None:
+            band_path = uncertainty.write_intervals(args.out / f"{estimate.name}_uncertainty.csv", estimate.time, widths[k], bands.level)
+            print(f"{estimate.name}: {100 * bands.level:.0f} % intervals → {band_path}")
         quality = est.quality(rec)
         findings = []
         if calibration is not None:
@@ -221,6 +247,42 @@ def _calibrate_quality(args: argparse.Namespace) -> int:
     print(f"calibrated on {len(recs)} recordings ({int(fit['n_windows'])} windows of {cal.window_s:g} s): threshold "
           f"{cal.threshold:.3g} flags {fit['flag_rate']:.0%} of them (precision {fit['precision']:.0%}, recall "
           f"{fit['recall']:.0%} for the {1 - ERROR_QUANTILE:.0%} with the largest error) → {out}")
+    return 0
+
+
+def _calibrate_uncertainty(args: argparse.Namespace) -> int:
+    from sspinn.estimator import uncertainty
+    from sspinn.estimator.sspinnpose import SSPINNpose
+    from sspinn.estimator.trivial_predictors import program_of
+
+    est = SSPINNpose.load(args.model)
+    seen = set(args.split) & set(args.check)
+    if seen:
+        raise UserError(f"--check {' '.join(sorted(seen))}: also calibrated on; check on split(s) not in --split")
+    recs = [r for split in args.split for r in open_recordings(args.data, split, args.periods, args.height, args.mass)]
+    trained = [r.name for r in recs if r.name in est.trained_on_]
+    if trained:
+        print(f"NOTE: the model's training saw the IMU signals of {', '.join(trained)}: its errors there are smaller than on "
+              "new recordings, so the intervals come out too narrow; calibrate on recordings it was not trained on (val)")
+    cal = uncertainty.calibrate(est.network_, est.segments_, args.model, recs, [est.predict(r) for r in recs], args.level,
+                                args.passes)
+    for split in args.check:
+        checked = open_recordings(args.data, split, args.periods, args.height, args.mass)
+        estimates = [est.predict(r) for r in checked]
+        widths = [uncertainty.intervals(cal, est.network_, est.segments_, r) for r in checked]
+        cal.checked[split] = uncertainty.coverage(estimates, checked, widths, [program_of(r) for r in checked])
+    target = Path(args.out or uncertainty.calibration_path(args.model))
+    if target.exists() and not args.overwrite:
+        if target.read_text() == cal.to_json() + "\n":  # the same calibration again (a rerun of make demo)
+            print(f"{target}: unchanged")
+            return 0
+        raise UserError(f"{target}: holds another uncertainty calibration; replace it with --overwrite")
+    out = uncertainty.save_calibration(cal, target)
+    print(f"calibrated {100 * cal.level:.0f} % intervals on {len(recs)} recordings ({', '.join(args.split)}) → {out}")
+    for split, table in cal.checked.items():
+        print(f"coverage of the {100 * cal.level:.0f} % intervals on {split} (target {100 * cal.level:.0f} %):")
+        for program, groups in table.items():
+            print(f"  {program:<5} " + "; ".join(f"{g} {100 * v:.1f} %" for g, v in groups.items()))
     return 0
 
 
@@ -307,6 +369,8 @@ def _main(argv: list[str]) -> int:
     inf.add_argument("--overwrite", action="store_true", help="replace estimates already in --out (else a new folder <out>_2 …)")
     inf.add_argument("--quality", type=Path, default=None,
                      help="quality calibration file (default: <model>.quality.json beside the model, if there)")
+    inf.add_argument("--uncertainty", type=Path, default=None,
+                     help="uncertainty calibration file (default: <model>.uncertainty.json beside the model, if there)")
 
     cq = sub.add_parser("calibrate-quality", help="calibrate the per-window quality score on labelled recordings (JSON beside the model)")
     cq.add_argument("--model", type=Path, required=True)
@@ -314,6 +378,17 @@ def _main(argv: list[str]) -> int:
     cq.add_argument("--split", nargs="+", default=["train"], help="labelled split(s) to calibrate on (not those you evaluate on)")
     cq.add_argument("--out", type=Path, default=None, help="calibration file (default: <model>.quality.json)")
     cq.add_argument("--overwrite", action="store_true", help="replace a different calibration already in --out")
+
+    cu = sub.add_parser("calibrate-uncertainty",
+                        help="calibrate the per-sample intervals of every estimate on labelled recordings (JSON beside the model)")
+    cu.add_argument("--model", type=Path, required=True)
+    _data_args(cu)
+    cu.add_argument("--split", nargs="+", default=["val"], help="labelled split(s) the model was not trained on to calibrate on")
+    cu.add_argument("--check", nargs="*", default=[], help="labelled split(s) to check the coverage on (written into the file)")
+    cu.add_argument("--level", type=bounded(float, 0.5, 0.99), default=0.9, help="nominal coverage of the intervals")
+    cu.add_argument("--passes", type=bounded(int, 2, 1000), default=16, help="Monte Carlo dropout runs per recording")
+    cu.add_argument("--out", type=Path, default=None, help="calibration file (default: <model>.uncertainty.json)")
+    cu.add_argument("--overwrite", action="store_true", help="replace a different calibration already in --out")
 
     ex = sub.add_parser("export", help="torch.export program of one streaming step of a trained network (.pt2)")
     ex.add_argument("--model", type=Path, required=True)
@@ -344,6 +419,8 @@ def _main(argv: list[str]) -> int:
         return _export(args)
     if args.command == "calibrate-quality":
         return _calibrate_quality(args)
+    if args.command == "calibrate-uncertainty":
+        return _calibrate_uncertainty(args)
     if args.command == "import":
         return imu_import.run(args)
     if args.command == "experiment":

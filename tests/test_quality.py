@@ -123,7 +123,7 @@ def test_infer_writes_the_quality_and_warns(model, tiny_run, tmp_path, capsys):
     Dataset.write(tmp_path / "odd", {"test": [rec]})
     assert main(["infer", "--model", str(model), "--data", str(tmp_path / "odd"), "--out", str(tmp_path / "out")]) == 0
     captured = capsys.readouterr()
-    assert "NOTE" not in captured.out
+    assert "no quality calibration" not in captured.out
     warning_lines = [line for line in captured.err.splitlines() if line.startswith("WARNING: odd: ")]
     assert any("flagged as unreliable" in line and "3 of 3 windows (100%)" in line for line in warning_lines), captured.err
     assert any("height 1.5 m outside the training range" in line and "mass 45 kg" in line for line in warning_lines), captured.err

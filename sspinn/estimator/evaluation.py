@@ -27,6 +27,7 @@ paper's "averaged" protocol, which by design trains and evaluates on the same un
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -44,6 +45,7 @@ from sspinn.run_folder import atomic_write_text
 if TYPE_CHECKING:
     from sspinn.estimator.sspinnpose import SSPINNpose
     from sspinn.estimator.trivial_predictors import TrivialPredictor
+    from sspinn.estimator.uncertainty import UncertaintyCalibration
 
 ANGLES = ("pelvis_tilt", *JOINTS)
 
@@ -259,11 +261,15 @@ def write_report(
     skip: int = 0,
     extra: dict | None = None,
     baseline: TrivialPredictor | None = None,
+    intervals: Sequence[np.ndarray] | None = None,
+    level: float = 0.9,
 ) -> dict:
     """Metrics table (Markdown + JSON) and PNG plots (stick figures over time, gait-cycle
     normalised angles/torques/GRFs vs reference) for each recording; with ``baseline``, the
     metrics of the trivial predictors on the same recordings per gait program
-    (:func:`compare_with_baseline`). Returns the metrics."""
+    (:func:`compare_with_baseline`); with ``intervals`` (per recording, (T, n_channels) half-widths
+    of the ``level`` intervals of :mod:`sspinn.estimator.uncertainty`), their coverage of the
+    labels per program and the intervals as bands in the plots. Returns the metrics."""
     import json
 
     import matplotlib
@@ -290,7 +296,17 @@ def write_report(
     if comparison is not None:
         assert baseline is not None
         lines += baseline_lines(comparison, baseline.source)
-    for est, rec in zip(estimates, recordings):
+    covered = None
+    if intervals is not None:
+        from sspinn.estimator.trivial_predictors import program_of
+        from sspinn.estimator.uncertainty import CHANNELS, coverage
+
+        channel_names = list(CHANNELS)
+        covered = coverage(estimates, recordings, intervals, [program_of(r) for r in recordings], skip)
+        lines += ["", f"## Coverage of the {100 * level:.0f} % intervals (fraction of labelled samples inside)", "",
+                  "| program | " + " | ".join(next(iter(covered.values()))) + " |", "|---|" + "---|" * len(next(iter(covered.values())))]
+        lines += [f"| {p} | " + " | ".join(_cell(100 * v, ".1f") + " %" for v in c.values()) + " |" for p, c in covered.items()]
+    for index, (est, rec) in enumerate(zip(estimates, recordings)):
         body = BodyParameters.from_anthropometry(rec.height, rec.mass)
         fig, axes = plt.subplots(2, 3, figsize=(14, 7))
         ax = axes[0, 0]
@@ -315,16 +331,25 @@ def write_report(
             else:
                 e, scale, unit = est.grf[:, GRF.index(col)], 1 / (rec.mass * GRAVITY), "BW"
             x = np.linspace(0, 100, 101)
+            band = intervals[index][:, channel_names.index(col)] if intervals is not None else None
             if cycles:
                 ec = normalise_cycles(e, cycles) * scale
                 ax.plot(x, ec.mean(0), color="tab:blue", label="sspinn")
-                ax.fill_between(x, ec.mean(0) - ec.std(0), ec.mean(0) + ec.std(0), color="tab:blue", alpha=0.2)
+                if band is None:  # the spread over cycles
+                    ax.fill_between(x, ec.mean(0) - ec.std(0), ec.mean(0) + ec.std(0), color="tab:blue", alpha=0.2)
+                else:  # the mean interval over cycles
+                    hw = normalise_cycles(band, cycles).mean(0) * scale
+                    ax.fill_between(x, ec.mean(0) - hw, ec.mean(0) + hw, color="tab:blue", alpha=0.2,
+                                    label=f"{100 * level:.0f} % interval")
                 if lab is not None and col in lab.columns():
                     rc = normalise_cycles(lab.column(col), cycles) * scale
                     ax.plot(x, rc.mean(0), color="k", ls="--", label="reference")
                 ax.set_xlabel("% gait cycle")
             else:
                 ax.plot(est.time, e * scale, color="tab:blue", label="sspinn")
+                if band is not None:
+                    ax.fill_between(est.time, (e - band) * scale, (e + band) * scale, color="tab:blue", alpha=0.2,
+                                    label=f"{100 * level:.0f} % interval")
                 if lab is not None and col in lab.columns():
                     ax.plot(est.time, lab.column(col) * scale, color="k", ls="--", label="reference")
                 ax.set_xlabel("time (s)")
@@ -335,6 +360,8 @@ def write_report(
         lines.append(f"\n![{est.name}]({est.name}.png)")
     atomic_write_text(out / "report.md", "\n".join(lines) + "\n")
     result = {"title": title, "mean": mean.as_dict(), "recordings": {k: v.as_dict() for k, v in per.items()}, **(extra or {})}
+    if covered is not None:
+        result["interval_coverage"] = {"level": level, "by_program": covered}
     if comparison is not None:
         assert baseline is not None
         result["baseline_source"] = baseline.source
@@ -368,9 +395,11 @@ def evaluate(
     reference_where: str = "the dataset",
     title: str | None = None,
     skip: int = 50,
+    uncertainty: UncertaintyCalibration | None = None,
 ) -> dict:
     """Estimate every recording, score the estimates against the labels and write the report
     (``report.md``, ``metrics.json``, one PNG per recording) to ``out``; returns the metrics.
+    With an ``uncertainty`` calibration, the report adds the intervals' coverage and bands.
 
     The rules of a fair report live here: every estimate is checked before anything is written;
     the trivial predictors are those the model file stores, fitted on the labels of the model's
@@ -397,5 +426,11 @@ def evaluate(
     if stored is None:
         print(f"NOTE: {estimator.path_} stores no trivial predictors of its training data (a file from before they were "
               f"stored, or a model trained on unlabelled recordings); compared instead with: {baseline.source}")
+    widths = None
+    if uncertainty is not None:
+        from sspinn.estimator.uncertainty import intervals
+
+        widths = [intervals(uncertainty, estimator.network_, estimator.segments_, r) for r in recordings]
     return write_report(estimates, recordings, out, title=title, skip=skip, baseline=baseline,
-                        extra={"baselines_stored_in_model": stored is not None})
+                        extra={"baselines_stored_in_model": stored is not None}, intervals=widths,
+                        level=uncertainty.level if uncertainty is not None else 0.9)

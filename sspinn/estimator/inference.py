@@ -148,9 +148,9 @@ def network_inputs(model: SSPINNposeNet, rec: Recording, segments: tuple[str, ..
     return NetworkInputs(x, present, have)
 
 
-def _outputs(raw: torch.Tensor, body: BodyParameters, grf: str) -> dict[str, torch.Tensor]:
-    """Decode the raw outputs (1, T, n_outputs) of a ``grf`` network and, for the paper's, evaluate
-    the contact model (float64): q, u, qdd, tau, grf and w."""
+def physical_outputs(raw: torch.Tensor, body: BodyParameters, grf: str) -> dict[str, torch.Tensor]:
+    """Decode the raw outputs (B, T, n_outputs) of a ``grf`` network for one subject and, for the
+    paper's, evaluate the contact model (float64): q, u, qdd, tau, grf and w, each (B, T, n)."""
     scale, offset = output_affine(body.height, body.mass, body.standing_hip_height, body.gravity, grf)
     est = decode(raw.double(), torch.as_tensor(scale)[None], torch.as_tensor(offset)[None], 1.0 / SAMPLE_RATE_HZ, grf)
     c = torch.as_tensor(ContactParameters().vector())
@@ -169,7 +169,7 @@ def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str
     inputs = network_inputs(model, rec, segments, placement)
     raw, _ = model(inputs.x, present=inputs.present)
     body = BodyParameters.from_anthropometry(rec.height, rec.mass)
-    out = {k: v[0].cpu().numpy() for k, v in _outputs(raw.cpu(), body, model.config.grf).items()}
+    out = {k: v[0].cpu().numpy() for k, v in physical_outputs(raw.cpu(), body, model.config.grf).items()}
     return GaitEstimate(name=rec.name, time=rec.time, **out).check_finite().check_physical(rec.height, rec.mass)
 
 
