@@ -140,6 +140,13 @@ def test_placement_reports_errors_against_the_stored_truth(tiny, tmp_path):
     assert "IMU placement against the truth" in (out / "report.md").read_text()
 
 
+def test_the_two_contact_point_arm_trains_with_direct_forces(tiny, tmp_path):
+    out = tmp_path / "two"
+    assert _run(tiny, out, "ablations", "two_contact_points", "--steps", "2", "--set", "network.grf=direct") == 0
+    results = json.loads((out / "results.json").read_text())
+    _finite_metrics(results, ["two_contact_points"])
+
+
 @pytest.mark.parametrize("name, arms", [("ablations", "full,no_bounds"), ("loss-weights", "base,imu_half")])
 def test_ablations_and_loss_weights_run(tiny, tmp_path, name, arms):
     out = tmp_path / name
@@ -155,13 +162,14 @@ def test_arms_are_overrides_of_the_shipped_config():
     ablations = {a.name: a for a in list_arms("ablations")}
     assert ablations["no_input_noise"].settings == ("input_noise=0",)
     assert ablations["no_bounds"].settings[0] == "weights.bounds=0"
-    assert not ablations["two_contact_points"].built
+    assert ablations["two_contact_points"].settings == ("network.grf=two_point",)  # demo.yaml's direct GRFs
     weights = {a.name: a for a in list_arms("loss-weights")}
     assert weights["imu_half"].settings == ("weights.imu=1",) and weights["imu_double"].settings == ("weights.imu=4",)
     assert "gyro_half" not in weights and "slide_half" not in weights  # off, or zero with demo.yaml's direct GRFs
     assert ablations["no_slide"].settings == ("weights.stance=0",)  # L_S carries the no-sliding condition there
     paper = {a.name: a for a in list_arms("ablations", config=shipped_path("configs/sspinn/paper.yaml"))}
     assert paper["no_slide"].settings == ("weights.slide=0",)  # the paper's contact model
+    assert not paper["two_contact_points"].built  # two points exist for force outputs only
     assert [a.name for a in list_arms("finetune", steps=4000)] == ["base", "finetuned"]
     assert "finetune_last=1000" in list_arms("finetune", steps=4000)[1].settings
     assert set(EXPERIMENTS) == {"sensor-sets", "finetune", "placement", "ablations", "loss-weights"}

@@ -157,7 +157,12 @@ def physical_outputs(raw: torch.Tensor, body: BodyParameters, grf: str) -> dict[
     if est.grf is None:
         gc = dynamics.contact_from_ankles(est.q, est.u, est.ankle_global(), est.mu_hat, torch.as_tensor(body.vector()), c)
         est.grf = gc[..., :2].flatten(-2)
-    return {"q": est.q, "u": est.u, "qdd": est.qdd, "tau": est.tau, "grf": est.grf, "w": dynamics.contact_fraction(est.q, c)}
+    w = dynamics.contact_fraction(est.q, c)
+    if est.grf_points is not None:  # two points per foot: where their vertical loads balance (toe 0, heel 1)
+        fy = est.grf_points[..., 1]
+        total = fy.sum(dim=-1)
+        w = torch.where(total > 1e-3, fy[..., 1] / total.clamp_min(1e-3), w)
+    return {"q": est.q, "u": est.u, "qdd": est.qdd, "tau": est.tau, "grf": est.grf, "w": w}
 
 
 @torch.no_grad()
@@ -313,6 +318,8 @@ class StreamingEstimator:
     def __init__(self, model: SSPINNposeNet, segments: tuple[str, ...], height: float, mass: float, placement: np.ndarray | None = None) -> None:
         if model.config.bidirectional:
             raise ValueError("a bidirectional model needs the whole sequence; it cannot stream")
+        if model.config.grf == "two_point":
+            raise ValueError("a two_point-GRF model cannot stream (an ablation variant); use estimate_recording")
         self.model = model.eval()
         self.segments = segments
         self.height, self.mass = height, mass

@@ -82,7 +82,7 @@ from dataclasses import asdict, dataclass, replace
 
 import torch
 
-from sspinn.estimator.network import TYPICAL_QDD, TYPICAL_U, Estimate
+from sspinn.estimator.network import FORCE_OUTPUTS, TYPICAL_QDD, TYPICAL_U, Estimate
 from sspinn.model import dynamics, kinematics
 from sspinn.model.body import JointLimits
 from sspinn.model.contact import ContactParameters
@@ -256,10 +256,11 @@ class PhysicsLosses:
         bwbh = weight * batch.height[:, None]
         terms: dict[str, torch.Tensor] = {}
 
-        direct = self.grf == "direct"
+        direct = self.grf in FORCE_OUTPUTS
+        points = est.grf_points if self.grf == "two_point" else None
         if direct:
-            if est.grf is None:
-                raise ValueError("the direct-GRF losses need an estimate with forces (a network with grf: direct)")
+            if est.grf is None or (self.grf == "two_point" and points is None):
+                raise ValueError(f"the {self.grf}-GRF losses need an estimate with forces (a network with grf: {self.grf})")
             grf = est.grf
         else:  # ground contact on the separately estimated ankle kinematics
             gc = dynamics.contact_from_ankles(q, u, est.ankle_global(), est.mu_hat, p, c)  # (B, T, 2, 6)
@@ -268,7 +269,13 @@ class PhysicsLosses:
         w = dynamics.contact_fraction(q, c)
 
         # L_K
-        r = dynamics.kane_residual(q, u, qdd, tau, grf, w, p)
+        if points is None:
+            r = dynamics.kane_residual(q, u, qdd, tau, grf, w, p)
+        else:  # linear in the forces: each point's force at its own place (toe w = 0, heel w = 1)
+            toe, heel = torch.zeros_like(w), torch.ones_like(w)
+            r = (dynamics.kane_residual(q, u, qdd, tau, points[..., 0, :].flatten(-2), toe, p)
+                 + dynamics.kane_residual(q, u, qdd, tau, points[..., 1, :].flatten(-2), heel, p)
+                 - dynamics.kane_residual(q, u, qdd, tau, torch.zeros_like(grf), toe, p))
         r_scaled = torch.cat([r[..., :2] / weight[..., None], r[..., 2:] / bwbh[..., None]], dim=-1)
         terms["kane"] = r_scaled.square().mean()
 
@@ -312,7 +319,10 @@ class PhysicsLosses:
             + _relu2(self.foot_load - load.mean(dim=1)).mean()
             + _relu2(-u[..., 0].mean(dim=1)).mean()
         )
-        if direct:  # the friction cone
+        if points is not None:  # the friction cone at each point
+            point_load = points[..., 1] / weight[..., None, None]
+            bounds = bounds + _relu2(points[..., 0].abs() / weight[..., None, None] - FRICTION * point_load).mean()
+        elif direct:  # the friction cone
             bounds = bounds + _relu2(grf[..., 0::2].abs() / weight[..., None] - FRICTION * load).mean()
         terms["bounds"] = bounds
 
@@ -324,7 +334,12 @@ class PhysicsLosses:
         terms["slide"] = zero if direct else (gc[..., 4].abs() * load).square().mean()
 
         # L_S: the body model's own contact points (forward kinematics) under the same loads
-        cp = torch.stack([pk[..., kinematics.point_index(f"contact_{s}"), :4] for s in "rl"], dim=-2)  # (B, T, 2, 4)
+        if points is None:
+            cp = torch.stack([pk[..., kinematics.point_index(f"contact_{s}"), :4] for s in "rl"], dim=-2)  # (B, T, 2, 4)
+        else:  # toe and heel of each foot, each under its own load: (B, T, 2 feet, 2 points, 4)
+            cp = torch.stack([torch.stack([pk[..., kinematics.point_index(f"{point}_{s}"), :4] for point in ("toe", "heel")], dim=-2)
+                              for s in "rl"], dim=-3)
+            load = points[..., 1] / weight[..., None, None]
         y = cp[..., 1]
         if direct:  # a band around the floor (module docstring)
             off_floor, sunk = torch.relu(y - STANCE_CLEARANCE) + torch.relu(-y - STANCE_SINK), torch.relu(-y - STANCE_SINK)

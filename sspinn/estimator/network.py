@@ -48,7 +48,9 @@ from torch import nn
 from sspinn.model.conventions import GRF, N_Q, N_TAU, SEGMENTS
 
 #: The ground-contact outputs of :attr:`NetworkConfig.grf`: name → number of outputs.
-GRF_OUTPUTS: dict[str, int] = {"contact_model": 14, "direct": 4}
+GRF_OUTPUTS: dict[str, int] = {"contact_model": 14, "direct": 4, "two_point": 8}
+#: The :attr:`NetworkConfig.grf` layouts whose outputs are forces (no separately estimated ankles).
+FORCE_OUTPUTS: tuple[str, ...] = ("direct", "two_point")
 #: Outputs before the ground-contact block: q without pelvis_tx, u, q̈, τ.
 N_BODY_OUTPUTS = (N_Q - 1) + N_Q + N_Q + N_TAU
 assert N_BODY_OUTPUTS == 32
@@ -69,8 +71,10 @@ class NetworkConfig:
             (:meth:`SSPINNposeNet.set_normalisation`), so that a subject taller or shorter
             than every training subject is not an input the network never saw.
         grf: ``"contact_model"`` (the paper's: separately estimated ankle kinematics and a
-            friction factor drive the contact model) or ``"direct"`` (the ground reaction forces
-            are outputs; see the module docstring).
+            friction factor drive the contact model), ``"direct"`` (the ground reaction forces
+            are outputs; see the module docstring) or ``"two_point"`` (forces at two contact
+            points fixed on each foot, toe and heel, as outputs: the paper's "two fixed contact
+            points" ablation in the direct formulation; their sum is the foot's GRF).
         sensor_presence: one presence flag per IMU (1 present, 0 missing) as an extra input, and
             a missing IMU's normalised channels set to 0 (the training mean), so that one model
             serves any subset of its IMUs (trained with ``TrainConfig.sensor_dropout``; see
@@ -114,6 +118,7 @@ class Estimate:
     ankle: torch.Tensor | None = None  # (..., T, 2, 6): [x − pelvis_tx, y, vx, vy, ax, ay] per foot (r, l)
     mu_hat: torch.Tensor | None = None  # (..., T, 2)
     grf: torch.Tensor | None = None  # (..., T, 4): [Fx_r, Fy_r, Fx_l, Fy_l], N
+    grf_points: torch.Tensor | None = None  # (..., T, 2, 2, 2): foot (r, l), point (toe, heel), [Fx, Fy], N ("two_point")
 
     def ankle_global(self) -> torch.Tensor:
         """(..., T, 8): [x, y, vx, vy] per foot with x made global by adding pelvis_tx."""
@@ -228,10 +233,14 @@ TYPICAL_U: tuple[float, ...] = (1.5, 0.5) + (4.0,) * 7
 TYPICAL_QDD: tuple[float, ...] = (10.0, 10.0) + (50.0,) * 7
 
 #: Blocks of the outputs (see the module docstring); "contact" or "grf" by :attr:`NetworkConfig.grf`.
-BLOCKS = {"q": slice(0, 8), "u": slice(8, 17), "qdd": slice(17, 26), "tau": slice(26, 32), "contact": slice(32, 46), "grf": slice(32, 36)}
+BLOCKS = {"q": slice(0, 8), "u": slice(8, 17), "qdd": slice(17, 26), "tau": slice(26, 32), "contact": slice(32, 46), "grf": slice(32, 36),
+          "grf_points": slice(32, 40)}
 #: Output positions of a direct-GRF network's vertical forces (F_y of the right and left foot,
 #: in the order of :data:`sspinn.model.conventions.GRF`), which pass through a softplus (F_y ≥ 0).
 VERTICAL_FORCE_OUTPUTS: tuple[int, ...] = tuple(BLOCKS["grf"].start + GRF.index(f) for f in ("grf_y_r", "grf_y_l"))
+#: Output positions of a ``two_point`` network's vertical forces (per foot r, l: toe, heel),
+#: which pass through a softplus.
+VERTICAL_POINT_FORCE_OUTPUTS: tuple[int, ...] = tuple(BLOCKS["grf_points"].start + 2 * k + 1 for k in range(4))
 #: Scale of a direct-GRF network's horizontal forces, in body weights per unit raw output.
 GRF_X_SCALE = 0.5
 
@@ -252,10 +261,16 @@ def output_affine(height: float, mass: float, leg_length: float, gravity: float 
     qdd = list(TYPICAL_QDD)
     body = q + u + qdd + [torque] * N_TAU
     ankle = [0.2 * height, 0.05 * height, 2.0, 1.0, 20.0, 20.0, 1.0]
-    scale = np.array(body + ([GRF_X_SCALE * weight, weight] * 2 if grf == "direct" else ankle + ankle))
+    if grf == "direct":
+        contact = [GRF_X_SCALE * weight, weight] * 2
+    elif grf == "two_point":  # each point carries about half the foot's load
+        contact = [0.5 * GRF_X_SCALE * weight, 0.5 * weight] * 4
+    else:
+        contact = ankle + ankle
+    scale = np.array(body + contact)
     offset = np.zeros(scale.size)
     offset[0] = leg_length
-    if grf != "direct":  # the ankle heights (y, the second output of each foot's block)
+    if grf not in FORCE_OUTPUTS:  # the ankle heights (y, the second output of each foot's block)
         start = BLOCKS["contact"].start
         offset[start + 1] = offset[start + len(ankle) + 1] = 0.039 * height
     return scale, offset
@@ -266,10 +281,10 @@ def decode(raw: torch.Tensor, scale: torch.Tensor, offset: torch.Tensor, dt: flo
     per-sequence ``scale``/``offset`` (B, n_outputs) from :func:`output_affine`; pelvis_tx is the
     cumulative (trapezoidal) integral of the estimated horizontal root velocity, starting at 0
     in each sequence."""
-    if grf == "direct":  # vertical forces ≥ 0
-        block = BLOCKS["grf"]
+    if grf in FORCE_OUTPUTS:  # vertical forces ≥ 0
+        block = BLOCKS["grf" if grf == "direct" else "grf_points"]
         f = [raw[..., k] for k in range(block.start, block.stop)]
-        for k in VERTICAL_FORCE_OUTPUTS:
+        for k in VERTICAL_FORCE_OUTPUTS if grf == "direct" else VERTICAL_POINT_FORCE_OUTPUTS:
             f[k - block.start] = nn.functional.softplus(f[k - block.start])
         raw = torch.cat([raw[..., : block.start], torch.stack(f, dim=-1)], dim=-1)
     scaled = raw * scale[:, None, :] + offset[:, None, :]
@@ -283,5 +298,8 @@ def decode(raw: torch.Tensor, scale: torch.Tensor, offset: torch.Tensor, dt: flo
     }
     if grf == "direct":
         return Estimate(**body, grf=scaled[..., BLOCKS["grf"]])
+    if grf == "two_point":
+        points = scaled[..., BLOCKS["grf_points"]].reshape(*scaled.shape[:-1], 2, 2, 2)
+        return Estimate(**body, grf=points.sum(dim=-2).flatten(-2), grf_points=points)
     contact = scaled[..., BLOCKS["contact"]].reshape(*scaled.shape[:-1], 2, 7)
     return Estimate(**body, ankle=contact[..., :6], mu_hat=contact[..., 6])

@@ -151,8 +151,13 @@ def _ablations(base: TrainConfig, steps: int) -> list[Arm]:
         if term in base.weights_after_starts:
             settings.append(f"weights_after_starts.{term}=0")
         arms.append(Arm(name, f"without {symbol} (weights.{term} = 0)", tuple(settings), paper[name]))
-    arms.append(Arm("two_contact_points", "two fixed contact points per foot (heel and toe) instead of one moving along the foot "
-                    "(no such contact variant exists here)", paper=(10.7, 4.1, 22.8, 0.38), built=False))
+    if base.network.grf == "direct":
+        arms.append(Arm("two_contact_points", "two fixed contact points per foot (toe and heel), each with its own force, "
+                        "instead of one point moving along the foot (network.grf = two_point)", ("network.grf=two_point",),
+                        paper=(10.7, 4.1, 22.8, 0.38)))
+    else:
+        arms.append(Arm("two_contact_points", "two fixed contact points per foot (toe and heel); built for direct-GRF networks "
+                        "(network.grf = two_point), not for the contact model", paper=(10.7, 4.1, 22.8, 0.38), built=False))
     return arms
 
 

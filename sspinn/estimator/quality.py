@@ -61,6 +61,7 @@ WINDOW_S = 2.0
 #: The loss terms of the score, for each kind of network (``NetworkConfig.grf``).
 QUALITY_TERMS: dict[str, tuple[str, ...]] = {
     "direct": ("imu", "kane", "stance", "temporal"),
+    "two_point": ("imu", "kane", "stance", "temporal"),
     "contact_model": ("imu", "kane", "stance", "contact", "temporal"),
 }
 #: The per-window error that calibration predicts: mean of the joint-angle RMSE and the GRF
