@@ -16,7 +16,7 @@ from sspinn.cli import main
 from sspinn.data.dataset import Dataset, Labels
 from sspinn.estimator.paper_experiments import EXPERIMENTS, list_arms, true_placement
 from sspinn.model.body import IMUPlacement
-from sspinn.model.conventions import JOINTS, SEGMENTS
+from sspinn.model.conventions import COORDINATES, JOINTS, SEGMENTS
 from sspinn.testing import make_recording
 from sspinn.yaml_config import shipped_path
 
@@ -39,6 +39,8 @@ def tiny(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
         for name in names:
             rec = make_recording(name, name[0], 140, rng)
             columns = {c: rec.labels.column(c) for c in rec.labels.columns()}
+            t = np.arange(140) / 100  # smooth coordinates: their derivatives are gait-sized (misplacement)
+            columns |= {c: 0.2 * np.sin(2 * np.pi * t + k) for k, c in enumerate(COORDINATES)}
             rec.labels = Labels.from_columns({**columns, **{f"tau_{j}": rng.normal(scale=20.0, size=140) for j in JOINTS}}, 140)
             rec.provenance = {"program": {"name": name.split("_")[1]}, "ground_truth": {"imu_placement": _truth(rng)}}
             recs[split].append(rec)
@@ -140,6 +142,32 @@ def test_placement_reports_errors_against_the_stored_truth(tiny, tmp_path):
     assert "IMU placement against the truth" in (out / "report.md").read_text()
 
 
+def test_misplaced_sensors_change_the_signals_by_the_placement_alone(tiny):
+    from sspinn.estimator.paper_experiments import misplaced
+
+    data, _ = tiny
+    [rec, _] = Dataset.open(data).load("test")
+    same = misplaced(rec, 0.0, 0.0)
+    np.testing.assert_allclose(same.imu, rec.imu, atol=1e-12)
+    moved = misplaced(rec, 0.05, 0.0, seed=3)
+    assert moved.labels is rec.labels and not np.allclose(moved.imu, rec.imu)
+    # a pure rotation leaves the gyroscopes alone (the segment's rate is the sensor's)
+    turned = misplaced(rec, 0.0, np.radians(20))
+    np.testing.assert_allclose(turned.imu[..., 2], rec.imu[..., 2], atol=1e-9)
+    assert not np.allclose(turned.imu[..., :2], rec.imu[..., :2])
+
+
+def test_the_misplacement_experiment_scores_every_misplacement(tiny, tmp_path):
+    out = tmp_path / "mis"
+    assert _run(tiny, out, "misplacement", "nominal", "--steps", "2") == 0
+    results = json.loads((out / "results.json").read_text())
+    by = results["arms"]["nominal"]["by_misplacement"]
+    assert list(by) == ["none", "2 cm", "5 cm", "10 cm", "20 cm", "10°", "20°", "30°"]
+    assert by["none"]["walk"]["model"] == results["arms"]["nominal"]["by_program"]["walk"]["model"]
+    assert "## Sensors misplaced on the test recordings" in (out / "report.md").read_text()
+    assert (out / "misplacement.png").stat().st_size > 0
+
+
 def test_the_two_contact_point_arm_trains_with_direct_forces(tiny, tmp_path):
     out = tmp_path / "two"
     assert _run(tiny, out, "ablations", "two_contact_points", "--steps", "2", "--set", "network.grf=direct") == 0
@@ -172,7 +200,7 @@ def test_arms_are_overrides_of_the_shipped_config():
     assert not paper["two_contact_points"].built  # two points exist for force outputs only
     assert [a.name for a in list_arms("finetune", steps=4000)] == ["base", "finetuned"]
     assert "finetune_last=1000" in list_arms("finetune", steps=4000)[1].settings
-    assert set(EXPERIMENTS) == {"sensor-sets", "finetune", "placement", "ablations", "loss-weights"}
+    assert set(EXPERIMENTS) == {"sensor-sets", "finetune", "placement", "ablations", "loss-weights", "misplacement"}
 
 
 def test_bad_requests_are_one_line_errors(tiny, tmp_path, capsys):

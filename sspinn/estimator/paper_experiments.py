@@ -34,13 +34,13 @@ import argparse
 import json
 import shutil
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from sspinn.data.dataset import Dataset, Recording
+from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset, Recording
 from sspinn.errors import UserError
 from sspinn.estimator.evaluation import BASELINE_OF, check_evaluable, compare_with_baseline
 from sspinn.estimator.training import IMU_CONFIGURATIONS, TrainConfig
@@ -176,6 +176,52 @@ def _loss_weights(base: TrainConfig, steps: int) -> list[Arm]:
     return arms
 
 
+#: The misplacements of the ``misplacement`` experiment: name → (shift along each segment, m;
+#: rotation, rad), every sensor at once with a random sign per sensor.
+MISPLACEMENTS: dict[str, tuple[float, float]] = {
+    "none": (0.0, 0.0), "2 cm": (0.02, 0.0), "5 cm": (0.05, 0.0), "10 cm": (0.10, 0.0), "20 cm": (0.20, 0.0),
+    "10°": (0.0, np.radians(10)), "20°": (0.0, np.radians(20)), "30°": (0.0, np.radians(30)),
+}
+
+
+def _misplacement(base: TrainConfig, steps: int) -> list[Arm]:
+    return [
+        Arm("nominal", "the configuration as it is (nominal placement), scored on test recordings with misplaced sensors"),
+        Arm("learned", "the placement learned with the network (learn_placement), scored on the same misplaced test "
+            "recordings (the placement of a new recording stays nominal)", ("learn_placement=true",)),
+    ]
+
+
+def misplaced(rec: Recording, along_m: float, angle_rad: float, seed: int = 0) -> Recording:
+    """``rec`` as if every sensor sat ``along_m`` further along its segment (y on the pelvis, thighs
+    and shanks, x on the feet) and were turned by ``angle_rad``, each with a random sign (seeded):
+    the signals plus the change of the virtual IMU signals of its labels (u and q̈ by central
+    differences of q where not labelled) between the true
+    placement (``true_placement``; the nominal one if not stored) and the moved one. The body is the
+    Winter-scaled one of its height and mass (the change, not the signal, comes from it)."""
+    from sspinn.model.body import BodyParameters, IMUPlacement
+    from sspinn.model.kinematics import virtual_imu
+
+    lab = rec.labels
+    if lab is None or lab.q is None or not np.isfinite(lab.q).all():
+        raise ExperimentError(f"{rec.name}: misplacing sensors needs its labelled coordinates q (all nine)")
+    dt = 1.0 / SAMPLE_RATE_HZ  # rates and accelerations by central differences where not labelled
+    u = lab.u if lab.u is not None and np.isfinite(lab.u).all() else np.gradient(lab.q, dt, axis=0)
+    qdd = lab.qdd if lab.qdd is not None and np.isfinite(lab.qdd).all() else np.gradient(u, dt, axis=0)
+    truth = true_placement(rec)
+    before = (rec.placement.vector() if truth is None else truth.ravel()).reshape(len(SEGMENTS), 3)
+    sign = np.where(np.random.default_rng(seed).random((len(SEGMENTS), 2)) < 0.5, -1.0, 1.0)
+    after = before.copy()
+    for i, s in enumerate(SEGMENTS):
+        after[i, 0 if s.startswith("foot") else 1] += sign[i, 0] * along_m
+        after[i, 2] += sign[i, 1] * angle_rad
+    p = BodyParameters.from_anthropometry(rec.height, rec.mass).vector()
+    change = (virtual_imu(lab.q, u, qdd, IMUPlacement.from_vector(after.ravel()), p)
+              - virtual_imu(lab.q, u, qdd, IMUPlacement.from_vector(before.ravel()), p))
+    idx = [SEGMENTS.index(s) for s in rec.segments]
+    return replace(rec, imu=rec.imu + change[:, idx])
+
+
 @dataclass(frozen=True)
 class Experiment:
     """An experiment: its arms (a function of the base configuration and the step budget) and
@@ -194,6 +240,8 @@ EXPERIMENTS: dict[str, Experiment] = {
     "placement": Experiment(_placement, "optimising the IMU placement jointly with the network recovers how the sensors were "
                             "mounted", "the placement optimisation"),
     "ablations": Experiment(_ablations, "every auxiliary term matters", "the ablation table; the full model's row is Table 2's all-sensor one"),
+    "misplacement": Experiment(_misplacement, "(the paper's removed sensitivity study) the estimate tolerates sensors moved "
+                               "along their segments or turned", "the sensitivity study removed from the paper"),
     "loss-weights": Experiment(_loss_weights, "the results are robust to halving or doubling each loss weight, except L_IMU "
                                "and L_B", "the loss-weight sensitivity"),
 }
@@ -296,6 +344,8 @@ def run(request: Request, log: Callable[[str], None] = print) -> dict[str, Any]:
         atomic_write_text(out / "report.md", report(results))
         if request.experiment == "sensor-sets":
             plot_sensor_sets(out, [a for a in arms if (out / a.name / "arm.json").exists()], test)
+        if request.experiment == "misplacement":
+            plot_misplacement(out, {n: a for n, a in results["arms"].items() if a["status"] == "finished"})
     log(f"report: {out / 'report.md'}")
     return results
 
@@ -348,6 +398,10 @@ def _run_arm(request: Request, arm: Arm, train: list[Recording], test: list[Reco
                                for name in arm.subsets}
     if request.experiment == "placement":
         result["placement"] = placement_errors(folder / "checkpoint.pt", train)
+    if request.experiment == "misplacement":
+        result["by_misplacement"] = {name: score(est, train, [misplaced(r, along, angle, seed=k) for k, r in enumerate(test)],
+                                                 str(request.data))
+                                     for name, (along, angle) in MISPLACEMENTS.items()}
     atomic_write_text(folder / "arm.json", json_text(result, non_finite="null"))
 
 
@@ -533,9 +587,65 @@ def report(results: dict[str, Any]) -> str:
     for name, a in finished.items():
         if a.get("by_subset"):
             lines += _any_subset_section(name, a, finished)
+    if any(a.get("by_misplacement") for a in finished.values()):
+        lines += _misplacement_section(finished)
     if results["experiment"] == "sensor-sets" and finished:
         lines += ["![estimated poses per sensor set](sensor_sets.png)", ""]
     return "\n".join(lines)
+
+
+def _misplacement_section(finished: dict[str, Any]) -> list[str]:
+    """The report's table of the metrics against the misplacement of every sensor."""
+    heads = list(METRICS.values())
+    lines = ["## Sensors misplaced on the test recordings", "",
+             "Every sensor of every test recording moved along its segment (cm) or turned (°), each by the same amount "
+             "with a random sign (`sspinn.estimator.paper_experiments.misplaced`); the model is told the nominal placement.", ""]
+    scored = {n: a["by_misplacement"] for n, a in finished.items() if a.get("by_misplacement")}
+    programs = list(dict.fromkeys(p for by in scored.values() for r in by.values() for p in r))
+    for program in programs:
+        lines += [f"### {program}", "", "| misplacement | arm | " + " | ".join(heads) + " |", "|---|---|" + "---|" * len(heads)]
+        for where in MISPLACEMENTS:
+            for arm, by in scored.items():
+                model = by.get(where, {}).get(program, {}).get("model")
+                if model is not None:
+                    lines.append(f"| {where} | {arm} | " + " | ".join(_cell(model[k]) for k in METRICS) + " |")
+        first = next(iter(scored.values()))["none"][program]["baseline"]
+        lines += ["| – | trivial predictors | " + " | ".join(_cell(first[k]) for k in METRICS) + " |", ""]
+    lines += ["![metrics against the misplacement](misplacement.png)", ""]
+    return lines
+
+
+def plot_misplacement(out: Path, finished: dict[str, Any]) -> Path | None:
+    """``misplacement.png``: per metric (columns) and gait (rows), the metric against the shift
+    (cm, bottom axis) and the rotation (°, a second panel row) for each arm."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from sspinn.model.drawing import save_figure
+
+    scored = {n: a["by_misplacement"] for n, a in finished.items() if a.get("by_misplacement")}
+    if not scored:
+        return None
+    programs = [p for p in dict.fromkeys(p for by in scored.values() for r in by.values() for p in r) if p != "all"]
+    shifts = [k for k, (d, a) in MISPLACEMENTS.items() if a == 0]
+    turns = ["none"] + [k for k, (d, a) in MISPLACEMENTS.items() if a > 0]
+    fig, axes = plt.subplots(2 * len(programs), len(METRICS), figsize=(3.4 * len(METRICS), 2.6 * 2 * len(programs)), squeeze=False)
+    for row, program in enumerate(programs):
+        for kind, keys, xs, unit in (("shift", shifts, [100 * MISPLACEMENTS[k][0] for k in shifts], "cm"),
+                                     ("turn", turns, [np.degrees(MISPLACEMENTS[k][1]) for k in turns], "°")):
+            r = 2 * row + (kind == "turn")
+            for col, (key, head) in enumerate(METRICS.items()):
+                ax = axes[r, col]
+                for arm, by in scored.items():
+                    ax.plot(xs, [by[k][program]["model"][key] for k in keys], marker="o", label=arm)
+                ax.axhline(by["none"][program]["baseline"][key], color="0.5", ls="--", label="trivial")
+                ax.set_xlabel(f"{kind} ({unit})")
+                ax.set_title(f"{program}: {head}", fontsize=9)
+                if r == 0 and col == 0:
+                    ax.legend(fontsize=7)
+    return save_figure(fig, out / "misplacement.png", dpi=80)
 
 
 #: Largest relative difference (on every metric) at which one model for every subset counts as
