@@ -362,3 +362,37 @@ def test_training_data_warns_once_naming_every_foot_without_a_stance() -> None:
     assert "quiet" not in messages[0]
     assert np.isnan(prepared[0].zupt_speed).all() and np.isnan(prepared[1].zupt_speed).all()
     assert not np.isnan(prepared[2].zupt_speed).all()
+
+
+def test_whole_body_rest_is_found_only_where_every_sensor_rests():
+    from sspinn.estimator.zupt import whole_body_still
+    from sspinn.testing import walking_recording
+
+    rec = walking_recording(400)
+    imu = rec.imu.copy()
+    imu[:100, :, :2] = [0.0, 9.81]  # standing still for 1 s ...
+    imu[:100, :, 2] = 0.01
+    still = whole_body_still(imu, 100.0)
+    assert still[:100].all() and not still[100:].any()
+    imu[:100, 3, 2] = 2.0  # ... but one foot moving: not a whole-body rest
+    assert not whole_body_still(imu, 100.0).any()
+    imu[:30, 3, 2] = 0.01  # every sensor quiet for 0.3 s only: shorter than the window
+    assert not whole_body_still(imu, 100.0).any()
+
+
+def test_the_estimate_reports_no_speed_while_the_body_rests(tmp_path):
+    import contextlib
+    import io
+
+    from sspinn.estimator.sspinnpose import SSPINNpose
+    from sspinn.testing import tiny_run, walking_recording
+
+    _, _, run = tiny_run(tmp_path)
+    est = SSPINNpose.load(run / "model.pt")
+    rec = walking_recording(400)
+    rec.imu[:150, :, :2] = [0.0, 9.81]
+    rec.imu[:150, :, 2] = 0.0
+    with contextlib.redirect_stderr(io.StringIO()):
+        estimate = est.predict(rec)
+    assert (estimate.u[:150, 0] == 0).all() and (estimate.q[:150, 0] == 0).all()
+    assert (estimate.u[150:, 0] != 0).any()

@@ -169,12 +169,27 @@ def physical_outputs(raw: torch.Tensor, body: BodyParameters, grf: str) -> dict[
 def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str, ...], placement: np.ndarray | None = None) -> GaitEstimate:
     """Run the model over a whole recording (the assumed body: Winter scaling of its height and
     mass; the nominal IMU placement unless ``placement`` (21,) is given). A model with presence
-    inputs accepts a recording with a subset of its IMUs (:func:`network_inputs`)."""
+    inputs accepts a recording with a subset of its IMUs (:func:`network_inputs`).
+
+    Where every IMU rests for at least half a second (:func:`~sspinn.estimator.zupt.whole_body_still`:
+    standing or sitting still), the forward pelvis velocity is set to 0 and pelvis_tx integrated
+    again: a whole-body zero-velocity update. The network cannot tell a body at rest from one
+    gliding at constant speed (the accelerometers read the same; its training data have no
+    standing), and reported 0.3–0.6 m/s in real quiet standing. Walking and running never rest
+    every segment that long, so their estimates are unchanged. The stream
+    (:class:`StreamingEstimator`) has no look-ahead and makes no such update."""
+    from sspinn.estimator.zupt import whole_body_still
+
     model.eval()
     inputs = network_inputs(model, rec, segments, placement)
     raw, _ = model(inputs.x, present=inputs.present)
     body = BodyParameters.from_anthropometry(rec.height, rec.mass)
     out = {k: v[0].cpu().numpy() for k, v in physical_outputs(raw.cpu(), body, model.config.grf).items()}
+    still = whole_body_still(inputs.recording.imu, SAMPLE_RATE_HZ)
+    if still.any():
+        out["u"][still, 0] = 0.0
+        vx = out["u"][:, 0]
+        out["q"][:, 0] = np.concatenate([[0.0], np.cumsum(0.5 * (vx[1:] + vx[:-1]) / SAMPLE_RATE_HZ)])
     return GaitEstimate(name=rec.name, time=rec.time, **out).check_finite().check_physical(rec.height, rec.mass)
 
 

@@ -147,14 +147,37 @@ def detect_stance(
     quiet = np.abs(gyr) < gyro_threshold
     if acc_threshold is not None:
         quiet &= np.abs(np.linalg.norm(acc, axis=1) - gravity) < acc_threshold
-    min_len = max(1, int(round(window_s * sample_rate_hz)))
-    edges = np.diff(np.concatenate(([0], quiet.astype(np.int8), [0])))
+    return _runs_at_least(quiet, max(1, int(round(window_s * sample_rate_hz))))
+
+
+def _runs_at_least(mask: np.ndarray, min_len: int) -> np.ndarray:
+    """``mask`` with its runs of True shorter than ``min_len`` samples cleared."""
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    stance = np.zeros(len(gyr), dtype=bool)
+    out = np.zeros(len(mask), dtype=bool)
     for s, e in zip(starts, ends):
         if e - s >= min_len:
-            stance[s:e] = True
-    return stance
+            out[s:e] = True
+    return out
+
+
+#: Shortest whole-body rest, s: walking never rests every segment this long (double support
+#: lasts 0.1–0.2 s, and the swing leg moves through it).
+STILL_WINDOW_S = 0.5
+
+
+def whole_body_still(imu: np.ndarray, sample_rate_hz: float, window_s: float = STILL_WINDOW_S) -> np.ndarray:
+    """(T,) bool: the samples where every IMU of ``imu`` (T, n_imu, 3) [acc_x, acc_y, gyr_z] is
+    quiet by :func:`detect_stance`'s per-sample test (its default thresholds) at once, for at least
+    ``window_s`` seconds — standing or sitting still, where the whole body, the pelvis included,
+    has no velocity (a zero-velocity update of the whole body, as the foot's in stance)."""
+    imu = np.asarray(imu, dtype=float)
+    if imu.ndim != 3 or imu.shape[2] != 3 or imu.shape[1] < 1:
+        raise ValueError(f"imu must be (T, n_imu >= 1, 3), got {imu.shape}")
+    quiet = np.ones(imu.shape[0], dtype=bool)
+    for k in range(imu.shape[1]):
+        quiet &= detect_stance(imu[:, k, :2], imu[:, k, 2], sample_rate_hz, window_s=0.0)
+    return _runs_at_least(quiet, max(1, int(round(window_s * sample_rate_hz))))
 
 
 def stance_phases(stance: np.ndarray) -> np.ndarray:
