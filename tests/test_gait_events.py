@@ -100,3 +100,28 @@ def test_contact_onsets_raw_and_periodic() -> None:
     assert contact_onsets(wrap, threshold_bw=0.6, periodic=True).tolist() == []
     st = stance_fractions(fy, fy[::-1])
     assert st["stance_r"] == 0.625 and st["double_support"] + st["flight"] <= 1.0
+
+
+def test_foot_imu_heel_strikes_are_the_rate_minima_after_each_swing_peak():
+    from sspinn.data.gait_events import foot_imu_heel_strikes
+
+    rate, stride = 100.0, 110
+    t = np.arange(stride)
+    one = np.zeros(stride)
+    one[20:60] = 4.0 * np.sin(np.pi * (t[20:60] - 20) / 40)  # swing: the toe rises, the foot swings
+    one[60:70] = -3.0 * np.sin(np.pi * (t[60:70] - 60) / 10)  # the foot slaps flat: minimum at 65
+    gyr = np.tile(one, 6) + np.random.default_rng(0).normal(scale=0.05, size=6 * stride)
+    found = foot_imu_heel_strikes(gyr, rate)
+    assert len(found) == 6 and np.abs(found - (65 + stride * np.arange(6))).max() <= 1  # noise may move it a sample
+    with pytest.raises(ValueError, match="finite 1-D"):
+        foot_imu_heel_strikes(np.array([0.0, np.nan]), rate)
+
+
+def test_the_grf_profile_follows_the_heel_strikes_it_is_given():
+    from sspinn.testing import make_recording
+
+    profile = GRFProfilePredictor(np.ones((2, 101, 2)) * np.linspace(0, 1, 101)[None, :, None], np.zeros(4), 3, "test")
+    rec = make_recording("r", "s", 300)
+    grf = profile.predict_grf(rec, [np.array([50, 150]), np.array([100, 200])]) / (rec.mass * 9.81)
+    assert grf[50, 1] == pytest.approx(0.0) and grf[149, 1] == pytest.approx(0.99, abs=0.01)
+    assert grf[100, 3] == pytest.approx(0.0) and grf[40, 1] == 0.0  # outside a stride: the constant mean

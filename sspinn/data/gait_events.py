@@ -92,6 +92,39 @@ def detect_events(vertical: np.ndarray, body_weight: float, rate_hz: float,
     return GaitEvents(np.flatnonzero(change == 1) + 1, np.flatnonzero(change == -1) + 1, contact)
 
 
+#: Foot-IMU heel strikes: the swing's angular-rate peak must reach this fraction of the
+#: recording's 95th-percentile rate (the swing peaks are the largest positive rates of a foot in
+#: walking) …
+SWING_PEAK_FRACTION: Final = 0.5
+#: … and the heel strike is the rate's minimum within this long after it, s.
+HEEL_STRIKE_SEARCH_S: Final = 0.3
+
+
+def foot_imu_heel_strikes(gyr_z: np.ndarray, rate_hz: float) -> np.ndarray:
+    """Heel strikes (sample indices) of one foot from its IMU's sagittal angular rate (rad/s;
+    positive when the toe rises, :mod:`sspinn.model.conventions`), without any force: the
+    standard gyroscope rule for foot-worn IMUs (Rampp et al. 2015, IEEE Trans. Biomed. Eng.
+    62:1089, "initial contact" of gaitmap's ``RamppEventDetection``) in this frame — after each
+    swing's positive rate peak (at least :data:`SWING_PEAK_FRACTION` of the recording's 95th
+    percentile, peaks ≥ 0.4 s apart), the rate's minimum within :data:`HEEL_STRIKE_SEARCH_S`:
+    the foot stops rotating forward and slaps flat. For walking; a forefoot strike (running)
+    has no such minimum at contact."""
+    from scipy.signal import find_peaks
+
+    g = np.asarray(gyr_z, dtype=float)
+    if g.ndim != 1 or not np.isfinite(g).all():
+        raise ValueError("gyr_z must be a finite 1-D array")
+    height = SWING_PEAK_FRACTION * max(float(np.percentile(g, 95)), 1e-9)
+    peaks, _ = find_peaks(g, height=height, distance=max(1, round(0.4 * rate_hz)))
+    window = max(2, round(HEEL_STRIKE_SEARCH_S * rate_hz))
+    out = []
+    for k, p in enumerate(peaks):
+        stop = min(len(g), p + window, peaks[k + 1] if k + 1 < len(peaks) else len(g))
+        if stop - p > 1:
+            out.append(p + 1 + int(np.argmin(g[p + 1 : stop])))
+    return np.array(out, dtype=int)
+
+
 def contact_onsets(vertical_bw: np.ndarray, threshold_bw: float = CONTACT_THRESHOLD_BW, periodic: bool = False) -> np.ndarray:
     """Sample indices at which a vertical force (in body weights) rises above ``threshold_bw``
     after being at or below it — raw crossings, without :func:`contact_mask`'s cleaning, for

@@ -249,13 +249,16 @@ class GRFProfilePredictor:
         profile = np.stack([np.concatenate(c).mean(axis=0) for c in cycles])
         return cls(profile, np.concatenate(means).mean(0), min(sum(len(x) for x in c) for c in cycles), source)
 
-    def predict_grf(self, rec: Recording) -> np.ndarray:
-        """(T, 4) GRF (N) of ``rec``: the profile between its measured heel strikes."""
-        if rec.labels is None or rec.labels.grf is None:
+    def predict_grf(self, rec: Recording, heel_strikes: Sequence[np.ndarray] | None = None) -> np.ndarray:
+        """(T, 4) GRF (N) of ``rec``: the profile between its measured heel strikes, or between
+        ``heel_strikes`` (right, left: sample indices) found otherwise, e.g. from the foot IMUs
+        (:func:`~sspinn.data.gait_events.foot_imu_heel_strikes`: a baseline without oracle timing)."""
+        if heel_strikes is None and (rec.labels is None or rec.labels.grf is None):
             raise ValueError(f"{rec.name}: the GRF profile is placed at the measured heel strikes; the recording has no GRF labels")
         bw = rec.mass * GRAVITY
         out = np.tile(self.mean_bw, (rec.n_samples, 1))
-        for foot, cuts in enumerate(_strides(rec)):
+        cuts_per_foot = _strides(rec) if heel_strikes is None else [strides(np.asarray(h), SAMPLE_RATE_HZ) for h in heel_strikes]
+        for foot, cuts in enumerate(cuts_per_foot):
             for s, e in cuts:
                 grid = np.linspace(0, 1, e - s + 1)
                 out[s : e + 1, 2 * foot : 2 * foot + 2] = np.column_stack(
