@@ -18,6 +18,9 @@ contact     14     ``grf: contact_model`` (the paper's): per foot (r, l) the ank
                    model's (:func:`sspinn.model.dynamics.contact_from_ankles`)
 grf         4      ``grf: direct`` (not in the paper): the GRF itself,
                    [F_x, F_y] per foot, F_y = BW·softplus(raw) ≥ 0, F_x = BW/2·raw
+grf_points  8      ``grf: two_point`` (the paper's two-fixed-point ablation with force
+                   outputs): [F_x, F_y] at the toe, then at the heel, per foot, each
+                   scaled by half the body weight, F_y ≥ 0 as above
 ==========  =====  ====================================================================
 
 Why the direct GRF (:attr:`NetworkConfig.grf`): the paper's contact model makes the vertical
