@@ -25,6 +25,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 
 from sspinn.data.dataset import Recording
@@ -36,6 +37,7 @@ from sspinn.estimator.network import SSPINNposeNet
 from sspinn.estimator.quality import WindowQuality, window_quality
 from sspinn.estimator.training import TrainConfig, Trainer, adaptation_config
 from sspinn.estimator.trivial_predictors import TrivialPredictor
+from sspinn.estimator.uncertainty import UncertaintyCalibration, intervals
 from sspinn.yaml_config import shipped_path
 
 #: The repository's named training configurations (``configs/sspinn/<name>.yaml``), found from
@@ -182,6 +184,14 @@ class SSPINNpose:
         score and flags come from a calibration (:meth:`~sspinn.estimator.quality.QualityCalibration.apply`)."""
         self._check_fitted()
         return window_quality(self.network_, recording, self.segments_, self.imu_std_, self.config_.joint_limits)
+
+    def intervals(self, recording: Recording, calibration: UncertaintyCalibration) -> np.ndarray:
+        """(T, n_channels) half-widths of the calibrated intervals of the estimate of
+        ``recording``, per channel of :data:`sspinn.estimator.uncertainty.CHANNELS` (rad, N·m, N,
+        m/s); the calibration comes from ``sspinn calibrate-uncertainty`` (its file:
+        :func:`sspinn.estimator.uncertainty.load_calibration`)."""
+        self._check_fitted()
+        return intervals(calibration, self.network_, self.segments_, recording)
 
     def stream(self, height: float, mass: float) -> StreamingEstimator:
         """A sample-by-sample estimator for one subject (height m, mass kg) with a carried LSTM
