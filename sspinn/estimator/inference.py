@@ -185,12 +185,14 @@ def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str
     raw, _ = model(inputs.x, present=inputs.present)
     body = BodyParameters.from_anthropometry(rec.height, rec.mass)
     out = {k: v[0].cpu().numpy() for k, v in physical_outputs(raw.cpu(), body, model.config.grf).items()}
+    # the network's own output is checked first: an impossible speed is an error, not a rest
+    estimate = GaitEstimate(name=rec.name, time=rec.time, **out).check_finite().check_physical(rec.height, rec.mass)
     still = whole_body_still(inputs.recording.imu, SAMPLE_RATE_HZ)
     if still.any():
-        out["u"][still, 0] = 0.0
-        vx = out["u"][:, 0]
-        out["q"][:, 0] = np.concatenate([[0.0], np.cumsum(0.5 * (vx[1:] + vx[:-1]) / SAMPLE_RATE_HZ)])
-    return GaitEstimate(name=rec.name, time=rec.time, **out).check_finite().check_physical(rec.height, rec.mass)
+        estimate.u[still, 0] = 0.0
+        vx = estimate.u[:, 0]
+        estimate.q[:, 0] = np.concatenate([[0.0], np.cumsum(0.5 * (vx[1:] + vx[:-1]) / SAMPLE_RATE_HZ)])
+    return estimate
 
 
 # Streaming: a hand-written single-step LSTM (see StreamingEstimator for why it exists).
