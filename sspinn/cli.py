@@ -217,13 +217,13 @@ def _infer(args: argparse.Namespace) -> int:
 def _calibrate_quality(args: argparse.Namespace) -> int:
     import warnings
 
+    from sspinn.estimator import calibration_files
     from sspinn.estimator.quality import (
         ERROR_QUANTILE,
         MIN_CALIBRATION_WINDOWS,
         QualityWarning,
         calibrate,
         calibration_path,
-        save_calibration,
     )
     from sspinn.estimator.sspinnpose import SSPINNpose
 
@@ -233,12 +233,10 @@ def _calibrate_quality(args: argparse.Namespace) -> int:
     cal, _, _ = calibrate(est.network_, est.segments_, est.imu_std_, est.config_.joint_limits, recs, estimates, args.model,
                           f"{args.data} ({', '.join(args.split)})")
     target = Path(args.out or calibration_path(args.model))
-    if target.exists() and not args.overwrite:
-        if target.read_text() == cal.to_json() + "\n":  # the same calibration again (a rerun of make demo)
-            print(f"{target}: unchanged")
-            return 0
-        raise UserError(f"{target}: holds another quality calibration; replace it with --overwrite")
-    out = save_calibration(cal, target)
+    out = calibration_files.save_new(cal.to_json(), target, "quality", args.overwrite)
+    if out is None:  # the same calibration again (a rerun of make demo)
+        print(f"{target}: unchanged")
+        return 0
     fit = cal.fit
     if fit["n_windows"] < MIN_CALIBRATION_WINDOWS:
         warnings.warn(f"{out}: calibrated on only {int(fit['n_windows'])} windows of {cal.window_s:g} s; a threshold "
@@ -251,7 +249,7 @@ def _calibrate_quality(args: argparse.Namespace) -> int:
 
 
 def _calibrate_uncertainty(args: argparse.Namespace) -> int:
-    from sspinn.estimator import uncertainty
+    from sspinn.estimator import calibration_files, uncertainty
     from sspinn.estimator.sspinnpose import SSPINNpose
     from sspinn.estimator.trivial_predictors import program_of
 
@@ -272,12 +270,10 @@ def _calibrate_uncertainty(args: argparse.Namespace) -> int:
         widths = [uncertainty.intervals(cal, est.network_, est.segments_, r) for r in checked]
         cal.checked[split] = uncertainty.coverage(estimates, checked, widths, [program_of(r) for r in checked])
     target = Path(args.out or uncertainty.calibration_path(args.model))
-    if target.exists() and not args.overwrite:
-        if target.read_text() == cal.to_json() + "\n":  # the same calibration again (a rerun of make demo)
-            print(f"{target}: unchanged")
-            return 0
-        raise UserError(f"{target}: holds another uncertainty calibration; replace it with --overwrite")
-    out = uncertainty.save_calibration(cal, target)
+    out = calibration_files.save_new(cal.to_json(), target, "uncertainty", args.overwrite)
+    if out is None:  # the same calibration again (a rerun of make demo)
+        print(f"{target}: unchanged")
+        return 0
     print(f"calibrated {100 * cal.level:.0f} % intervals on {len(recs)} recordings ({', '.join(args.split)}) → {out}")
     for split, table in cal.checked.items():
         print(f"coverage of the {100 * cal.level:.0f} % intervals on {split} (target {100 * cal.level:.0f} %):")

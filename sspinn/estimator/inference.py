@@ -25,6 +25,7 @@ from sspinn.estimator.network import (
     input_features,
     output_affine,
 )
+from sspinn.estimator.zupt import whole_body_still
 from sspinn.model import dynamics
 from sspinn.model._generated import model_numba
 from sspinn.model.body import BodyParameters, IMUPlacement
@@ -178,8 +179,6 @@ def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str
     standing), and reported 0.3–0.6 m/s in real quiet standing. Walking and running never rest
     every segment that long, so their estimates are unchanged. The stream
     (:class:`StreamingEstimator`) has no look-ahead and makes no such update."""
-    from sspinn.estimator.zupt import whole_body_still
-
     model.eval()
     inputs = network_inputs(model, rec, segments, placement)
     raw, _ = model(inputs.x, present=inputs.present)

@@ -35,8 +35,6 @@ the model (:func:`calibration_path`), tied to the model file by its SHA-256.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
@@ -49,6 +47,7 @@ import torch
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.data.signal_checks import gait_rhythm
 from sspinn.errors import InputWarning, UserError
+from sspinn.estimator import calibration_files
 from sspinn.estimator.inference import GaitEstimate, network_inputs
 from sspinn.estimator.losses import Batch, LossWeights, PhysicsLosses
 from sspinn.estimator.network import SSPINNposeNet, decode, output_affine
@@ -275,17 +274,12 @@ class QualityCalibration:
         return 0.5 * (errors["jae_deg"] / self.error_median["jae_deg"] + errors["grfe_pct_bw"] / self.error_median["grfe_pct_bw"])
 
     def to_json(self) -> str:
-        return json.dumps({"format": CALIBRATION_FORMAT, "version": CALIBRATION_VERSION, **asdict(self)}, indent=2)
+        return calibration_files.to_json(asdict(self), CALIBRATION_FORMAT, CALIBRATION_VERSION, indent=2)
 
     @classmethod
     def from_json(cls, text: str, source: str) -> QualityCalibration:
         try:
-            data = json.loads(text)
-            if not isinstance(data, dict) or data.get("format") != CALIBRATION_FORMAT:
-                raise ValueError(f"not a {CALIBRATION_FORMAT} file")
-            if data.get("version") != CALIBRATION_VERSION:
-                raise ValueError(f"version {data.get('version')!r}, this sspinn reads {CALIBRATION_VERSION}")
-            cal = cls(**{k: v for k, v in data.items() if k not in ("format", "version")})
+            cal = cls(**calibration_files.fields_of(text, CALIBRATION_FORMAT, CALIBRATION_VERSION))
             if cal.grf not in QUALITY_TERMS or set(cal.term_median) != set(QUALITY_TERMS[cal.grf]):
                 raise ValueError(f"terms {sorted(cal.term_median)} do not fit a {cal.grf!r} network")
             numbers = [cal.window_s, cal.threshold, cal.error_threshold, *cal.term_median.values(), *cal.error_median.values()]
@@ -300,35 +294,16 @@ class QualityCalibration:
                 f"{source}: not a usable quality calibration ({exc}); write one with `sspinn calibrate-quality`") from None
 
 
-def file_sha256(path: str | Path) -> str:
-    """SHA-256 (hex) of a file's bytes."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(chunk)
-    return digest.hexdigest()
-
-
 def calibration_path(model_path: str | Path) -> Path:
     """Where a model's calibration lives by default: ``<model>.quality.json`` beside it."""
-    model_path = Path(model_path)
-    return model_path.with_name(model_path.stem + ".quality.json")
+    return calibration_files.beside(model_path, "quality")
 
 
 def load_calibration(path: str | Path, model_path: str | Path) -> QualityCalibration:
     """The calibration at ``path``; :class:`QualityCalibrationError` if it is malformed or belongs
     to another model file than ``model_path``."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise QualityCalibrationError(f"{path}: cannot read the quality calibration ({exc})") from None
-    cal = QualityCalibration.from_json(text, str(path))
-    if cal.model_sha256 != file_sha256(model_path):
-        raise QualityCalibrationError(
-            f"{path}: calibrated for another model file than {model_path} (SHA-256 differs); "
-            f"recalibrate with `sspinn calibrate-quality --model {model_path} ...`")
-    return cal
+    return calibration_files.load_for_model(path, model_path, QualityCalibration.from_json, lambda cal: cal.model_sha256,
+                                            QualityCalibrationError, "quality", "sspinn calibrate-quality")
 
 
 def best_threshold(score: np.ndarray, large: np.ndarray) -> tuple[float, dict[str, float]]:
@@ -375,7 +350,7 @@ def calibrate(
     if len(cadences):
         ranges["cadence_steps_min"] = [float(cadences.min()), float(cadences.max())]
     cal = QualityCalibration(
-        model_sha256=file_sha256(model_path), grf=grf, window_s=window_s, term_median=term_median, threshold=0.0,
+        model_sha256=calibration_files.file_sha256(model_path), grf=grf, window_s=window_s, term_median=term_median, threshold=0.0,
         error_median={"jae_deg": float(np.median(jae)), "grfe_pct_bw": float(np.median(grfe))}, error_threshold=0.0,
         input_ranges=ranges, calibrated_on=[r.name for r in recordings], source=source,
     )

@@ -28,7 +28,6 @@ hence the few lines here.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
@@ -40,6 +39,7 @@ import torch
 
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.errors import UserError
+from sspinn.estimator import calibration_files
 from sspinn.estimator.inference import GaitEstimate, network_inputs, physical_outputs
 from sspinn.estimator.network import SSPINNposeNet
 from sspinn.model.body import BodyParameters
@@ -159,17 +159,12 @@ class UncertaintyCalibration:
     checked: dict[str, Any] = field(default_factory=dict)
 
     def to_json(self) -> str:
-        return json.dumps({"format": FORMAT, "version": VERSION, **asdict(self)}, indent=1, allow_nan=False)
+        return calibration_files.to_json(asdict(self), FORMAT, VERSION, indent=1, allow_nan=False)
 
     @classmethod
     def from_json(cls, text: str, source: str) -> UncertaintyCalibration:
         try:
-            data = json.loads(text)
-            if not isinstance(data, dict) or data.get("format") != FORMAT:
-                raise ValueError(f"not a {FORMAT} file")
-            if data.get("version") != VERSION:
-                raise ValueError(f"version {data.get('version')!r}, this sspinn reads {VERSION}")
-            cal = cls(**{k: v for k, v in data.items() if k not in ("format", "version")})
+            cal = cls(**calibration_files.fields_of(text, FORMAT, VERSION))
             if set(cal.factor) != set(CHANNELS):
                 raise ValueError(f"channels {sorted(cal.factor)} are not {sorted(CHANNELS)}")
             if not all(isinstance(v, (int, float)) and math.isfinite(v) and v > 0 for v in cal.factor.values()):
@@ -196,8 +191,6 @@ def _normalised_errors(network: SSPINNposeNet, segments: tuple[str, ...], rec: R
 def calibrate(network: SSPINNposeNet, segments: tuple[str, ...], model_path: str | Path, recordings: Sequence[Recording],
               estimates: Sequence[GaitEstimate], level: float = 0.9, passes: int = 16, seed: int = 0) -> UncertaintyCalibration:
     """k_c from labelled recordings that the model was not trained on and their estimates."""
-    from sspinn.estimator.quality import file_sha256
-
     if not 0 < level < 1:
         raise UncertaintyError(f"level must be in (0, 1), got {level}")
     errors = np.concatenate([_normalised_errors(network, segments, r, e, passes, seed) for r, e in zip(recordings, estimates)])
@@ -211,7 +204,7 @@ def calibrate(network: SSPINNposeNet, segments: tuple[str, ...], model_path: str
         rank = min(values.size - 1, math.ceil((values.size + 1) * level) - 1)
         factor[name] = float(np.partition(values, rank)[rank])
         counts[name] = int(values.size)
-    return UncertaintyCalibration(model_sha256=file_sha256(model_path), level=level, passes=passes, seed=seed, factor=factor,
+    return UncertaintyCalibration(model_sha256=calibration_files.file_sha256(model_path), level=level, passes=passes, seed=seed, factor=factor,
                                   fitted_on=[r.name for r in recordings], n_samples=counts)
 
 
@@ -250,24 +243,13 @@ def coverage(estimates: Sequence[GaitEstimate], recordings: Sequence[Recording],
 
 def calibration_path(model_path: str | Path) -> Path:
     """Where a model's uncertainty calibration lives by default: ``<model>.uncertainty.json`` beside it."""
-    model_path = Path(model_path)
-    return model_path.with_name(model_path.stem + ".uncertainty.json")
+    return calibration_files.beside(model_path, "uncertainty")
 
 
 def load_calibration(path: str | Path, model_path: str | Path) -> UncertaintyCalibration:
     """The calibration at ``path``; :class:`UncertaintyError` if it is malformed or belongs to another model file."""
-    from sspinn.estimator.quality import file_sha256
-
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UncertaintyError(f"{path}: cannot read the uncertainty calibration ({exc})") from None
-    cal = UncertaintyCalibration.from_json(text, str(path))
-    if cal.model_sha256 != file_sha256(model_path):
-        raise UncertaintyError(f"{path}: calibrated for another model file than {model_path} (SHA-256 differs); "
-                               f"recalibrate with `sspinn calibrate-uncertainty --model {model_path} ...`")
-    return cal
+    return calibration_files.load_for_model(path, model_path, UncertaintyCalibration.from_json, lambda cal: cal.model_sha256,
+                                            UncertaintyError, "uncertainty", "sspinn calibrate-uncertainty")
 
 
 def save_calibration(cal: UncertaintyCalibration, path: str | Path) -> Path:
