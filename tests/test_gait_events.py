@@ -125,3 +125,21 @@ def test_the_grf_profile_follows_the_heel_strikes_it_is_given():
     grf = profile.predict_grf(rec, [np.array([50, 150]), np.array([100, 200])]) / (rec.mass * 9.81)
     assert grf[50, 1] == pytest.approx(0.0) and grf[149, 1] == pytest.approx(0.99, abs=0.01)
     assert grf[100, 3] == pytest.approx(0.0) and grf[40, 1] == 0.0  # outside a stride: the constant mean
+
+
+def test_standing_is_both_feet_down_for_half_a_second() -> None:
+    from sspinn.data.gait_events import standing_mask
+
+    weight = 700.0
+    walk_r = stance_force(600, 100, 62, 0, weight)  # walking: double support 12 samples at a time
+    walk_l = stance_force(600, 100, 62, 50, weight)
+    grf = np.zeros((800, 4))
+    grf[:200, 1] = grf[:200, 3] = weight / 2  # 2 s of standing, then walking
+    grf[200:, 1], grf[200:, 3] = walk_r, walk_l
+    standing = standing_mask(grf, weight, RATE)
+    assert standing[:200].all() and not standing[215:].any()  # the first step's double support ends it
+    n = standing.sum()
+    grf[:40, 3] = 0.0  # standing on one foot first: 0.4 s less on both
+    assert standing_mask(grf, weight, RATE).sum() == n - 40
+    with pytest.raises(ValueError, match="grf must be"):
+        standing_mask(grf[:, :2], weight, RATE)

@@ -396,3 +396,24 @@ def test_the_estimate_reports_no_speed_while_the_body_rests(tmp_path):
         estimate = est.predict(rec)
     assert (estimate.u[:150, 0] == 0).all() and (estimate.q[:150, 0] == 0).all()
     assert (estimate.u[150:, 0] != 0).any()
+
+
+def test_speed_at_rest_is_zero_in_the_rest_and_continuous_at_its_edges():
+    from sspinn.estimator.zupt import REST_EDGE_TAU_S, speed_at_rest
+
+    v = np.full(1000, 0.5)  # the network's constant 0.5 m/s ...
+    still = np.zeros(1000, dtype=bool)
+    still[300:500] = True  # ... through a 2-s rest
+    out = speed_at_rest(v, still, 100.0)
+    assert (out[300:500] == 0).all()
+    assert abs(out[500]) < 1e-12 and abs(out[299]) < 1e-12  # continuous: the walks start and end at 0
+    tau = int(REST_EDGE_TAU_S * 100)
+    assert out[500 + tau] == pytest.approx(0.5 * (1 - np.exp(-1)))  # the offset decays with tau
+    assert out[0] == pytest.approx(0.5 * (1 - np.exp(-2.99 / REST_EDGE_TAU_S)))  # 2.99 s before the rest
+    assert out[-1] == pytest.approx(0.5 * (1 - np.exp(-4.99 / REST_EDGE_TAU_S)))
+    assert np.array_equal(speed_at_rest(v, np.zeros(1000, dtype=bool), 100.0), v)  # no rest: unchanged
+    edge = still.copy()
+    edge[:50] = True  # a rest at the very start has no walk before it
+    assert np.isfinite(speed_at_rest(v, edge, 100.0)).all()
+    with pytest.raises(ValueError, match="one length"):
+        speed_at_rest(v, still[:10], 100.0)

@@ -15,7 +15,8 @@ The timing error (:func:`event_timing`) pairs every reference event with the nea
 event of the same kind and foot; pairs further apart than ``max_offset_s`` count as missed;
 :func:`grf_event_timing` pools both feet of a GRF array. :func:`strides` and
 :func:`normalise_cycles` cut a recording into heel-strike-to-heel-strike cycles and time-normalise
-them (0–100 %), for the gait-cycle plots and the mean-GRF-profile baseline.
+them (0–100 %), for the gait-cycle plots and the mean-GRF-profile baseline. :func:`standing_mask`
+finds standing (both feet down for half a second or more).
 """
 
 from __future__ import annotations
@@ -90,6 +91,25 @@ def detect_events(vertical: np.ndarray, body_weight: float, rate_hz: float,
     contact = contact_mask(vertical, threshold_bw * body_weight, max(1, round(min_phase_s * rate_hz)))
     change = np.diff(contact.astype(np.int8))
     return GaitEvents(np.flatnonzero(change == 1) + 1, np.flatnonzero(change == -1) + 1, contact)
+
+
+#: Shortest double support taken as standing, s: in walking both feet are down for 0.1–0.2 s at a time.
+MIN_STANDING_S: Final = 0.5
+
+
+def standing_mask(grf: np.ndarray, body_weight: float, rate_hz: float, min_s: float = MIN_STANDING_S) -> np.ndarray:
+    """(T,) bool: the samples of standing in a GRF array (T, 4) [x_r, y_r, x_l, y_l] (N) — both feet
+    in contact (:func:`detect_events`' contact masks) for at least ``min_s`` seconds at a time."""
+    grf = np.asarray(grf, dtype=float)
+    if grf.ndim != 2 or grf.shape[1] != 4:
+        raise ValueError(f"grf must be (T, 4) [x_r, y_r, x_l, y_l], got {grf.shape}")
+    both = detect_events(grf[:, 1], body_weight, rate_hz).contact & detect_events(grf[:, 3], body_weight, rate_hz).contact
+    edges = np.diff(np.concatenate(([0], both.astype(np.int8), [0])))
+    out = np.zeros(len(both), dtype=bool)
+    for start, end in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+        if end - start >= round(min_s * rate_hz):
+            out[start:end] = True
+    return out
 
 
 #: Foot-IMU heel strikes: the swing's angular-rate peak must reach this fraction of the

@@ -25,7 +25,7 @@ from sspinn.estimator.network import (
     input_features,
     output_affine,
 )
-from sspinn.estimator.zupt import whole_body_still
+from sspinn.estimator.zupt import speed_at_rest, whole_body_still
 from sspinn.model import dynamics
 from sspinn.model._generated import model_numba
 from sspinn.model.body import BodyParameters, IMUPlacement
@@ -176,8 +176,10 @@ def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str
     standing or sitting still), the forward pelvis velocity is set to 0 and pelvis_tx integrated
     again: a whole-body zero-velocity update. The network cannot tell a body at rest from one
     gliding at constant speed (the accelerometers read the same; its training data have no
-    standing), and reported 0.3–0.6 m/s in real quiet standing. Walking and running never rest
-    every segment that long, so their estimates are unchanged. The stream
+    standing), and reported 0.3–0.6 m/s in real quiet standing. The speed stays continuous at a
+    rest's edges: the network's offset there decays with :data:`~sspinn.estimator.zupt.REST_EDGE_TAU_S`
+    (:func:`~sspinn.estimator.zupt.speed_at_rest`). Walking and running never rest every segment
+    that long, so their estimates are unchanged. The stream
     (:class:`StreamingEstimator`) has no look-ahead and makes no such update."""
     model.eval()
     inputs = network_inputs(model, rec, segments, placement)
@@ -188,7 +190,7 @@ def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str
     estimate = GaitEstimate(name=rec.name, time=rec.time, **out).check_finite().check_physical(rec.height, rec.mass)
     still = whole_body_still(inputs.recording.imu, SAMPLE_RATE_HZ)
     if still.any():
-        estimate.u[still, 0] = 0.0
+        estimate.u[:, 0] = speed_at_rest(estimate.u[:, 0], still, SAMPLE_RATE_HZ)
         vx = estimate.u[:, 0]
         estimate.q[:, 0] = np.concatenate([[0.0], np.cumsum(0.5 * (vx[1:] + vx[:-1]) / SAMPLE_RATE_HZ)])
     return estimate

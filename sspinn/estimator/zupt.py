@@ -180,6 +180,41 @@ def whole_body_still(imu: np.ndarray, sample_rate_hz: float, window_s: float = S
     return _runs_at_least(quiet, max(1, int(round(window_s * sample_rate_hz))))
 
 
+#: Time constant, s, with which the network's own speed returns after a whole-body rest (and before
+#: one): about one step, since gait initiation reaches its steady speed by the end of the first
+#: step (Brenière & Do 1986, J Biomech 19:1035).
+REST_EDGE_TAU_S = 0.5
+
+
+def speed_at_rest(vx: np.ndarray, still: np.ndarray, sample_rate_hz: float, tau_s: float = REST_EDGE_TAU_S) -> np.ndarray:
+    """The forward velocity ``vx`` (T,) with the whole-body rests ``still`` (T,) bool
+    (:func:`whole_body_still`) applied: 0 during a rest, and continuous at its edges.
+
+    The body's velocity is continuous, so a walk that follows a rest starts from 0. The network's
+    speed is not: trained on steady walking and running, it carries the speed it reported during
+    the rest (0.3–0.6 m/s in real quiet standing) into the first steps. After a rest that ends at
+    t_e its offset v(t_e) is removed with a decay, v(t) − v(t_e)·exp(−(t − t_e)/τ); before a rest
+    that starts at t_s, mirrored: v(t) − v(t_s)·exp(−(t_s − t)/τ). Samples τ·ln 10⁶ (7 s at the
+    default) or farther from every rest keep the network's speed to within 10⁻⁶ of that offset;
+    a recording without a rest is returned unchanged (a copy).
+    """
+    vx = np.asarray(vx, dtype=float)
+    still = np.asarray(still, dtype=bool)
+    if vx.shape != still.shape or vx.ndim != 1:
+        raise ValueError(f"vx and still must be (T,) arrays of one length, got {vx.shape} and {still.shape}")
+    if not tau_s > 0:
+        raise ValueError(f"tau_s must be > 0 s, got {tau_s}")
+    out = vx.copy()
+    t = np.arange(len(vx)) / sample_rate_hz
+    for start, end in stance_phases(still):
+        if end < len(vx):  # the walk after the rest starts from 0
+            out[end:] -= vx[end] * np.exp(-(t[end:] - t[end]) / tau_s)
+        if start > 0:  # and the walk before it ends at 0
+            out[:start] -= vx[start - 1] * np.exp(-(t[start - 1] - t[:start]) / tau_s)
+    out[still] = 0.0
+    return out
+
+
 def stance_phases(stance: np.ndarray) -> np.ndarray:
     """(n, 2) int array of [start, end) sample indices of the True runs of a boolean mask."""
     edges = np.diff(np.concatenate(([0], np.asarray(stance, dtype=np.int8), [0])))
