@@ -417,3 +417,30 @@ def test_speed_at_rest_is_zero_in_the_rest_and_continuous_at_its_edges():
     assert np.isfinite(speed_at_rest(v, edge, 100.0)).all()
     with pytest.raises(ValueError, match="one length"):
         speed_at_rest(v, still[:10], 100.0)
+
+
+def test_every_batch_of_a_data_set_with_foot_speeds_carries_them() -> None:
+    """One batch structure per training run (one compiled graph): a batch drawn only from
+    recordings without a stance still has a ZUPT tensor, all NaN (unknown)."""
+    import warnings
+
+    import torch
+
+    from sspinn.estimator.training import make_batch, prepare
+    from sspinn.model.conventions import SEGMENTS
+    from sspinn.testing import make_recording
+
+    run = make_recording("run", rng=np.random.default_rng(0))
+    for foot in ("foot_r", "foot_l"):
+        run.imu[:, run.segments.index(foot), 2] += 3.0  # no stance
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        data = prepare([run, make_recording("quiet")], SEGMENTS)
+        without = prepare([make_recording("plain")], SEGMENTS, zupt=False)
+    std = torch.ones(len(SEGMENTS), 3)
+    _, only_run = make_batch(data, [0, 0], [0, 5], 64, SEGMENTS, std, torch.device("cpu"))
+    assert only_run.zupt_speed is not None and torch.isnan(only_run.zupt_speed).all()
+    _, mixed = make_batch(data, [0, 1], [0, 5], 64, SEGMENTS, std, torch.device("cpu"))
+    assert torch.isfinite(mixed.zupt_speed[1]).any()
+    _, none = make_batch(without, [0], [0], 64, SEGMENTS, std, torch.device("cpu"))
+    assert none.zupt_speed is None

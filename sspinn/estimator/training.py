@@ -374,7 +374,12 @@ def make_batch(
     data: list[PreparedRecording], which: list[int], starts: list[int], window: int, segments: tuple[str, ...],
     imu_std: torch.Tensor, device: torch.device, dtype: torch.dtype = torch.float32,
 ) -> tuple[torch.Tensor, Batch]:
-    """Network inputs (B, T, F) and the loss :class:`Batch` for the chosen windows."""
+    """Network inputs (B, T, F) and the loss :class:`Batch` for the chosen windows.
+
+    ``Batch.zupt_speed`` is None when no recording of ``data`` has ZUPT foot speeds, else a
+    tensor for every batch (NaN, "unknown", in the windows of recordings without them): the
+    batches of one training run then have one structure, so compiled physics
+    (:class:`PhysicsTerms`) needs one graph, not one with and one without L_FS."""
     feats, imus, ps, places, heights, masses, zupts, scales, offsets = [], [], [], [], [], [], [], [], []
     for k, s in zip(which, starts):
         d = data[k]
@@ -397,7 +402,7 @@ def make_batch(
     batch = Batch(
         imu=t(imus), imu_std=imu_std.to(device=device, dtype=dtype), segments=segments, p=t(ps), height=t(heights),
         mass=t(masses), placement=t(places), dt=1.0 / SAMPLE_RATE_HZ,
-        zupt_speed=zupt if torch.isfinite(zupt).any() else None,
+        zupt_speed=zupt if any(d.zupt_speed is not None for d in data) else None,
         out_scale=t(scales), out_offset=t(offsets),
     )
     return t(feats), batch
@@ -430,7 +435,11 @@ class PhysicsTerms:
             # created would guard on its absence and be compiled a second time on the next call
             ops_for(torch.zeros(()))
             if PhysicsTerms._shared is None:
-                PhysicsTerms._shared = torch.compile(physics_terms, dynamic=False)
+                # without SIMD code generation: the cold compilation takes half as long (58 against
+                # 121–129 s, forward and backward, demo size, 2-core AMD EPYC) and the step runs as
+                # fast (51.6–51.8 k against 42.6–49.8 k samples/s): the tensors are short
+                # (batch × window elements), the kernels many (benchmarks/bench_sspinn.py)
+                PhysicsTerms._shared = torch.compile(physics_terms, dynamic=False, options={"cpp.vec_isa_ok": False})
 
     def __call__(
         self, losses: PhysicsLosses, raw: torch.Tensor, batch: Batch, weights: LossWeights | None = None
