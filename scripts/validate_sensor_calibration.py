@@ -4,13 +4,15 @@ sensors with random mountings (:mod:`sspinn.validation.sensor_mounting`).
 The gait is one predicted stride at 1.3 m/s (``tests/fixtures/predicted_walk_1.3.csv``); ``--solve``
 recomputes it with :func:`predictive.solve_predictive` (about 30 s) and rewrites that file. For
 each of ``--trials`` random mountings of all seven sensors, the script calibrates with a 2 s
-quiet-standing phase and without one (walking only, in-plane angle from the typical walking
-orientation) and prints the median and maximum axis and in-plane angle errors per segment;
-``--out`` writes a figure of the error distributions.
+quiet-standing phase and without one (walking only, in-plane angles from joint centres and foot
+rests, and from the typical walking orientations) and prints the median and maximum axis and
+in-plane angle errors per segment; ``--out`` writes a figure of the error distributions.
+``--cmu`` adds the real check: on each CMU treadmill trial with quiet standing, both walking-only
+methods against the standing calibration.
 
 Usage::
 
-    python scripts/validate_sensor_calibration.py [--trials 50] [--seed 0] [--solve] [--out results/validation/sensor_calibration.png]
+    python scripts/validate_sensor_calibration.py [--trials 50] [--seed 0] [--solve] [--out results/validation/sensor_calibration.png] [--cmu]
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from sspinn.model.drawing import save_figure
 from sspinn.validation.sensor_mounting import Gait, OutOfPlane, mounting_trials, read_gait_csv, summary, write_gait_csv
 
 GAIT = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "predicted_walk_1.3.csv"
+CMU = Path(__file__).resolve().parents[2] / "shared" / "data" / "cmu_treadmill_imu_grf"
 
 
 def solve_gait(path: Path) -> None:
@@ -36,6 +39,48 @@ def solve_gait(path: Path) -> None:
     print(f"solved 1.3 m/s ({sol.status}, stride {sol.duration:.2f} s, {len(sol.q)} samples) → {path}")
 
 
+def cmu_walking_only(data: Path) -> None:
+    """On every CMU treadmill trial with quiet standing: the in-plane angle of each sensor
+    calibrated from the walking alone (both methods) against the standing calibration, degrees."""
+    import csv
+
+    from sspinn.imu.calibration import calibrate
+    from sspinn.imu.sensor_map import SensorMap
+    from sspinn.imu.stream import resample
+    from sspinn.imu.vendor_readers import read_imu_files
+
+    if not (data / "subjects.csv").exists():
+        print(f"\n{data}: the CMU treadmill data is not there; skipped")
+        return
+    smap = SensorMap.from_yaml(Path(__file__).resolve().parents[1] / "configs" / "sensor_maps" / "cmu_treadmill.yaml")
+    with open(data / "subjects.csv", newline="") as fh:
+        subjects = sorted(row["subject"] for row in csv.DictReader(fh))
+    errors: dict[tuple[str, str, str], list[float]] = {}
+    for subject in subjects:
+        for condition in ("CSBaseline", "CSStiffKnee"):
+            _, stream = resample(read_imu_files([data / subject / condition / f"OpenSim_{subject}_{condition}_Accel.trc.gz"]))
+            signals = {seg: (stream.sensors[a.sensor].acc, stream.sensors[a.sensor].gyr) for seg, a in smap.by_segment().items()}
+            reference = calibrate(signals, smap.by_segment())
+            if reference.standing is None:
+                continue
+            for method in ("joints", "typical"):
+                walking = calibrate(signals, smap.by_segment(), standing=None, walking_angles=method)
+                for seg, ref in reference.sensors.items():
+                    y, z = walking.sensors[seg].rotation[1], ref.rotation[2]
+                    error = np.degrees(np.arctan2(np.cross(ref.rotation[1], y) @ z, ref.rotation[1] @ y))
+                    errors.setdefault((method, condition, seg.split("_")[0]), []).append(float(error))
+    print("\n### Real CMU trials with quiet standing: walking-only in-plane angle − standing calibration's (deg)\n")
+    print("| segment | condition | joint centres / foot rests: median \\|e\\| | max | mean | typical orientations: median \\|e\\| | max | mean |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|")
+    for kind in ("pelvis", "femur", "tibia", "foot"):
+        for condition in ("CSBaseline", "CSStiffKnee"):
+            cells = []
+            for method in ("joints", "typical"):
+                e = np.array(errors.get((method, condition, kind), [np.nan]))
+                cells += [f"{np.median(np.abs(e)):.1f}", f"{np.max(np.abs(e)):.1f}", f"{np.mean(e):+.1f}"]
+            print(f"| {kind} | {condition} | " + " | ".join(cells) + " |")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--trials", type=int, default=50)
@@ -44,6 +89,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--gait", type=Path, default=GAIT)
     parser.add_argument("--solve", action="store_true", help="recompute the gait with predictive.solve_predictive")
     parser.add_argument("--out", type=Path, default=None, help="figure of the error distributions (.png)")
+    parser.add_argument("--cmu", type=Path, nargs="?", const=CMU, default=None,
+                        help="also compare walking-only with standing calibration on the real CMU trials (default folder: "
+                             "../shared/data/cmu_treadmill_imu_grf)")
     args = parser.parse_args(argv)
     if args.solve or not args.gait.exists():
         solve_gait(args.gait)
@@ -52,15 +100,20 @@ def main(argv: list[str] | None = None) -> int:
     print(f"gait {args.gait} ({len(q)} samples per stride, {args.strides} strides); {args.trials} random mountings × 7 sensors; "
           f"out-of-plane: {oop}")
     results = {}
-    for label, standing in (("with 2 s quiet standing", 2.0), ("walking only", 0.0)):
+    conditions = (("with 2 s quiet standing", 2.0, "joints"), ("walking only: joint centres and foot rests", 0.0, "joints"),
+                  ("walking only: typical walking orientations", 0.0, "typical"))
+    for label, standing, method in conditions:
         t0 = time.perf_counter()
-        res = mounting_trials(q, u, qdd, trials=args.trials, seed=args.seed, standing_s=standing, strides=args.strides, oop=oop)
+        res = mounting_trials(q, u, qdd, trials=args.trials, seed=args.seed, standing_s=standing, strides=args.strides, oop=oop,
+                              walking_angles=method)
         results[label] = res
         print(f"\n### {label} ({time.perf_counter() - t0:.1f} s)\n")
         print("| sensors | axis error median (deg) | axis error max | in-plane angle error median (deg) | max | wrong signs |")
         print("|---|---:|---:|---:|---:|---:|")
         for name, ax_med, ax_max, an_med, an_max, wrong in summary(res):
             print(f"| {name} | {ax_med:.2f} | {ax_max:.2f} | {an_med:.2f} | {an_max:.2f} | {wrong} |")
+    if args.cmu is not None:
+        cmu_walking_only(args.cmu)
     if args.out:
         import matplotlib
 

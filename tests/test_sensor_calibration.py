@@ -74,11 +74,13 @@ def test_random_mountings_are_recovered_with_standing(gait) -> None:
 
 
 def test_walking_only_calibration_keeps_signs_and_axes(gait) -> None:
-    """Without standing the axes and signs come out as well; the in-plane angle then rests on the
-    typical walking orientation of each segment (a few degrees off for this predicted gait)."""
+    """Without standing the axes and signs come out as well. The in-plane angles then come from
+    the walking (tests/test_joint_centres.py); this predicted gait's feet never rest flat, so the
+    feet's angles are off by their pitch in mid-stance (about 16°)."""
     res = mounting_trials(gait.q, gait.u, gait.qdd, trials=3, seed=4, standing_s=0.0, strides=30)
     assert res["sign_ok"].all() and res["axis"].max() < 2.5
-    assert np.abs(res["angle"]).max() < 10.0
+    feet = np.isin(res["segment"], ["foot_r", "foot_l"])
+    assert np.abs(res["angle"][~feet]).max() < 2.5 and np.abs(res["angle"][feet]).max() < 20.0
 
 
 def _signals(gait, seed: int, mounting=None):

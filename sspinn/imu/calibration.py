@@ -42,9 +42,13 @@ a standing phase, else its mean while walking):
    1.3 m/s gait and the standing-calibrated CMU treadmill trials (0.77 m/s). Each sensor's margin
    (score lost by flipping it) is reported; below :data:`SIGN_MARGIN_WARN` the report flags it.
 4. **In-plane angle**: y is ``up`` projected into the plane when there is a standing phase
-   (assumption: quiet standing is the model's zero pose: every segment upright, feet flat);
-   otherwise the mean specific force while walking, rotated by the segment's typical walking
-   value :data:`WALKING_MEAN_FORCE_ANGLE_DEG` (the angle of the mean specific force from the
+   (assumption: quiet standing is the model's zero pose: every segment upright, feet flat).
+   Otherwise from the walking itself (:mod:`sspinn.imu.joint_centres`): a thigh's or shank's y
+   is the line between its two joint centres (hip–knee, knee–ankle), fitted to the sensors on
+   either side of each joint; a foot's y is gravity while it rests flat in mid-stance. Where
+   that fails (a sensor missing, an implausible fit, no rest) and for the pelvis: the mean
+   specific force while walking, rotated by the segment's typical walking value
+   :data:`WALKING_MEAN_FORCE_ANGLE_DEG` (the angle of the mean specific force from the
    segment's y towards its x axis in real walking; its spread between people and speeds,
    several degrees, is the error of this fallback). The reported angle φ is the in-plane angle
    of the sensor axis nearest to y (``reference_axis``) from y, counter-clockwise seen from the
@@ -67,7 +71,9 @@ from scipy.stats import skew
 
 from sspinn.data.signal_checks import cross_spectrum
 from sspinn.errors import UserError
+from sspinn.imu import joint_centres
 from sspinn.imu.sensor_map import SensorAssignment
+from sspinn.model.body import WINTER, IMUPlacement
 from sspinn.model.conventions import GRAVITY
 
 STANDING_GYRO_RAD_S: Final = 0.2
@@ -305,6 +311,7 @@ def calibrate(
     rate_hz: float = 100.0,
     standing: str | tuple[int, int] | None = "auto",
     source: str = "<stream>",
+    walking_angles: str = "joints",
 ) -> Calibration:
     """Calibrate every sensor (module docstring).
 
@@ -315,7 +322,13 @@ def calibrate(
         standing: ``"auto"`` (:func:`detect_standing`), a (start, stop) sample span, or None
             (calibrate from walking alone).
         source: the files, for messages.
+        walking_angles: without standing, the in-plane angles from ``"joints"`` (thigh and shank:
+            joint centres; foot: its mid-stance rests; :mod:`sspinn.imu.joint_centres`; the
+            typical walking orientation where those fail) or ``"typical"`` (every segment's
+            typical walking orientation, :data:`WALKING_MEAN_FORCE_ANGLE_DEG`).
     """
+    if walking_angles not in ("joints", "typical"):
+        raise ValueError(f"walking_angles must be 'joints' or 'typical', got {walking_angles!r}")
     segments = list(signals)
     gyr_all = [signals[s][1] for s in segments]
     notes: list[str] = []
@@ -323,6 +336,10 @@ def calibrate(
     if span is not None:
         notes.append(f"quiet standing {span[0] / rate_hz:.2f}–{span[1] / rate_hz:.2f} s: gravity gives the in-plane angle, "
                      "its mean rate the gyroscope bias")
+    elif walking_angles == "joints":
+        notes.append("no quiet standing: in-plane angles of thighs and shanks from the joint centres fitted while walking, "
+                     "of feet from their mid-stance rests, of the others from the mean specific force while walking and the "
+                     f"typical walking orientation of each segment ({WALKING_MEAN_FORCE_ANGLE_DEG} deg)")
     else:
         notes.append("no quiet standing: in-plane angles from the mean specific force while walking and the typical walking "
                      f"orientation of each segment ({WALKING_MEAN_FORCE_ANGLE_DEG} deg)")
@@ -368,12 +385,15 @@ def calibrate(
         raw[seg] = _Raw(a, acc, gyr, bias, up, axis, tilt, method)
 
     signs, votes, margins, how = _choose_signs(raw, mask, runs, rate_hz, period, window)
+    from_walking = _axes_from_walking(raw, signs, mask, rate_hz) if span is None and walking_angles == "joints" else {}
     out: dict[str, SensorCalibration] = {}
     for seg, r in raw.items():
         z = signs[seg] * r.axis
         f = _unit(r.up - (r.up @ z) * z)
         if span is not None:
             y, angle_method = f, "gravity in quiet standing (standing = zero pose)"
+        elif seg in from_walking:
+            y, angle_method = from_walking[seg]
         else:
             theta = np.radians(WALKING_MEAN_FORCE_ANGLE_DEG[r.a.kind])
             y = _unit(np.cos(theta) * f + np.sin(theta) * np.cross(z, f))
@@ -402,6 +422,59 @@ def calibrate(
             cal.warnings.append(f"sensor {c.sensor!r} ({seg}): |specific force| {c.standing_acc_norm:.2f} m/s² in quiet standing, "
                                 f"not g: accelerometer scaled by {c.acc_gain:.3f}; check or recalibrate the sensor")
     return cal
+
+
+#: The joints the walking-only in-plane angles use (:mod:`sspinn.imu.joint_centres`): name →
+#: (proximal segment kind, distal segment kind).
+_JOINTS: Final = {"hip": ("pelvis", "femur"), "knee": ("femur", "tibia"), "ankle": ("tibia", "foot")}
+
+
+def _joint_guess(kind: str, segment: str, joint: str) -> np.ndarray:
+    """Position (2,) m of ``joint`` relative to the typical sensor position on ``segment`` (a
+    1.75 m body; the start of the joint-centre fit)."""
+    sensor = np.array(IMUPlacement.default(1.75).positions[segment])
+    if kind == "pelvis" or joint == _JOINT_AT_ORIGIN[kind]:
+        return -sensor  # segment frames have their origin at the proximal joint (the HAT's: the hip)
+    return np.array([0.0, -WINTER[kind][1] * 1.75]) - sensor
+
+
+#: The joint at each segment frame's origin.
+_JOINT_AT_ORIGIN: Final = {"femur": "hip", "tibia": "knee", "foot": "ankle"}
+
+
+def _axes_from_walking(raw: dict[str, _Raw], signs: dict[str, int], mask: np.ndarray, rate_hz: float) -> dict[str, tuple[np.ndarray, str]]:
+    """The segment y axis (3,) in the sensor frame and how it was found, for the thigh and shank
+    sensors whose joint centres fit and the foot sensors that rest flat in mid-stance
+    (:mod:`sspinn.imu.joint_centres`); the others are left to the typical walking orientation."""
+    planes, signals = {}, {}
+    for seg, r in raw.items():
+        z = signs[seg] * r.axis
+        y0 = _unit(r.up - (r.up @ z) * z)
+        planes[seg] = (np.cross(y0, z), y0)
+        signals[seg] = joint_centres.plane_signals(r.acc, r.gyr - r.bias, planes[seg][0], y0, z, rate_hz)
+    walking = {seg: tuple(v[mask] for v in sig) for seg, sig in signals.items()}
+    out: dict[str, tuple[np.ndarray, str]] = {}
+    for side in "rl":
+        seg = {kind: (kind if kind == "pelvis" else f"{kind}_{side}") for kind in ("pelvis", "femur", "tibia", "foot")}
+        fits: dict[str, joint_centres.JointFit | None] = {}
+        for joint, (a, b) in _JOINTS.items():
+            if seg[a] in raw and seg[b] in raw:
+                fits[joint] = joint_centres.joint_centre(walking[seg[a]], walking[seg[b]], _joint_guess(a, seg[a], joint),
+                                                         _joint_guess(b, seg[b], joint))
+        for kind, (top, bottom) in (("femur", ("hip", "knee")), ("tibia", ("knee", "ankle"))):
+            if seg[kind] not in raw:
+                continue
+            axis = joint_centres.segment_axis(fits.get(top), fits.get(bottom), "b", "a")
+            if axis is not None:
+                x0, y0 = planes[seg[kind]]
+                out[seg[kind]] = (_unit(axis[0] * x0 + axis[1] * y0), f"the line from the {bottom} to the {top} centre (joint centres fitted while walking)")
+        if seg["foot"] in raw:
+            f, omega, _ = signals[seg["foot"]]
+            up = joint_centres.foot_flat_up(f, omega, rate_hz, mask)
+            if up is not None:
+                x0, y0 = planes[seg["foot"]]
+                out[seg["foot"]] = (_unit(up[0] * x0 + up[1] * y0), "gravity while the foot rests flat in mid-stance")
+    return out
 
 
 def _check_up_axis(r: _Raw, span: tuple[int, int] | None, mask: np.ndarray, source: str) -> None:

@@ -62,7 +62,7 @@ from sspinn.model.conventions import GRF
 from sspinn.run_folder import atomic_write_text
 
 #: Version of the import procedure, stored in the provenance.
-IMPORTER_VERSION: Final = 3
+IMPORTER_VERSION: Final = 4
 
 
 @dataclass

@@ -143,9 +143,12 @@ def calibration_errors(rotation: np.ndarray, mounting: np.ndarray) -> tuple[floa
 
 
 def mounting_trials(q: np.ndarray, u: np.ndarray, qdd: np.ndarray, trials: int = 50, seed: int = 0,
-                    standing_s: float = 2.0, strides: int = 12, oop: OutOfPlane = OutOfPlane()) -> dict[str, np.ndarray]:
-    """Calibrate ``trials`` random mountings of all seven sensors; returns per segment kind and
-    overall arrays ``axis`` and ``angle`` (deg; one entry per trial and sensor) and ``sign_ok``."""
+                    standing_s: float = 2.0, strides: int = 12, oop: OutOfPlane = OutOfPlane(),
+                    walking_angles: str = "joints") -> dict[str, np.ndarray]:
+    """Calibrate ``trials`` random mountings of all seven sensors (``walking_angles``: the
+    in-plane method without standing, see :func:`~sspinn.imu.calibration.calibrate`); returns per
+    segment kind and overall arrays ``axis`` and ``angle`` (deg; one entry per trial and sensor)
+    and ``sign_ok``."""
     rng = np.random.default_rng(seed)
     imu2d = synthetic_walk(q, u, qdd, strides, standing_s)
     assignments = {s: SensorAssignment(f"sensor_{s}", s) for s in SEGMENTS}
@@ -154,7 +157,8 @@ def mounting_trials(q: np.ndarray, u: np.ndarray, qdd: np.ndarray, trials: int =
         mountings = {s: random_mounting(rng) for s in SEGMENTS}
         still = int(round(standing_s * RATE_HZ))
         signals = {s: embed_in_3d(imu2d[:, i], mountings[s], rng, oop, still) for i, s in enumerate(SEGMENTS)}
-        cal: Calibration = calibrate(signals, assignments, RATE_HZ, standing="auto" if standing_s else None)
+        cal: Calibration = calibrate(signals, assignments, RATE_HZ, standing="auto" if standing_s else None,
+                                     walking_angles=walking_angles)
         for s in SEGMENTS:
             a, b = calibration_errors(cal.sensors[s].rotation, mountings[s])
             axis.append(a)
