@@ -326,7 +326,8 @@ def test_compiled_physics_trains_like_the_eager_physics(tiny):
     """``compile: true`` (torch.compile of decoding + losses) gives the eager run's losses and
     weights to float32 rounding — and really compiled (no fallback warning), into one graph
     although the loss weights change half-way (``weights_after_starts``: the weighting stays
-    outside the compiled graph, so a change costs no recompilation)."""
+    outside the compiled graph, so a change costs no recompilation) and another run uses another
+    thread count (the forward physics runs on ``PHYSICS_THREADS``)."""
     import warnings
 
     import torch._dynamo
@@ -347,6 +348,13 @@ def test_compiled_physics_trains_like_the_eager_physics(tiny):
             trainer.fit(train)
         assert trainer.physics.compiled is compiled
         runs[compiled] = trainer
+    threads = torch.get_num_threads()
+    try:  # another thread count (threads: 0 re-measures the free cores) reuses the graph
+        other = 1 if runs[True].config.threads != 1 else 2
+        settings = ["compile=true", "start_steps=2", "weights_after_starts={kane: 30, foot_speed: 0}", f"threads={other}"]
+        Trainer(TrainConfig.from_yaml(cfg, settings=settings), root / "compiled_threads").fit(train)
+    finally:
+        torch.set_num_threads(threads)
     assert counters["stats"]["unique_graphs"] - graphs == 1
     eager, compiled_run = runs[False], runs[True]
     for a, b in zip(eager.history, compiled_run.history):

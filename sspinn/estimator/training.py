@@ -24,7 +24,7 @@ import time
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
 import numpy as np
 import torch
@@ -421,10 +421,17 @@ class CompileWarning(UserWarning):
     """``torch.compile`` of the physics failed; training continues with the eager physics."""
 
 
+#: Threads of the compiled physics' forward pass. TorchDynamo guards a compiled graph on the
+#: thread count, so with ``threads: 0`` (the cores not busy, re-measured) every change would
+#: compile the physics again (a minute, cold); the forward physics is 2 ms of a 20-ms demo step.
+PHYSICS_THREADS: Final = 1
+
+
 class PhysicsTerms:
     """:func:`physics_terms`, compiled with ``torch.compile`` when asked (see
-    :attr:`TrainConfig.compile`); falls back to eager, with a :class:`CompileWarning`, if the
-    first compiled call fails."""
+    :attr:`TrainConfig.compile`; its forward pass on :data:`PHYSICS_THREADS` threads whatever the
+    training's, so that one graph serves every thread count); falls back to eager, with a
+    :class:`CompileWarning`, if the first compiled call fails."""
 
     _shared: Any = None  # one torch.compile wrapper per process: a second trainer (a start) reuses its graphs
 
@@ -447,12 +454,16 @@ class PhysicsTerms:
         """The terms weighted by ``weights`` (default ``losses.weights``) and their ``total``
         (:meth:`PhysicsLosses.weigh`)."""
         if self.compiled:
+            threads = torch.get_num_threads()
+            torch.set_num_threads(PHYSICS_THREADS)  # the thread count is part of a compiled graph's guards
             try:
                 return losses.weigh(PhysicsTerms._shared(losses, raw, batch), weights)
             except Exception as exc:  # inductor needs a working C++ compiler; training must not die for speed
                 message = f"torch.compile of the physics failed ({type(exc).__name__}: {str(exc)[:300]}); continuing eagerly"
                 warnings.warn(message, CompileWarning, stacklevel=2)
                 self.compiled = False
+            finally:
+                torch.set_num_threads(threads)
         return losses.weigh(physics_terms(losses, raw, batch), weights)
 
 
