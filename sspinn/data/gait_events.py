@@ -104,10 +104,15 @@ def standing_mask(grf: np.ndarray, body_weight: float, rate_hz: float, min_s: fl
     if grf.ndim != 2 or grf.shape[1] != 4:
         raise ValueError(f"grf must be (T, 4) [x_r, y_r, x_l, y_l], got {grf.shape}")
     both = detect_events(grf[:, 1], body_weight, rate_hz).contact & detect_events(grf[:, 3], body_weight, rate_hz).contact
-    edges = np.diff(np.concatenate(([0], both.astype(np.int8), [0])))
-    out = np.zeros(len(both), dtype=bool)
+    return runs_at_least(both, round(min_s * rate_hz))
+
+
+def runs_at_least(mask: np.ndarray, min_len: int) -> np.ndarray:
+    """``mask`` (T,) bool with its runs of True shorter than ``min_len`` samples cleared."""
+    edges = np.diff(np.concatenate(([0], np.asarray(mask).astype(np.int8), [0])))
+    out = np.zeros(len(mask), dtype=bool)
     for start, end in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
-        if end - start >= round(min_s * rate_hz):
+        if end - start >= min_len:
             out[start:end] = True
     return out
 

@@ -133,9 +133,9 @@ class TrainConfig:
             equations of motion are thousands of small element-wise operations, so eager PyTorch
             spends the physics' time dispatching them; inductor fuses them into a few C++ loops
             (physics 3.6× faster, the demo-size step 1.51× on a 2-core CPU;
-            ``benchmarks/bench_sspinn.py``). The first step pays a one-off compilation (55–90 s
-            on a 2-core AVX-512 machine; a few seconds
-            when inductor's cache in ``$TORCHINDUCTOR_CACHE_DIR`` already holds it). If compilation
+            ``benchmarks/bench_sspinn.py``). The first step pays a one-off compilation (about a
+            minute on a 2-core machine, without SIMD code generation: see :class:`PhysicsTerms`;
+            a few seconds when inductor's cache in ``$TORCHINDUCTOR_CACHE_DIR`` already holds it). If compilation
             fails (no C++ compiler), training warns and continues eagerly. The numbers agree with
             the eager ones to float32 rounding, not bit for bit.
     """

@@ -68,6 +68,7 @@ from typing import Self
 
 import numpy as np
 
+from sspinn.data.gait_events import runs_at_least
 from sspinn.estimator._zupt_kernels import eskf_rts
 from sspinn.model.conventions import GRAVITY
 
@@ -147,18 +148,7 @@ def detect_stance(
     quiet = np.abs(gyr) < gyro_threshold
     if acc_threshold is not None:
         quiet &= np.abs(np.linalg.norm(acc, axis=1) - gravity) < acc_threshold
-    return _runs_at_least(quiet, max(1, int(round(window_s * sample_rate_hz))))
-
-
-def _runs_at_least(mask: np.ndarray, min_len: int) -> np.ndarray:
-    """``mask`` with its runs of True shorter than ``min_len`` samples cleared."""
-    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
-    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    out = np.zeros(len(mask), dtype=bool)
-    for s, e in zip(starts, ends):
-        if e - s >= min_len:
-            out[s:e] = True
-    return out
+    return runs_at_least(quiet, max(1, int(round(window_s * sample_rate_hz))))
 
 
 #: Shortest whole-body rest, s: walking never rests every segment this long (double support
@@ -177,7 +167,7 @@ def whole_body_still(imu: np.ndarray, sample_rate_hz: float, window_s: float = S
     quiet = np.ones(imu.shape[0], dtype=bool)
     for k in range(imu.shape[1]):
         quiet &= detect_stance(imu[:, k, :2], imu[:, k, 2], sample_rate_hz, window_s=0.0)
-    return _runs_at_least(quiet, max(1, int(round(window_s * sample_rate_hz))))
+    return runs_at_least(quiet, max(1, int(round(window_s * sample_rate_hz))))
 
 
 #: Time constant, s, with which the network's own speed returns after a whole-body rest (and before

@@ -24,6 +24,7 @@ Written here because no maintained library fits planar joint centres to two IMUs
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Final
 
@@ -31,7 +32,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import butter, sosfiltfilt
 
-from sspinn.estimator.zupt import detect_stance
+from sspinn.data.gait_events import runs_at_least
 from sspinn.model.conventions import GRAVITY
 
 #: Low-pass cut-off (Hz) of the rates and specific forces before ω̇ is differentiated from ω:
@@ -46,8 +47,11 @@ MAX_RELATIVE_RESIDUAL: Final = 0.25
 MIN_FOOT_FLAT_SAMPLES: Final = 50
 #: ... and the shortest rest, s (mid-stance foot-flat lasts 0.2–0.4 s in walking).
 FOOT_FLAT_MIN_S: Final = 0.1
-#: |specific force| tolerance of a rest sample around the rests' median, m/s² (the ZUPT detector's).
+#: |specific force| tolerance of a rest sample around the rests' median, m/s², and the angular
+#: rate below which a foot rests, rad/s: the foot ZUPT detector's
+#: (:class:`sspinn.estimator.zupt.SagittalZuptKalman`; 34°/s is gaitmap's).
 ZUPT_ACC_THRESHOLD: Final = 1.0
+ZUPT_GYRO_THRESHOLD: Final = math.radians(34.0)
 
 
 @dataclass(frozen=True)
@@ -119,11 +123,10 @@ def segment_axis(proximal: JointFit | None, distal: JointFit | None, proximal_si
 def foot_flat_up(f: np.ndarray, omega: np.ndarray, rate_hz: float, mask: np.ndarray) -> np.ndarray | None:
     """Unit (2,) direction of gravity (the foot's y axis) in a foot sensor's plane: the mean
     specific force over its mid-stance rests within ``mask`` — runs of at least
-    :data:`FOOT_FLAT_MIN_S` below :func:`~sspinn.estimator.zupt.detect_stance`'s rate threshold
-    (a swing's turning point is shorter), whose |specific force| is within its acceleration
+    :data:`FOOT_FLAT_MIN_S` below :data:`ZUPT_GYRO_THRESHOLD` (a swing's turning point is shorter), whose |specific force| is within its acceleration
     threshold of their median (the sensor's own gravity reading: an accelerometer gain error
     does not hide its rests); None with fewer than :data:`MIN_FOOT_FLAT_SAMPLES`."""
-    rests = detect_stance(f, omega, rate_hz, acc_threshold=None, window_s=FOOT_FLAT_MIN_S) & mask
+    rests = runs_at_least(np.abs(omega) < ZUPT_GYRO_THRESHOLD, max(1, round(FOOT_FLAT_MIN_S * rate_hz))) & mask
     if rests.sum() < MIN_FOOT_FLAT_SAMPLES:
         return None
     norm = np.linalg.norm(f, axis=1)
@@ -136,4 +139,4 @@ def foot_flat_up(f: np.ndarray, omega: np.ndarray, rate_hz: float, mask: np.ndar
 
 
 __all__ = ["CUTOFF_HZ", "FOOT_FLAT_MIN_S", "JointFit", "MAX_RELATIVE_RESIDUAL", "MIN_FOOT_FLAT_SAMPLES", "SEGMENT_LENGTH_RANGE_M",
-           "ZUPT_ACC_THRESHOLD", "foot_flat_up", "joint_centre", "plane_signals", "segment_axis"]
+           "ZUPT_ACC_THRESHOLD", "ZUPT_GYRO_THRESHOLD", "foot_flat_up", "joint_centre", "plane_signals", "segment_axis"]
