@@ -157,15 +157,23 @@ def discover_trials(protocol: Protocol, subjects: tuple[str, ...] | None = None)
 def import_trials(protocol: Protocol, data: Path, train_subjects: tuple[str, ...], test_subjects: tuple[str, ...],
                   end_s: float | None = None) -> None:
     """Import every trial of the subjects into the dataset folder ``data`` (cached; ``end_s``:
-    only the first seconds, for ``--quick``)."""
+    only the first seconds, for ``--quick``). A trial cached in the other split (another
+    ``--train-subjects`` / ``--test-subjects`` on the same ``--out``) is a ``SystemExit`` naming it."""
+    index = data / "dataset.json"
+    imported = json.loads(index.read_text()).get("info", {}).get("imported", {}) if index.exists() else {}
     for trial in discover_trials(protocol, (*train_subjects, *test_subjects)):
+        split = "train" if trial.subject in train_subjects else "test"
         sidecar = data / f"{trial.name}.json"
         if sidecar.exists() and json.loads(sidecar.read_text()).get("provenance", {}).get("importer_version") == IMPORTER_VERSION:
+            cached = imported.get(trial.name, {}).get("split", split)
+            if cached != split:
+                raise SystemExit(f"{data}: {trial.name} was imported into the {cached!r} split, this run puts it into {split!r}; "
+                                 "give another --out for another choice of train and test subjects")
             continue
         start = time.perf_counter()
         result = import_imu(
             [trial.imu], protocol.sensor_map, trial.height_m, trial.mass_kg, data, subject=trial.subject, name=trial.name,
-            grf=trial.grf, speed=trial.speed_mps, split="train" if trial.subject in train_subjects else "test", end_s=end_s,
+            grf=trial.grf, speed=trial.speed_mps, split=split, end_s=end_s,
         )
         lag = result.alignment.lag_s if result.alignment else float("nan")
         print(f"imported {trial.name}: {result.recording.duration:.1f} s, GRF lag {lag:+.3f} s "

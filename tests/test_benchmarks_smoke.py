@@ -146,3 +146,12 @@ def test_bench_cmu_continuous_finds_trials_by_pattern(tmp_path: Path, capsys: py
         assert exit_info.value.code == 2
         err = capsys.readouterr().err.strip().splitlines()[-1]
         assert re.search(message, err), err
+    # a folder imported with another choice of test subjects is not reused for this one
+    data = tmp_path / "out" / "data"
+    data.mkdir(parents=True)
+    splits = {t.name: ("train" if t.subject in ("P1", "P2", "P3") else "test") for t in trials}  # P3 trained on before
+    for name in splits:
+        (data / f"{name}.json").write_text(json.dumps({"provenance": {"importer_version": bench["IMPORTER_VERSION"]}}))
+    (data / "dataset.json").write_text(json.dumps({"info": {"imported": {n: {"split": sp} for n, sp in splits.items()}}}))
+    with pytest.raises(SystemExit, match="P3_slow was imported into the 'train' split, this run puts it into 'test'"):
+        bench["import_trials"](protocol, data, ("P1", "P2"), ("P3",))
