@@ -211,11 +211,8 @@ def grf_rmse_pct(est: np.ndarray, ref: np.ndarray, columns: list[int], mass: flo
     return float(100 * np.sqrt(np.mean((est[:, columns] - ref[:, columns]) ** 2)) / (mass * GRAVITY))
 
 
-def trial_metrics(grf: np.ndarray, speed: float | None, rec: Recording, vx: np.ndarray | None = None) -> dict[str, float]:
-    """Metrics of an estimated GRF (T, 4) (and mean speed, m/s) against ``rec``'s labels; with the
-    estimated forward velocity ``vx`` (T,) also the mean |vx| while standing (m/s; the measured
-    GRF's standing, :func:`~sspinn.data.gait_events.standing_mask`, warm-up included: the belt
-    is still, the truth 0; NaN without standing)."""
+def trial_metrics(grf: np.ndarray, speed: float | None, rec: Recording) -> dict[str, float]:
+    """Metrics of an estimated GRF (T, 4) (and mean speed, m/s) against ``rec``'s labels."""
     assert rec.labels is not None and rec.labels.grf is not None and rec.labels.speed is not None
     sl = slice(WARMUP, None)
     ref, est = rec.labels.grf[sl], grf[sl]
@@ -228,10 +225,6 @@ def trial_metrics(grf: np.ndarray, speed: float | None, rec: Recording, vx: np.n
     if speed is not None:
         out["speed"] = speed
         out["speed_error"] = abs(speed - float(np.mean(rec.labels.speed[sl])))
-    if vx is not None:
-        standing = standing_mask(rec.labels.grf, rec.mass * GRAVITY, SAMPLE_RATE_HZ)
-        out["standing_s"] = standing.sum() / SAMPLE_RATE_HZ
-        out["standing_speed"] = float(np.abs(vx[standing]).mean()) if standing.any() else float("nan")
     return out
 
 
@@ -258,7 +251,7 @@ def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recordi
         profile_imu = profiles[condition_of(rec, conditions)].predict_grf(rec, imu_timing)
         froude = trial_metrics(base.grf, trivial.speed_for(rec, "froude"), rec)
         row = {"belt_speed": float(np.mean(rec.labels.speed)) if rec.labels and rec.labels.speed is not None else None,
-               CONSTANT: trial_metrics(base.grf, float(np.mean(base.u[:, 0])), rec, base.u[:, 0]),
+               CONSTANT: trial_metrics(base.grf, float(np.mean(base.u[:, 0])), rec),
                FROUDE: {k: v if k in ("speed", "speed_error") else float("nan") for k, v in froude.items()},  # a speed only
                PROFILE: trial_metrics(profile_grf[rec.name], None, rec),
                PROFILE_IMU: trial_metrics(profile_imu, None, rec)}
@@ -266,30 +259,30 @@ def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recordi
         for arm, stored in loaded.items():
             est = estimate_recording(stored.network, rec, stored.segments)
             estimates[rec.name][arm] = est
-            row[arm] = trial_metrics(est.grf, float(np.mean(est.u[WARMUP:, 0])), rec, est.u[:, 0])
+            row[arm] = trial_metrics(est.grf, float(np.mean(est.u[WARMUP:, 0])), rec)
         results[rec.name] = row
     return results, estimates, profile_grf
 
 
-def standing_speeds(models: dict[str, Path], test: list[Recording], train: list[Recording]) -> dict[str, dict[str, float]]:
+def standing_speeds(estimates: dict[str, dict[str, GaitEstimate]], test: list[Recording], train: list[Recording],
+                    zero_shot: Path | None) -> dict[str, dict[str, float]]:
     """Per trial with standing (the measured GRF's :func:`~sspinn.data.gait_events.standing_mask`):
     its seconds of standing and every arm's mean |forward velocity| there (m/s; the truth is 0),
-    on the trials the arm did not train on: the test trials for every arm, the training trials
-    too for ``zero_shot``."""
+    on the trials the arm did not train on: the test trials for every arm (``estimates``, as
+    :func:`evaluate` made them), the training trials too for the ``zero_shot`` model."""
     out: dict[str, dict[str, float]] = {}
-    loaded = {arm: load_model(path) for arm, path in models.items()}
     trivial = TrivialPredictor.fit(train, "the training subjects' labels")
-    unseen_by_all = {id(rec) for rec in test}
+    stored = load_model(zero_shot) if zero_shot is not None else None
     for rec in [*test, *train]:
         assert rec.labels is not None and rec.labels.grf is not None
         standing = standing_mask(rec.labels.grf, rec.mass * GRAVITY, SAMPLE_RATE_HZ)
         if not standing.any():
             continue
+        arms = estimates.get(rec.name)
+        if arms is None:  # a training trial: only the zero-shot model has not seen it
+            arms = {} if stored is None else {"zero_shot": estimate_recording(stored.network, rec, stored.segments)}
         row = {"standing_s": standing.sum() / SAMPLE_RATE_HZ, CONSTANT: float(np.abs(trivial.predict(rec).u[standing, 0]).mean())}
-        for arm, stored in loaded.items():
-            if id(rec) in unseen_by_all or arm == "zero_shot":
-                vx = estimate_recording(stored.network, rec, stored.segments).u[:, 0]
-                row[arm] = float(np.abs(vx[standing]).mean())
+        row |= {arm: float(np.abs(est.u[standing, 0]).mean()) for arm, est in arms.items()}
         out[rec.name] = row
     return out
 
@@ -492,7 +485,7 @@ def main(argv: list[str] | None = None) -> dict:
     (args.out / "plots").mkdir(parents=True, exist_ok=True)
     for rec in test:
         plot_trial(args.out / "plots" / f"{rec.name}.png", rec, estimates[rec.name], profile_grf[rec.name])
-    standing = standing_speeds(models, test, train)
+    standing = standing_speeds(estimates, test, train, models.get("zero_shot"))
     metrics = {"training": training, "trials": results, "standing": standing}
     atomic_write_text(args.out / "metrics.json", json.dumps(finite_or_null(metrics), indent=2, allow_nan=False))
     print(report(results, training, args.out, protocol, standing))
