@@ -427,6 +427,8 @@ def calibrate(
 #: The joints the walking-only in-plane angles use (:mod:`sspinn.imu.joint_centres`): name →
 #: (proximal segment kind, distal segment kind).
 _JOINTS: Final = {"hip": ("pelvis", "femur"), "knee": ("femur", "tibia"), "ankle": ("tibia", "foot")}
+#: The joint at each segment frame's origin: the proximal one.
+_JOINT_AT_ORIGIN: Final = {distal: joint for joint, (_, distal) in _JOINTS.items()}
 
 
 def _joint_guess(kind: str, segment: str, joint: str) -> np.ndarray:
@@ -437,9 +439,6 @@ def _joint_guess(kind: str, segment: str, joint: str) -> np.ndarray:
         return -sensor  # segment frames have their origin at the proximal joint (the HAT's: the hip)
     return np.array([0.0, -WINTER[kind][1] * 1.75]) - sensor
 
-
-#: The joint at each segment frame's origin.
-_JOINT_AT_ORIGIN: Final = {"femur": "hip", "tibia": "knee", "foot": "ankle"}
 
 
 def _axes_from_walking(raw: dict[str, _Raw], signs: dict[str, int], mask: np.ndarray, rate_hz: float) -> dict[str, tuple[np.ndarray, str]]:
