@@ -385,3 +385,29 @@ def test_a_failed_compile_falls_back_to_the_eager_physics(tiny, monkeypatch):
     assert trainer.step == 4 and not trainer.physics.compiled
     for a, b in zip(eager.model.state_dict().values(), trainer.model.state_dict().values()):
         torch.testing.assert_close(a, b)
+
+
+_VECTOR_KERNEL = """
+import sys, torch
+from sspinn.estimator.training import PHYSICS_COMPILE_OPTIONS
+if sys.argv[1] == "physics-first":  # the physics' options first, as a training before an environment
+    torch.compile(lambda x: x.cos() - 1, options=dict(PHYSICS_COMPILE_OPTIONS))(torch.linspace(0, 1, 4096, dtype=torch.float64))
+out = torch.compile(lambda x: x.sin() * 2)(torch.linspace(0, 1, 4096, dtype=torch.float64))
+assert torch.allclose(out, torch.linspace(0, 1, 4096, dtype=torch.float64).sin() * 2)
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(shutil.which("g++") is None and shutil.which("clang++") is None, reason="inductor needs a C++ compiler")
+def test_the_physics_compile_options_leave_later_compilations_alone(tmp_path):
+    """The physics' inductor options hold for its own graphs only: a later compilation in the same
+    process (the environment's, default options) still builds with SIMD flags, so it can load the
+    vector code that inductor's on-disk cache kept from an earlier process."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "TORCHINDUCTOR_CACHE_DIR": str(tmp_path / "inductor")}
+    for order in ("default-only", "physics-first"):  # the first fills the cache with vector code
+        done = subprocess.run([sys.executable, "-c", _VECTOR_KERNEL, order], env=env, capture_output=True, text=True)
+        assert done.returncode == 0, f"{order}: {done.stderr[-2000:]}"

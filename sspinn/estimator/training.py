@@ -426,6 +426,16 @@ class CompileWarning(UserWarning):
 #: compile the physics again (a minute, cold); the forward physics is 2 ms of a 20-ms demo step.
 PHYSICS_THREADS: Final = 1
 
+#: inductor options of the physics' compilation: no SIMD code generation. The cold compilation
+#: takes half as long (58 against 121–129 s, forward and backward, demo size, 2-core AMD EPYC) and
+#: the step runs as fast (51.6–51.8 k against 42.6–49.8 k samples/s): the tensors are short
+#: (batch × window elements), the kernels many (benchmarks/bench_sspinn.py). A SIMD width that no
+#: instruction set has (``cpp.simdlen: 1``), not ``cpp.vec_isa_ok: False``: inductor reads the
+#: latter when it first probes the CPU and caches the answer for the process, so every later
+#: compilation in that process (the environment's) would be built without SIMD flags, and fail on
+#: vector code that its on-disk cache kept from an earlier process.
+PHYSICS_COMPILE_OPTIONS: Final = {"cpp.simdlen": 1}
+
 
 class PhysicsTerms:
     """:func:`physics_terms`, compiled with ``torch.compile`` when asked (see
@@ -442,11 +452,7 @@ class PhysicsTerms:
             # created would guard on its absence and be compiled a second time on the next call
             ops_for(torch.zeros(()))
             if PhysicsTerms._shared is None:
-                # without SIMD code generation: the cold compilation takes half as long (58 against
-                # 121–129 s, forward and backward, demo size, 2-core AMD EPYC) and the step runs as
-                # fast (51.6–51.8 k against 42.6–49.8 k samples/s): the tensors are short
-                # (batch × window elements), the kernels many (benchmarks/bench_sspinn.py)
-                PhysicsTerms._shared = torch.compile(physics_terms, dynamic=False, options={"cpp.vec_isa_ok": False})
+                PhysicsTerms._shared = torch.compile(physics_terms, dynamic=False, options=dict(PHYSICS_COMPILE_OPTIONS))
 
     def __call__(
         self, losses: PhysicsLosses, raw: torch.Tensor, batch: Batch, weights: LossWeights | None = None
