@@ -39,6 +39,7 @@ import torch
 from scipy.stats import spearmanr
 
 from sspinn.data.dataset import Dataset, Recording
+from sspinn.data.loading import dataset_recordings
 from sspinn.estimator.quality import (
     ERROR_QUANTILE,
     QualityCalibration,
@@ -46,6 +47,7 @@ from sspinn.estimator.quality import (
     calibrate,
     input_findings,
     save_calibration,
+    training_recordings,
     window_errors,
 )
 from sspinn.estimator.sspinnpose import SSPINNpose
@@ -179,12 +181,13 @@ def main(argv: list[str] | None = None) -> dict:
     dataset = Dataset.open(args.data)
     calib = [r for s in args.calibrate_on for r in dataset.load(s)]
     cal, _, _ = calibrate(est.network_, est.segments_, est.imu_std_, est.config_.joint_limits, calib,
-                          [est.predict(r) for r in calib], args.model, f"{args.data} ({', '.join(args.calibrate_on)})")
+                          [est.predict(r) for r in calib], args.model, f"{args.data} ({', '.join(args.calibrate_on)})",
+                          training=training_recordings(dataset_recordings(args.data), est.trained_on_))
     save_calibration(cal, args.out / "quality.json")
     test = [r for s in args.evaluate_on for r in dataset.load(s)]
     result = {"model": str(args.model), "data": str(args.data), "calibrated_on": args.calibrate_on, "evaluated_on": args.evaluate_on,
               "window_s": cal.window_s, "threshold": cal.threshold, "error_threshold": cal.error_threshold,
-              "calibration_fit": cal.fit, "input_ranges": cal.input_ranges, "held_out": held_out(est, cal, test),
+              "calibration_fit": cal.fit, "input_ranges": cal.input_ranges, "input_ranges_from": cal.ranges_from, "held_out": held_out(est, cal, test),
               "corrupted": corrupted(est, cal, test)}
     print(f"calibrated on {', '.join(args.calibrate_on)} ({len(calib)} recordings, {int(cal.fit['n_windows'])} windows of "
           f"{cal.window_s:g} s): threshold {cal.threshold:.3f}; large error = relative error > {cal.error_threshold:.3f} "
@@ -207,10 +210,10 @@ def main(argv: list[str] | None = None) -> dict:
         print(f"\nreal CMU treadmill trials: flag rate {c['flag_rate']:.0%} ("
               + ", ".join(f"{k} {v['flag_rate']:.0%}" for k, v in c["by_condition"].items())
               + f"); ρ(score, GRF RMSE) pooled {c['spearman_grfe_pooled']:+.2f}, within trials {c['spearman_grfe_within_trials']:+.2f}")
-        print("| trial | windows | flagged | median score | median GRF RMSE %BW | ρ(score, GRFE) | outside the training inputs |")
+        print(f"| trial | windows | flagged | median score | median GRF RMSE %BW | ρ(score, GRFE) | outside the {cal.ranges_from} inputs |")
         print("|---|---:|---:|---:|---:|---:|---|")
         for name, t in c["trials"].items():
-            note = t["outside_training_inputs"][0].split("calibrated on: ", 1)[-1].split(": the estimate")[0] if t["outside_training_inputs"] else "—"
+            note = t["outside_training_inputs"][0].split(" on: ", 1)[-1].split(": the estimate")[0] if t["outside_training_inputs"] else "—"
             print(f"| {name} | {t['windows']} | {t['flag_rate']:.0%} | {t['median_score']:+.2f} | {t['median_grfe_pct_bw']:.1f} | "
                   f"{t['spearman_grfe']:+.2f} | {note} |")
     else:

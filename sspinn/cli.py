@@ -18,7 +18,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from sspinn.data.dataset import Dataset
-from sspinn.data.loading import open_recordings
+from sspinn.data.loading import dataset_recordings, open_recordings
 from sspinn.errors import ArgumentParser, UserError, bounded, run_cli
 from sspinn.estimator.inference import ImplausibleEstimateError, NonFiniteEstimateError
 from sspinn.run_folder import RunLock, free_folder
@@ -224,14 +224,19 @@ def _calibrate_quality(args: argparse.Namespace) -> int:
         QualityWarning,
         calibrate,
         calibration_path,
+        training_recordings,
     )
     from sspinn.estimator.sspinnpose import SSPINNpose
 
     est = SSPINNpose.load(args.model)
     recs = [r for split in args.split for r in open_recordings(args.data, split, args.periods, args.height, args.mass)]
     estimates = [est.predict(r) for r in recs]
+    training = training_recordings(dataset_recordings(args.data), est.trained_on_)
+    if not training:
+        print(f"NOTE: the {len(est.trained_on_)} recordings {args.model} was trained on are not all in {args.data}: "
+              "the input ranges are those of the calibration recordings")
     cal, _, _ = calibrate(est.network_, est.segments_, est.imu_std_, est.config_.joint_limits, recs, estimates, args.model,
-                          f"{args.data} ({', '.join(args.split)})")
+                          f"{args.data} ({', '.join(args.split)})", training=training)
     target = Path(args.out or calibration_path(args.model))
     out = calibration_files.save_new(cal.to_json(), target, "quality", args.overwrite)
     if out is None:  # the same calibration again (a rerun of make demo)

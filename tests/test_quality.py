@@ -20,6 +20,7 @@ from sspinn.estimator.quality import (
     input_findings,
     load_calibration,
     save_calibration,
+    training_recordings,
     windows,
 )
 from sspinn.estimator.sspinnpose import SSPINNpose
@@ -101,10 +102,35 @@ def test_inputs_outside_the_calibration_ranges_are_named(model):
         input_ranges={"height_m": [1.8, 1.9], "mass_kg": [60.0, 80.0], "speed_m_s": [100.0, 200.0]}, calibrated_on=[], source="x",
     )
     [line] = input_findings(rec, q, cal, "m.pt")
-    assert line.startswith("walk: ") and "height 1.75 m outside the training range 1.8–1.9 m" in line
+    assert line.startswith("walk: its inputs lie outside those of the recordings m.pt was calibrated on: ")
+    assert "height 1.75 m outside their range 1.8–1.9 m" in line
     assert "estimated speed" in line and "100% of windows outside" in line and "mass" not in line
+    cal.ranges_from = "training"
+    [line] = input_findings(rec, q, cal, "m.pt")
+    assert "the recordings m.pt was trained on: " in line
     cal.input_ranges = {"height_m": [1.7, 1.8]}
     assert input_findings(rec, q, cal, "m.pt") == []
+
+
+def test_a_threshold_from_held_out_recordings_keeps_the_training_inputs_ranges(model, tiny_run):
+    """Calibrated on recordings the model never saw, the input ranges are still those of its
+    training recordings (``training``), found by the names the model file stores."""
+    est = SSPINNpose.load(model)
+    data = Dataset.open(tiny_run[1])
+    train, test = data.load("train"), data.load("test")
+    everything = train + test
+    assert [r.name for r in training_recordings(everything, est.trained_on_)] == [r.name for r in train]
+    assert training_recordings(test, est.trained_on_) == []  # not all of them there: none
+    assert training_recordings(everything, ()) == []
+    test = [dataclasses.replace(r, height=1.6) for r in test]  # unlike the training subjects (1.75 m)
+    cal, _, _ = calibrate(est.network_, est.segments_, est.imu_std_, est.config_.joint_limits, test,
+                          [est.predict(r) for r in test], model, "tiny (test)", training=train)
+    assert cal.ranges_from == "training" and cal.calibrated_on == [r.name for r in test]
+    assert cal.input_ranges["height_m"] == [1.75, 1.75]
+    alone, _, _ = calibrate(est.network_, est.segments_, est.imu_std_, est.config_.joint_limits, test,
+                            [est.predict(r) for r in test], model, "tiny (test)")
+    assert alone.ranges_from == "calibration" and alone.threshold == cal.threshold
+    assert alone.input_ranges["height_m"] == [1.6, 1.6]
 
 
 def test_infer_writes_the_quality_and_warns(model, tiny_run, tmp_path, capsys):
@@ -126,7 +152,8 @@ def test_infer_writes_the_quality_and_warns(model, tiny_run, tmp_path, capsys):
     assert "no quality calibration" not in captured.out
     warning_lines = [line for line in captured.err.splitlines() if line.startswith("WARNING: odd: ")]
     assert any("flagged as unreliable" in line and "3 of 3 windows (100%)" in line for line in warning_lines), captured.err
-    assert any("height 1.5 m outside the training range" in line and "mass 45 kg" in line for line in warning_lines), captured.err
+    assert any("was trained on: " in line and "height 1.5 m outside their range" in line and "mass 45 kg" in line
+               for line in warning_lines), captured.err
     lines = (tmp_path / "out" / "odd_quality.csv").read_text().splitlines()
     header = lines[0].split(",")
     assert header[:3] == ["window", "start_s", "end_s"] and {"imu", "kane", "stance", "score", "flagged"} <= set(header)

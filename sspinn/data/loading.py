@@ -1,4 +1,5 @@
-"""Recordings from every on-disk form the project reads, through one call: :func:`open_recordings`."""
+"""Recordings from every on-disk form the project reads, through one call: :func:`open_recordings`
+(and a whole dataset folder: :func:`dataset_recordings`)."""
 
 from __future__ import annotations
 
@@ -28,3 +29,14 @@ def open_recordings(
     if path.suffix == ".csv":
         return [Recording.load(path)]
     raise DataFormatError(f"{path}: not a dataset folder (dataset.json), an averaged-stride folder (signals.csv + meta.json) or a recording .csv")
+
+
+def dataset_recordings(path: str | Path) -> list[Recording]:
+    """Every recording of every split of the dataset folder at ``path`` (each once), or none
+    when ``path`` is not a dataset folder (an averaged stride or a recording file)."""
+    path = Path(path)
+    if not (path / "dataset.json").exists():
+        return []
+    dataset = Dataset.open(path)
+    unique = {rec.name: rec for split in dataset.splits for rec in dataset.load(split)}
+    return list(unique.values())

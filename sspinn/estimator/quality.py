@@ -27,10 +27,13 @@ the held-out subjects it is evaluated on), computes each window's error against 
 each divided by its median over the calibration windows, :data:`ERROR`), and chooses the score
 threshold that best separates the windows whose error exceeds the calibration windows' 90th
 percentile (the largest F1 score of "score > threshold" as a detector of those windows). It
-also stores the ranges of the calibration recordings' inputs (:data:`INPUTS`: body height and
-mass, cadence from the leg gyroscopes, each window's labelled forward speed), with which
-:func:`input_findings` compares a new recording (its speed: the estimated one of each window). The calibration is a small JSON file beside
-the model (:func:`calibration_path`), tied to the model file by its SHA-256.
+also stores the ranges of the inputs (:data:`INPUTS`: body height and mass, cadence from the
+leg gyroscopes, each window's labelled forward speed) of the recordings the model was trained on
+where the calibration data hold them (else of the calibration recordings, and the warnings say
+so), with which :func:`input_findings` compares a new recording (its speed: the estimated one of
+each window): a threshold calibrated on held-out subjects still judges the inputs against the
+training data. The calibration is a small JSON file beside the model (:func:`calibration_path`),
+tied to the model file by its SHA-256.
 """
 
 from __future__ import annotations
@@ -72,6 +75,8 @@ ERROR_QUANTILE = 0.9
 INPUTS: dict[str, str] = {"height_m": "m", "mass_kg": "kg", "cadence_steps_min": "steps/min", "speed_m_s": "m/s"}
 #: How the warnings name the inputs.
 INPUT_LABELS: dict[str, str] = {"height_m": "height", "mass_kg": "mass", "cadence_steps_min": "cadence", "speed_m_s": "estimated speed"}
+#: Whose inputs a calibration's ranges span → how the warnings name them.
+RANGES_FROM: Final = {"training": "trained", "calibration": "calibrated"}
 #: Calibration file format (JSON).
 CALIBRATION_FORMAT = "sspinn-quality-calibration"
 CALIBRATION_VERSION = 1
@@ -211,13 +216,6 @@ def window_errors(estimate: GaitEstimate, rec: Recording, start: np.ndarray, sto
     return out
 
 
-def _label_speed(rec: Recording, quality: WindowQuality) -> np.ndarray:
-    """Mean labelled forward speed per window (the estimated one where the labels have none)."""
-    if rec.labels is None or rec.labels.speed is None:
-        return quality.speed
-    return np.array([float(np.mean(rec.labels.speed[a:b])) for a, b in zip(quality.start, quality.stop)])
-
-
 def cadence(rec: Recording) -> float:
     """Steps per minute from the leg gyroscopes' stride period (:func:`sspinn.data.signal_checks.gait_rhythm`);
     NaN for a recording too short or without gait."""
@@ -239,11 +237,15 @@ class QualityCalibration:
         error_median: median JAE (deg) and GRFE (%BW) over the calibration windows.
         error_threshold: the relative error above which a calibration window counts as a large
             error (its :data:`ERROR_QUANTILE` quantile).
-        input_ranges: input name (:data:`INPUTS`) → [min, max] over the calibration recordings
-            (speed: over their windows, labelled; the estimated speed where there is no label).
+        input_ranges: input name (:data:`INPUTS`) → [min, max] over the recordings named by
+            ``ranges_from`` (speed: over their windows, labelled; the estimated speed where there
+            is no label).
         calibrated_on: names of the calibration recordings.
         source: where they came from (a dataset folder and its splits).
         fit: the calibration windows' detection figures (precision, recall, F1, flag rate).
+        ranges_from: whose inputs ``input_ranges`` spans: ``"training"`` (the recordings the
+            model was trained on) or ``"calibration"`` (the calibration recordings: the model's
+            training recordings were not at hand).
     """
 
     model_sha256: str
@@ -257,6 +259,7 @@ class QualityCalibration:
     calibrated_on: list[str]
     source: str
     fit: dict[str, float] = field(default_factory=dict)
+    ranges_from: str = "calibration"
 
     def score(self, terms: dict[str, np.ndarray]) -> np.ndarray:
         """Mean over the terms of log10(term / its calibration median), per window."""
@@ -285,6 +288,8 @@ class QualityCalibration:
             numbers = [cal.window_s, cal.threshold, cal.error_threshold, *cal.term_median.values(), *cal.error_median.values()]
             if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in numbers) or cal.window_s <= 0:
                 raise ValueError("a number is missing, not finite or not positive")
+            if cal.ranges_from not in RANGES_FROM:
+                raise ValueError(f"ranges_from {cal.ranges_from!r} is not one of {list(RANGES_FROM)}")
             for name, bounds in cal.input_ranges.items():
                 if name not in INPUTS or len(bounds) != 2:
                     raise ValueError(f"input range {name!r}: {bounds!r}")
@@ -327,9 +332,11 @@ def best_threshold(score: np.ndarray, large: np.ndarray) -> tuple[float, dict[st
 def calibrate(
     network: SSPINNposeNet, segments: tuple[str, ...], imu_std: torch.Tensor, joint_limits: str, recordings: Sequence[Recording],
     estimates: Sequence[GaitEstimate], model_path: str | Path, source: str, window_s: float = WINDOW_S,
+    training: Sequence[Recording] = (),
 ) -> tuple[QualityCalibration, list[WindowQuality], list[dict[str, np.ndarray]]]:
-    """Calibrate the score threshold and the input ranges on labelled ``recordings`` and the
-    model's ``estimates`` of them (module docstring); also returns every recording's window
+    """Calibrate the score threshold on labelled ``recordings`` and the model's ``estimates`` of
+    them (module docstring), and the input ranges on the model's ``training`` recordings (on
+    ``recordings`` when none are given); also returns every calibration recording's window
     quality (scored) and errors."""
     if not recordings:
         raise QualityCalibrationError(f"{source}: no recordings to calibrate on")
@@ -341,18 +348,16 @@ def calibrate(
         raise QualityCalibrationError(f"{source}: calibration needs joint-angle and GRF labels on every recording")
     grf = network.config.grf
     term_median = {k: float(np.median(np.concatenate([q.terms[k] for q in qualities]))) for k in QUALITY_TERMS[grf]}
-    speeds = np.concatenate([_label_speed(r, q) for r, q in zip(recordings, qualities)])
-    cadences = np.array([cadence(r) for r in recordings])
-    cadences = cadences[np.isfinite(cadences)]
-    ranges = {"height_m": [min(r.height for r in recordings), max(r.height for r in recordings)],
-              "mass_kg": [min(r.mass for r in recordings), max(r.mass for r in recordings)],
-              "speed_m_s": [float(speeds.min()), float(speeds.max())]}
-    if len(cadences):
-        ranges["cadence_steps_min"] = [float(cadences.min()), float(cadences.max())]
+    if training:
+        ranges = input_ranges(training, [window_quality(network, r, segments, imu_std, joint_limits, window_s)
+                                         if r.labels is None or r.labels.speed is None else None for r in training], window_s)
+    else:
+        ranges = input_ranges(recordings, qualities, window_s)
     cal = QualityCalibration(
         model_sha256=calibration_files.file_sha256(model_path), grf=grf, window_s=window_s, term_median=term_median, threshold=0.0,
         error_median={"jae_deg": float(np.median(jae)), "grfe_pct_bw": float(np.median(grfe))}, error_threshold=0.0,
         input_ranges=ranges, calibrated_on=[r.name for r in recordings], source=source,
+        ranges_from="training" if training else "calibration",
     )
     for q in qualities:
         cal.apply(q)
@@ -363,6 +368,40 @@ def calibrate(
     for q in qualities:
         cal.apply(q)
     return cal, qualities, errors
+
+
+def input_ranges(recordings: Sequence[Recording], qualities: Sequence[WindowQuality | None],
+                 window_s: float = WINDOW_S) -> dict[str, list[float]]:
+    """[min, max] of each :data:`INPUTS` over ``recordings``: height, mass, cadence, and the
+    labelled speed of each :data:`WINDOW_S` window (the window's estimated speed from its
+    ``qualities`` entry where a recording has no speed label; None where it has one)."""
+    speeds = []
+    for rec, quality in zip(recordings, qualities):
+        if rec.labels is not None and rec.labels.speed is not None:
+            start, stop = windows(rec.n_samples, window_s)
+            speeds.append(np.array([float(np.mean(rec.labels.speed[a:b])) for a, b in zip(start, stop)]))
+        elif quality is not None:
+            speeds.append(quality.speed)
+    ranges = {"height_m": [min(r.height for r in recordings), max(r.height for r in recordings)],
+              "mass_kg": [min(r.mass for r in recordings), max(r.mass for r in recordings)]}
+    speed = np.concatenate(speeds) if speeds else np.zeros(0)
+    speed = speed[np.isfinite(speed)]
+    if len(speed):
+        ranges["speed_m_s"] = [float(speed.min()), float(speed.max())]
+    cadences = np.array([cadence(r) for r in recordings])
+    cadences = cadences[np.isfinite(cadences)]
+    if len(cadences):
+        ranges["cadence_steps_min"] = [float(cadences.min()), float(cadences.max())]
+    return ranges
+
+
+def training_recordings(candidates: Sequence[Recording], trained_on: Sequence[str]) -> list[Recording]:
+    """The recordings among ``candidates`` that a model was trained on (its ``trained_on``
+    names), or none unless every one of them is there (a partial set would narrow the ranges)."""
+    by_name = {r.name: r for r in candidates}
+    if not trained_on or any(name not in by_name for name in trained_on):
+        return []
+    return [by_name[name] for name in dict.fromkeys(trained_on)]
 
 
 def save_calibration(cal: QualityCalibration, path: str | Path) -> Path:
@@ -379,7 +418,8 @@ def recording_inputs(rec: Recording, quality: WindowQuality) -> dict[str, np.nda
 
 
 def input_findings(rec: Recording, quality: WindowQuality, cal: QualityCalibration, model: str) -> list[str]:
-    """One line naming the recording and each input outside the calibration data's range (none
+    """One line naming the recording and each input outside the range stored in the calibration
+    (the model's training recordings' or the calibration recordings', ``cal.ranges_from``; none
     if all lie inside); an input the calibration has no range for is not judged."""
     parts = []
     for name, values in recording_inputs(rec, quality).items():
@@ -393,10 +433,10 @@ def input_findings(rec: Recording, quality: WindowQuality, cal: QualityCalibrati
         label, unit = INPUT_LABELS[name], INPUTS[name]
         what = (f"{label} {finite[0]:.3g} {unit}" if len(values) == 1
                 else f"{label} {np.median(finite):.3g} {unit} (median; {np.mean(outside):.0%} of windows outside)")
-        parts.append(f"{what} outside the training range {lo:.3g}–{hi:.3g} {unit}")
+        parts.append(f"{what} outside their range {lo:.3g}–{hi:.3g} {unit}")
     if not parts:
         return []
-    return [f"{rec.name}: its inputs lie outside the data {model} was calibrated on: " + "; ".join(parts)
+    return [f"{rec.name}: its inputs lie outside those of the recordings {model} was {RANGES_FROM[cal.ranges_from]} on: " + "; ".join(parts)
             + ": the estimate is an extrapolation; treat it with care"]
 
 
