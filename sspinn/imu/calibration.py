@@ -14,7 +14,9 @@ a standing phase, else its mean while walking):
    every sensor's angular-rate norm (0.1 s mean) stays below :data:`STANDING_GYRO_RAD_S`; its
    mean angular rate is the gyroscope bias. **Walking** (:func:`detect_walking`): 1 s windows
    whose largest angular-rate RMS exceeds :data:`WALKING_GYRO_RMS_RAD_S`. The stride period is
-   the autocorrelation peak of a leg sensor's rate norm (:func:`stride_period`).
+   the autocorrelation peak of a leg sensor's rate norm (:func:`stride_period`). **Turns**
+   (:mod:`sspinn.imu.turns`, from the pelvis sensor's rate about the vertical) are left out of
+   the walking and named in a warning: turning is not sagittal walking.
 2. **Medio-lateral axis** z, constrained perpendicular to ``up`` (gravity lies in the sagittal
    plane): for leg segments the principal axis of the angular rate while walking (largest
    eigenvector of its second moment, projected into the plane ⟂ ``up``). The pelvis (HAT) turns
@@ -73,6 +75,7 @@ from sspinn.data.signal_checks import cross_spectrum
 from sspinn.errors import UserError
 from sspinn.imu import joint_centres
 from sspinn.imu.sensor_map import SensorAssignment
+from sspinn.imu.turns import Turn, detect_turns
 from sspinn.model.body import WINTER, IMUPlacement
 from sspinn.model.conventions import GRAVITY
 
@@ -168,7 +171,8 @@ class Calibration:
         sensors: segment → :class:`SensorCalibration`. rate_hz: sample rate, Hz.
         standing: (start, stop) samples of quiet standing, or None.
         walking_s: walking used, s. stride_period_s: s.
-        walking_runs: (start, stop) samples of the walking spans used.
+        walking_runs: (start, stop) samples of the walking spans used (turns left out).
+        turns: the turns found in the pelvis sensor's yaw rate (:mod:`sspinn.imu.turns`).
         notes: how the calibration went (for the report).
         warnings: what the user must check (uncertain signs here; :mod:`sspinn.imu.cross_sensor_checks`
             adds upside-down sensors and legs mixed up in the map, ``sspinn import`` the readers'
@@ -183,6 +187,7 @@ class Calibration:
     notes: list[str] = field(default_factory=list)
     walking_runs: list[tuple[int, int]] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    turns: list[Turn] = field(default_factory=list)
 
     def uncertain_signs(self) -> list[str]:
         return [s for s, c in self.sensors.items() if c.sign_margin < SIGN_MARGIN_WARN]
@@ -358,6 +363,16 @@ def calibrate(
         period = stride_period(np.linalg.norm(signals[lead][1][longest[0]:longest[1]], axis=1), rate_hz)
     else:
         period = stride_period(np.linalg.norm(signals[segments[0]][0][longest[0]:longest[1]], axis=1), rate_hz, step=True)
+    turns = _turns(signals, assignments, span, walking, rate_hz, period)
+    if turns:  # turning is not sagittal walking: left out of every walking-based step below
+        for t in turns:
+            walking[t.start:t.stop] = False
+        runs = [r for r in _runs(walking) if r[1] - r[0] >= 2 * rate_hz]
+        walking_s = sum(b - a for a, b in runs) / rate_hz
+        if walking_s < MIN_WALKING_S:
+            raise SensorCalibrationError(f"{source}: {walking_s:.1f} s of straight walking found once the turns "
+                                         f"({', '.join(t.describe(rate_hz) for t in turns)}) are left out; calibration needs at "
+                                         f"least {MIN_WALKING_S:g} s")
     notes.append(f"{walking_s:.1f} s of walking, stride period {period:.2f} s")
     mask = np.zeros(len(walking), dtype=bool)
     for a, b in runs:
@@ -413,7 +428,10 @@ def calibrate(
             r.a.sensor, seg, rotation, r.bias, oop, r.tilt, angle, _AXIS_NAMES[k], r.method, how[seg], angle_method,
             votes[seg], margins[seg], norm, gain,
         )
-    cal = Calibration(out, rate_hz, span, walking_s, period, notes, runs)
+    cal = Calibration(out, rate_hz, span, walking_s, period, notes, runs, turns=turns)
+    for t in turns:
+        cal.warnings.append(f"turning at {t.describe(rate_hz)}: left out of the calibration; a sagittal model does not "
+                            "describe a turn, so the estimate there is not one of the gait (see the recording's turning_s)")
     for seg in cal.uncertain_signs():
         cal.warnings.append(f"sensor {out[seg].sensor!r} ({seg}): the medio-lateral sign is uncertain "
                             f"(margin {out[seg].sign_margin:.2f}); give right_axis in the sensor map")
@@ -429,6 +447,22 @@ def calibrate(
 _JOINTS: Final = {"hip": ("pelvis", "femur"), "knee": ("femur", "tibia"), "ankle": ("tibia", "foot")}
 #: The joint at each segment frame's origin: the proximal one.
 _JOINT_AT_ORIGIN: Final = {distal: joint for joint, (_, distal) in _JOINTS.items()}
+
+
+def _turns(signals: dict[str, tuple[np.ndarray, np.ndarray]], assignments: dict[str, SensorAssignment],
+           span: tuple[int, int] | None, walking: np.ndarray, rate_hz: float, period: float) -> list[Turn]:
+    """The turns (:func:`sspinn.imu.turns.detect_turns`) in the pelvis sensor's rate, its up
+    direction and gyroscope bias from quiet standing, or from the mean specific force while
+    walking without one; none without a pelvis sensor."""
+    pelvis = next((seg for seg in signals if assignments[seg].kind == "pelvis"), None)
+    if pelvis is None:
+        return []
+    acc, gyr = signals[pelvis]
+    if span is not None:
+        up, bias = acc[span[0]:span[1]].mean(axis=0), gyr[span[0]:span[1]].mean(axis=0)
+    else:
+        up, bias = acc[walking].mean(axis=0), np.zeros(3)
+    return detect_turns(gyr - bias, up, rate_hz, period)
 
 
 def _joint_guess(kind: str, segment: str, joint: str) -> np.ndarray:

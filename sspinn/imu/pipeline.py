@@ -62,7 +62,7 @@ from sspinn.model.conventions import GRF
 from sspinn.run_folder import atomic_write_text
 
 #: Version of the import procedure, stored in the provenance.
-IMPORTER_VERSION: Final = 4
+IMPORTER_VERSION: Final = 5
 
 
 @dataclass
@@ -168,6 +168,8 @@ def import_imu(
         "calibration": {seg: c.to_dict() for seg, c in cal.sensors.items()},
         "standing_s": None if cal.standing is None else [round((cal.standing[0]) / RATE_HZ + float(times[0]), 3),
                                                          round(cal.standing[1] / RATE_HZ + float(times[0]), 3)],
+        "turning_s": [[round(t.start / RATE_HZ + float(times[0]), 3), round(t.stop / RATE_HZ + float(times[0]), 3),
+                       round(t.heading_change_deg, 1)] for t in cal.turns],
         "stride_period_s": round(cal.stride_period_s, 3), "warnings": list(cal.warnings), "notes": cal.notes + notes,
         "gaps": [g.describe() for g in stream.gaps],
     }

@@ -1,0 +1,83 @@
+"""Turns while walking: found in the pelvis sensor's yaw rate, left out of the calibration, and
+marked in an imported recording."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sspinn.imu.calibration import calibrate
+from sspinn.imu.sensor_map import SensorAssignment
+from sspinn.imu.turns import MIN_TURN_DEG, detect_turns, turning_mask
+from sspinn.model.conventions import SEGMENTS
+from sspinn.testing import walking_recording
+from sspinn.validation.sensor_mounting import OutOfPlane, embed_in_3d, random_mounting, read_gait_csv, synthetic_walk
+
+GAIT = Path(__file__).resolve().parent / "fixtures" / "predicted_walk_1.3.csv"
+RATE = 100.0
+
+
+def _turn_rate(n: int, centre_s: float, duration_s: float, degrees: float) -> np.ndarray:
+    """A raised-cosine yaw-rate pulse (rad/s, (n,)) turning by ``degrees`` over ``duration_s``."""
+    t = np.arange(n) / RATE
+    phase = np.clip((t - centre_s + duration_s / 2) / duration_s, 0.0, 1.0)
+    pulse = np.where((phase > 0) & (phase < 1), 1 - np.cos(2 * np.pi * phase), 0.0)
+    return np.radians(degrees) * pulse / duration_s
+
+
+def _pelvis_gyr(yaw: np.ndarray, up: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """A pelvis gyroscope: ``yaw`` about ``up``, a large rate about a horizontal axis (the step's
+    tilt and roll) and noise."""
+    side = np.cross(up, [0.3, 0.5, 0.8])
+    side /= np.linalg.norm(side)
+    t = np.arange(len(yaw)) / RATE
+    return yaw[:, None] * up + (1.5 * np.sin(2 * np.pi * t / 0.55))[:, None] * side + rng.normal(scale=0.02, size=(len(yaw), 3))
+
+
+def test_a_turn_is_found_and_the_step_oscillation_is_not() -> None:
+    rng = np.random.default_rng(0)
+    n, period = 2000, 1.1
+    up = rng.normal(size=3)
+    up /= np.linalg.norm(up)
+    steps = np.radians(30.0) * np.sin(2 * np.pi * np.arange(n) / RATE / period)  # ±30°/s each stride: no turn
+    [turn] = detect_turns(_pelvis_gyr(steps + _turn_rate(n, 10.0, 2.5, 180.0), up, rng), up * 9.81, RATE, period)
+    assert turn.heading_change_deg == pytest.approx(180.0, abs=8.0) and turn.peak_rate_deg_s > 60
+    assert 8.0 <= turn.start / RATE <= 9.0 and 11.0 <= turn.stop / RATE <= 12.0
+    [right] = detect_turns(_pelvis_gyr(steps - _turn_rate(n, 10.0, 2.5, 90.0), up, rng), up, RATE, period)
+    assert right.heading_change_deg == pytest.approx(-90.0, abs=8.0)
+    assert f"(heading {right.heading_change_deg:+.0f}°, up to" in right.describe(RATE)
+    assert detect_turns(_pelvis_gyr(steps, up, rng), up, RATE, period) == []
+    drift = steps + np.radians(1.0)  # a walking direction drifting 1°/s, or an uncorrected gyroscope bias
+    assert detect_turns(_pelvis_gyr(drift, up, rng), up, RATE, period) == []
+    small = steps + _turn_rate(n, 10.0, 1.0, 0.8 * MIN_TURN_DEG)  # quick, but too small to count
+    assert detect_turns(_pelvis_gyr(small, up, rng), up, RATE, period) == []
+
+
+def test_calibration_leaves_a_turn_out_and_names_it() -> None:
+    gait = read_gait_csv(GAIT)
+    rng = np.random.default_rng(5)
+    imu2d = synthetic_walk(gait.q, gait.u, gait.qdd, strides=20, standing_s=2.0)
+    mountings = {s: random_mounting(rng) for s in SEGMENTS}
+    signals = {s: embed_in_3d(imu2d[:, i], mountings[s], rng, OutOfPlane(), still=200) for i, s in enumerate(SEGMENTS)}
+    assignments = {s: SensorAssignment(f"s_{s}", s) for s in SEGMENTS}
+    straight = calibrate(signals, assignments)
+    assert straight.turns == [] and not any("turning" in w for w in straight.warnings)
+    acc, gyr = signals["pelvis"]
+    up = mountings["pelvis"] @ np.array([0.0, 1.0, 0.0])  # the HAT's long axis, nearly vertical while walking
+    turned = calibrate({**signals, "pelvis": (acc, gyr + _turn_rate(len(gyr), 10.0, 2.5, -180.0)[:, None] * up)}, assignments)
+    [turn] = turned.turns
+    assert turn.heading_change_deg == pytest.approx(-180.0, abs=15.0)
+    assert all(b <= turn.start or a >= turn.stop for a, b in turned.walking_runs)  # left out of the walking
+    assert turned.walking_s < straight.walking_s - 2.0
+    assert sum("turning at" in w and "heading -1" in w for w in turned.warnings) == 1
+
+
+def test_turning_mask_reads_the_import_provenance() -> None:
+    plain = walking_recording(500)
+    rec = dataclasses.replace(plain, provenance={"start_s_in_files": 2.0, "turning_s": [[2.5, 3.0, 170.0], [6.5, 9.0, -90.0]]})
+    mask = turning_mask(rec)
+    assert mask.sum() == 50 + 50 and mask[50:100].all() and mask[450:].all() and not mask[:50].any()
+    assert not turning_mask(plain).any()
