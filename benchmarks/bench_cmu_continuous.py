@@ -19,7 +19,8 @@ and with a mock stiff knee (``CSStiffKnee``), with 8 Xsens IMUs in unknown mount
    step count, continues from its checkpoint when rerun, and arms can run as processes side by
    side (``--arms scratch`` and ``--arms finetune``, one thread each).
 3. **Metrics** over each aligned test trial after a 1 s warm-up, leaving out any turn the import
-   found (:func:`evaluated`; Sub05 CSStiffKnee turns round on the belt first): vertical and horizontal GRF RMSE
+   found and any span where its GRF labels are off (:func:`evaluated`; Sub05 CSStiffKnee turns
+   round on the belt first, Sub06 CSStiffKnee's GRF jumps by 0.17 s after 51 s): vertical and horizontal GRF RMSE
    (%BW, both feet), heel-strike and toe-off timing error (ms; :mod:`sspinn.data.gait_events`, 5 %BW
    threshold on estimated and measured force alike), and the speed error against the belt speed.
    Beside them the baselines, on the same samples: the training subjects' constant mean GRF and
@@ -214,10 +215,12 @@ def grf_rmse_pct(est: np.ndarray, ref: np.ndarray, columns: list[int], mass: flo
 
 
 def evaluated(rec: Recording) -> slice:
-    """The samples every metric uses: after the :data:`WARMUP` and outside the turns ``sspinn
+    """The samples every metric uses: after the :data:`WARMUP`, outside the turns ``sspinn
     import`` found (:func:`sspinn.imu.turns.turning_mask`: a sagittal model does not describe a
-    turn) — the longest run of such samples (the whole trial after the warm-up when it has no turn)."""
-    keep = ~turning_mask(rec)
+    turn) and outside the spans where the GRF labels are off (a jump of the lag between the files,
+    ``grf_misaligned_s``: :mod:`sspinn.imu.time_alignment`) — the longest run of such samples (the
+    whole trial after the warm-up when it has neither)."""
+    keep = ~(turning_mask(rec) | rec.provenance_mask("grf_misaligned_s"))
     keep[:WARMUP] = False
     edges = np.diff(np.concatenate([[0], keep.astype(np.int8), [0]]))
     runs = list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)))
@@ -349,7 +352,7 @@ def report(results: dict, training: dict[str, dict], out: Path, protocol: Protoc
     lines = [f"# SSPINNpose on real continuous IMU data ({protocol.source.name}; test subjects {', '.join(protocol.test_subjects)})", "",
              f"Trained (self-supervised, no labels) on {', '.join(protocol.train_subjects)}, conditions "
              f"{', '.join(protocol.conditions)}; metrics over each whole aligned "
-             f"test trial after {WARMUP / SAMPLE_RATE_HZ:.0f} s of warm-up, turns found by the import left out. GRF RMSE in %BW (both feet), event timing "
+             f"test trial after {WARMUP / SAMPLE_RATE_HZ:.0f} s of warm-up, turns and lag jumps found by the import left out. GRF RMSE in %BW (both feet), event timing "
              "errors in ms (mean |Δt| over matched events; matched = share of measured events with an estimated one within "
              f"{1e3 * EVENT_WINDOW_S:.0f} ms), speed in m/s.", ""]
     for arm, info in training.items():

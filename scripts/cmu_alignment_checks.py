@@ -31,7 +31,8 @@ REPO = Path(__file__).resolve().parents[1]
 #: The left channel's delay of ``--edit left-late``, s.
 LATE_S = 0.15
 #: Short names of the alignment's warnings, for the table.
-WARNING_LABELS = {"ambiguous": "ambiguous lag", "offset in time": "channels offset", "look swapped": "sides swapped"}
+WARNING_LABELS = {"ambiguous": "ambiguous lag", "offset in time": "channels offset", "look swapped": "sides swapped",
+                  "lag between the IMU and the GRF jumps": "lag jump"}
 
 
 def edit_forces(vertical: dict[str, np.ndarray], edit: str) -> dict[str, np.ndarray]:

@@ -65,6 +65,23 @@ def synthetic_pair(rng: np.random.Generator, strides: int = 30, stand_s: float =
     return foot_rate, shank3d, {"r": grf_all[:, 1], "l": grf_all[:, 3]}, np.abs(imu_all[:, :, 2]).sum(axis=1), grf_all
 
 
+def test_a_jump_of_the_lag_is_found_and_its_span_returned(rng) -> None:
+    """The GRF loses 0.2 s of samples after 40 s (a clock jump): the rest of the recording fits
+    0.2 s away from the lag used; a warning names the span, which the alignment returns."""
+    foot, shank, vertical, activity, _ = synthetic_pair(rng, strides=60)
+    a, n_imu = 150, len(activity) - 400
+    crop = slice(a, a + n_imu)
+    jumped = {s: np.concatenate([v[:a + 4000], v[a + 4020:]]) for s, v in vertical.items()}
+    args = ({s: v[crop] for s, v in foot.items()}, {s: v[crop] for s, v in shank.items()})
+    clean = align_to_grf(*args, vertical, activity[crop], 1.14, max_lag_s=10.0)
+    assert clean.lag_jumps == () and not clean.warnings and clean.to_dict()["lag_jumps"] == []
+    result = align_to_grf(*args, jumped, activity[crop], 1.14, max_lag_s=10.0)
+    assert result.lag_s == pytest.approx(a / 100, abs=0.021)  # most of the recording sets the lag
+    [(start, stop, offset)] = result.lag_jumps
+    assert offset == pytest.approx(-0.2, abs=0.03) and stop == n_imu and 3700 <= start <= 4300
+    assert sum("the lag between the IMU and the GRF jumps" in w for w in result.warnings) == 1
+
+
 def test_synthetic_pair_with_a_known_lag(rng) -> None:
     foot, shank, vertical, activity, _ = synthetic_pair(rng)
     a, b, n_imu = 237, 0, len(activity) - 400  # the IMU starts 2.37 s after the GRF and stops earlier

@@ -188,6 +188,19 @@ class Recording:
     def duration(self) -> float:
         return self.n_samples / SAMPLE_RATE_HZ
 
+    def provenance_mask(self, key: str) -> np.ndarray:
+        """(T,) bool: the samples inside the spans that ``provenance[key]`` lists, each [start,
+        stop, ...] in s of the source files, whose time of the first sample is the provenance's
+        ``start_s_in_files`` (``sspinn import`` writes both: ``turning_s``, ``grf_misaligned_s``);
+        all False when the key is absent."""
+        mask = np.zeros(self.n_samples, dtype=bool)
+        prov = self.provenance if isinstance(self.provenance, dict) else {}
+        t0 = float(prov.get("start_s_in_files", 0.0))
+        for span in prov.get(key) or []:
+            a, b = (int(round((float(t) - t0) * SAMPLE_RATE_HZ)) for t in span[:2])
+            mask[max(0, a):max(0, min(self.n_samples, b))] = True
+        return mask
+
     def imu_columns(self) -> list[str]:
         return [f"{s}_{c}" for s in self.segments for c in IMU_CHANNELS]
 

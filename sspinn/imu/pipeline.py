@@ -62,7 +62,7 @@ from sspinn.model.conventions import GRF
 from sspinn.run_folder import atomic_write_text
 
 #: Version of the import procedure, stored in the provenance.
-IMPORTER_VERSION: Final = 5
+IMPORTER_VERSION: Final = 6
 
 
 @dataclass
@@ -173,8 +173,10 @@ def import_imu(
         "stride_period_s": round(cal.stride_period_s, 3), "warnings": list(cal.warnings), "notes": cal.notes + notes,
         "gaps": [g.describe() for g in stream.gaps],
     }
-    if grf is not None:
-        provenance.update(grf_file=str(grf), grf_alignment=alignment.to_dict() if alignment else None)
+    if grf is not None and alignment is not None:
+        provenance.update(grf_file=str(grf), grf_alignment=alignment.to_dict(),
+                          grf_misaligned_s=[[round(float(times[a]), 3), round(float(times[b - 1]) + 1 / RATE_HZ, 3), round(d, 3)]
+                                            for a, b, d in alignment.lag_jumps])
     if speed is not None:
         provenance["speed_source"] = "given (constant, m/s)"
     try:

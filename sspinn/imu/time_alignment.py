@@ -25,7 +25,7 @@ candidate (usually one stride away) with the ratio of the scores — below
 :data:`AMBIGUOUS_RATIO` a **warning** names both lags (the alignment may be off by whole strides:
 no change of activity in the recording).
 
-Two more checks of the force file against the IMUs, each a warning naming the lags:
+Three more checks of the force file against the IMUs, each a warning naming the lags:
 
 * **channels offset**: each foot's own lag (its loading peak within half a stride of the chosen
   lag, refined to its impact peak) — further apart than :data:`SIDE_LAG_TOLERANCE_S`, the right
@@ -36,6 +36,12 @@ Two more checks of the force file against the IMUs, each a warning naming the la
   file or in the sensor map). A symmetric gait looks alike swapped and half a stride later: what
   tells them apart is the activity pair (a change of activity pins the lag) and asymmetries of
   the gait, so without a change of activity the check is weak.
+* **lag jumps**: the lag of every :data:`LOCAL_WINDOW_S` window of the IMU stream (every
+  :data:`LOCAL_STEP_S`; loading and impact pairs within half a stride of the chosen lag) against
+  their median — windows further from it than :data:`LAG_JUMP_TOLERANCE_S` mean that one file's
+  clock jumps (samples dropped or inserted without their time stamps): the labels there are off.
+  The spans are returned (``lag_jumps``) so that they can be left out; a jump by a whole number of
+  strides cannot be seen this way.
 """
 
 from __future__ import annotations
@@ -71,6 +77,14 @@ SIDE_LAG_TOLERANCE_S: Final = 0.08
 #: eleven (first 10 s: 1.05–1.27; 20 s: 1.04–1.25) and 0.98 in Sub05 CSBaseline, whose lag is
 #: ambiguous (not caught).
 SWAPPED_SIDES_RATIO: Final = 1.03
+#: Length and spacing of the windows of the lag-jump check, s.
+LOCAL_WINDOW_S: Final = 10.0
+LOCAL_STEP_S: Final = 2.5
+#: A window whose own lag is further than this from the windows' median lag is a lag jump, s. The
+#: twelve CMU trials: within 0.07 s of their median everywhere but in Sub06 CSStiffKnee, whose GRF
+#: runs 0.16–0.17 s later from about 50 s on (its heel strikes against the shank's impacts: 30 ms
+#: after them until 52.8 s, 120–150 ms before them from 53.1 s).
+LAG_JUMP_TOLERANCE_S: Final = 0.1
 
 
 class AlignmentError(UserError):
@@ -97,8 +111,10 @@ class Candidate:
 class Alignment:
     """The result of :func:`align_to_grf`: ``lag_s`` (t_reference = t_imu + lag_s), the chosen
     candidate, the runner-up (None if there is none), the candidates by score, the pairs, notes,
-    each foot's own lag (s), the warnings (ambiguous lag, channels offset, sides swapped; one
-    line each) and the score with the force channels' sides exchanged (None if not checked)."""
+    each foot's own lag (s), the warnings (ambiguous lag, channels offset, sides swapped, lag
+    jumps; one line each), the score with the force channels' sides exchanged (None if not
+    checked) and the lag jumps: (start, stop) IMU samples where the lag differs from the chosen
+    one, and by how much (s)."""
 
     lag_s: float
     best: Candidate
@@ -109,6 +125,7 @@ class Alignment:
     side_lags: dict[str, float] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     swapped_sides_score: float | None = None
+    lag_jumps: tuple[tuple[int, int, float], ...] = ()
 
     @property
     def ratio(self) -> float:
@@ -136,6 +153,7 @@ class Alignment:
                 "ratio": round(self.ratio, 4) if np.isfinite(self.ratio) else None,
                 "side_lags_s": {s: round(v, 4) for s, v in self.side_lags.items()},
                 "swapped_sides_score": None if self.swapped_sides_score is None else round(self.swapped_sides_score, 4),
+                "lag_jumps": [[a, b, round(d, 3)] for a, b, d in self.lag_jumps],
                 "candidates": [cand(c) for c in self.candidates[:5]], "pairs": self.pairs, "notes": list(self.notes),
                 "warnings": list(self.warnings)}
 
@@ -264,10 +282,18 @@ def align_to_grf(
             f"the right and left force channels look offset in time: the right foot's stance aligns at lag {side_lags['r']:+.2f} s, "
             f"the left at {side_lags['l']:+.2f} s (more than {SIDE_LAG_TOLERANCE_S:g} s apart); the labels use {best.lag_s:+.2f} s "
             "for both: check the GRF file's channels")
+    jumps = lag_jumps(stillness, impact, grf_vertical, k_best - max_lag, stride, rate_hz) if check_sides else []  # not again for the exchanged sides
+    for a, b, d in jumps:
+        warnings.append(
+            f"the lag between the IMU and the GRF jumps: from {a / rate_hz:.1f} to {b / rate_hz:.1f} s (IMU time) the GRF fits "
+            f"{d:+.2f} s away from the lag used ({best.lag_s:+.2f} s), more than {LAG_JUMP_TOLERANCE_S:g} s: one file's clock jumps "
+            "(samples dropped or inserted); the GRF labels there are off (kept; listed as grf_misaligned_s): crop the "
+            "recording (--start/--end) or fix the files")
     pairs = {"activity": "summed IMU rate norms vs |F_r − F_l| (2-stride means)",
              "loading": f"vertical GRF vs {names[0]} stillness −|ω|",
              "impact": f"{names[1]} jerk |Δacc| vs rise of the vertical GRF" if hit else "none"}
-    result = Alignment(best.lag_s, best, runner, tuple(candidates), pairs, tuple(notes), side_lags, tuple(warnings))
+    result = Alignment(best.lag_s, best, runner, tuple(candidates), pairs, tuple(notes), side_lags, tuple(warnings),
+                       lag_jumps=tuple(jumps))
     if not check_sides or len(sides) < 2:
         return result
     swapped = align_to_grf(stillness, impact, {"r": grf_vertical["l"], "l": grf_vertical["r"]}, activity, stride_period_s,
@@ -282,6 +308,50 @@ def align_to_grf(
     else:
         notes.append(f"side check: {text}")
     return dataclasses.replace(result, notes=tuple(notes), warnings=tuple(warnings), swapped_sides_score=swapped.best.score)
+
+
+def lag_jumps(stillness: dict[str, np.ndarray], impact: dict[str, np.ndarray], grf_vertical: dict[str, np.ndarray],
+              lag: int, stride: int, rate_hz: float = 100.0) -> list[tuple[int, int, float]]:
+    """The spans (start, stop IMU samples, offset s) whose lag differs from the others' (module
+    docstring, "lag jumps"); ``lag`` is the chosen lag and ``stride`` the stride period, in samples."""
+    sides = [s for s in ("r", "l") if s in stillness and s in grf_vertical]
+    n = min(len(stillness[s]) for s in sides)
+    window, step, half = int(LOCAL_WINDOW_S * rate_hz), int(LOCAL_STEP_S * rate_hz), max(1, stride // 2)
+    if n < window + step:
+        return []
+    pairs = []
+    for s in sides:
+        pairs.append((-_smooth(stillness[s], round(0.09 * rate_hz)), grf_vertical[s]))
+        if s in impact:
+            jerk = _smooth(np.linalg.norm(np.diff(impact[s], axis=0, prepend=impact[s][:1]), axis=1), 3)
+            pairs.append((jerk, _smooth(np.maximum(np.diff(grf_vertical[s], prepend=grf_vertical[s][0]), 0), 3)))
+    starts = np.arange(0, n - window + 1, step)
+    shifts = np.arange(lag - half, lag + half + 1)
+    local = np.full(len(starts), np.nan)
+    for w, a in enumerate(starts):
+        score = np.zeros(len(shifts))
+        for imu, ref in pairs:
+            x = imu[a:a + window]
+            for k, shift in enumerate(shifts):
+                if a + shift < 0 or a + shift + window > len(ref):
+                    score[k] = np.nan
+                    continue
+                y = ref[a + shift:a + shift + window]
+                sx, sy = x.std(), y.std()
+                score[k] += float(np.mean((x - x.mean()) * (y - y.mean())) / (sx * sy)) if sx > 0 and sy > 0 else np.nan
+        if np.isfinite(score).any():
+            local[w] = shifts[int(np.nanargmax(score))]
+    if not np.isfinite(local).any():
+        return []
+    offset = (local - np.nanmedian(local)) / rate_hz
+    off = np.abs(np.nan_to_num(offset)) > LAG_JUMP_TOLERANCE_S
+    spans = []
+    edges = np.diff(np.concatenate([[0], off.astype(np.int8), [0]]))
+    for i, j in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+        a = 0 if i == 0 else int(starts[i] + window // 2 - step // 2)
+        b = n if j == len(starts) else int(starts[j - 1] + window // 2 + step // 2)
+        spans.append((a, b, float(np.median(offset[i:j]))))
+    return spans
 
 
 def walking_direction_sign(fx: np.ndarray, fy: np.ndarray, rate_hz: float = 100.0) -> int:

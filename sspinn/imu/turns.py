@@ -27,7 +27,7 @@ from typing import Final
 
 import numpy as np
 
-from sspinn.data.dataset import SAMPLE_RATE_HZ, Recording
+from sspinn.data.dataset import Recording
 
 #: Stride-averaged yaw rate above which the walker is turning, deg/s. A 90° turn within 6 s
 #: exceeds it; straight walking does not: the pelvis's yaw oscillation cancels over a stride, and
@@ -95,16 +95,9 @@ def detect_turns(gyr: np.ndarray, up: np.ndarray, rate_hz: float, stride_period_
 
 def turning_mask(rec: Recording) -> np.ndarray:
     """(T,) bool: the samples of an imported recording inside a turn that ``sspinn import`` found
-    (its provenance's ``turning_s``: [start, stop, heading change] in s of the IMU files, and
-    ``start_s_in_files``, the file time of the recording's first sample); all False for a
-    recording without them (synthetic data: straight walking)."""
-    mask = np.zeros(rec.n_samples, dtype=bool)
-    prov = rec.provenance if isinstance(rec.provenance, dict) else {}
-    t0 = prov.get("start_s_in_files", 0.0)
-    for start, stop, _ in prov.get("turning_s") or []:
-        a, b = (int(round((t - t0) * SAMPLE_RATE_HZ)) for t in (start, stop))
-        mask[max(0, a):max(0, min(rec.n_samples, b))] = True
-    return mask
+    (its provenance's ``turning_s``: [start, stop, heading change] in s of the IMU files); all
+    False for a recording without them (synthetic data: straight walking)."""
+    return rec.provenance_mask("turning_s")
 
 
 __all__ = ["MIN_TURN_DEG", "TURN_RATE_DEG_S", "Turn", "detect_turns", "turning_mask", "yaw_rate"]
