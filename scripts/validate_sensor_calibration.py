@@ -8,11 +8,13 @@ quiet-standing phase and without one (walking only, in-plane angles from joint c
 rests, and from the typical walking orientations) and prints the median and maximum axis and
 in-plane angle errors per segment; ``--out`` writes a figure of the error distributions.
 ``--cmu`` adds the real check: on each CMU treadmill trial with quiet standing, both walking-only
-methods against the standing calibration.
+methods against the standing calibration. ``--measured`` uses a measured stride instead of the
+predicted one (OpenSim's subject01 walk, :func:`sspinn.validation.sensor_mounting.measured_stride`:
+real kinematics, whose feet rest flat in mid-stance as the predicted gait's never do).
 
 Usage::
 
-    python scripts/validate_sensor_calibration.py [--trials 50] [--seed 0] [--solve] [--out results/validation/sensor_calibration.png] [--cmu]
+    python scripts/validate_sensor_calibration.py [--trials 50] [--seed 0] [--solve] [--out results/validation/sensor_calibration.png] [--cmu] [--measured]
 """
 
 from __future__ import annotations
@@ -25,10 +27,19 @@ from pathlib import Path
 import numpy as np
 
 from sspinn.model.drawing import save_figure
-from sspinn.validation.sensor_mounting import Gait, OutOfPlane, mounting_trials, read_gait_csv, summary, write_gait_csv
+from sspinn.validation.sensor_mounting import (
+    Gait,
+    OutOfPlane,
+    measured_stride,
+    mounting_trials,
+    read_gait_csv,
+    summary,
+    write_gait_csv,
+)
 
 GAIT = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "predicted_walk_1.3.csv"
 CMU = Path(__file__).resolve().parents[2] / "shared" / "data" / "cmu_treadmill_imu_grf"
+OPENSIM_WALK = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_subject01_walk"
 
 
 def solve_gait(path: Path) -> None:
@@ -92,10 +103,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cmu", type=Path, nargs="?", const=CMU, default=None,
                         help="also compare walking-only with standing calibration on the real CMU trials (default folder: "
                              "../shared/data/cmu_treadmill_imu_grf)")
+    parser.add_argument("--measured", type=Path, nargs="?", const=OPENSIM_WALK, default=None,
+                        help="a measured stride instead of --gait: OpenSim's subject01 walk (default folder: "
+                             "../shared/data/opensim_subject01_walk)")
     args = parser.parse_args(argv)
-    if args.solve or not args.gait.exists():
-        solve_gait(args.gait)
-    q, u, qdd, _ = read_gait_csv(args.gait)
+    if args.measured is not None:
+        if not (args.measured / "subject01_walk_IK.mot").exists():
+            parser.error(f"{args.measured}: no subject01_walk_IK.mot (see ../shared/data/README.md)")
+        q, u, qdd, _ = measured_stride(args.measured)
+        args.gait = args.measured / "subject01_walk_IK.mot"
+    else:
+        if args.solve or not args.gait.exists():
+            solve_gait(args.gait)
+        q, u, qdd, _ = read_gait_csv(args.gait)
     oop = OutOfPlane()
     print(f"gait {args.gait} ({len(q)} samples per stride, {args.strides} strides); {args.trials} random mountings × 7 sensors; "
           f"out-of-plane: {oop}")
@@ -130,7 +150,8 @@ def main(argv: list[str] | None = None) -> int:
             ax.axvline(2.0, color="k", lw=0.8, ls="--")
             ax.legend(fontsize=8)
         axes[1].axvline(-2.0, color="k", lw=0.8, ls="--")
-        fig.suptitle(f"sensor calibration on {args.trials} random mountings × 7 sensors (synthetic 1.3 m/s gait)")
+        gait = "measured stride, OpenSim subject01" if args.measured is not None else "synthetic 1.3 m/s gait"
+        fig.suptitle(f"sensor calibration on {args.trials} random mountings × 7 sensors ({gait})")
         save_figure(fig, args.out, dpi=120)
         print(f"\nfigure → {args.out}")
     return 0

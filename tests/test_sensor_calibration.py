@@ -15,11 +15,13 @@ from sspinn.validation.sensor_mounting import (
     OutOfPlane,
     calibration_errors,
     embed_in_3d,
+    measured_stride,
     mounting_trials,
     random_mounting,
     read_gait_csv,
     synthetic_walk,
 )
+from tests.conftest import shared_data
 
 GAIT = Path(__file__).resolve().parent / "fixtures" / "predicted_walk_1.3.csv"
 REPO = Path(__file__).resolve().parents[1]
@@ -137,3 +139,17 @@ def test_an_accelerometer_gain_error_is_corrected_from_standing(gait) -> None:
     assert any("s_foot_l" in n and "scaled by" in n for n in faulty.warnings) and not clean.warnings
     np.testing.assert_allclose(faulty.sensors["foot_l"].project(1.24 * acc, gyr), clean.sensors["foot_l"].project(acc, gyr),
                                atol=0.05 * 9.81)
+
+
+def test_a_measured_stride_gives_thighs_shanks_and_a_resting_foot_within_2_degrees_without_standing() -> None:
+    """Real kinematics (OpenSim's subject01 walk) made one periodic stride: the walking-only
+    in-plane angles of thighs and shanks from the joint centres are within 2°, and the feet, which
+    rest in mid-stance in real walking, come out at the angle they rest at (the right one within
+    2°), unlike on the predicted gait whose feet never rest flat."""
+    gait = measured_stride(shared_data("opensim_subject01_walk"))
+    assert 90 <= len(gait.q) <= 140 and np.isfinite(gait.qdd).all()
+    closed = gait.q[-1, 1:] + gait.u[-1, 1:] / 100 - gait.q[0, 1:]  # one more sample closes the loop
+    assert np.abs(closed).max() < 0.02
+    res = mounting_trials(gait.q, gait.u, gait.qdd, trials=3, seed=0, standing_s=0.0, strides=30)
+    legs = np.isin(res["segment"], ["femur_r", "femur_l", "tibia_r", "tibia_l", "foot_r"])
+    assert np.abs(res["angle"][legs]).max() < 2.0 and res["sign_ok"].all()

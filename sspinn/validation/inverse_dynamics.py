@@ -485,6 +485,23 @@ def sagittal_coordinates(ik: dict[str, np.ndarray], leg: SagittalLeg, sides: tup
     return q
 
 
+def filtered_ik(ik_path: str | Path, cutoff: float = DEFAULT_CUTOFF_HZ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """(time (n,) s, coordinate → (n,) values) of the pelvis and leg coordinates of an OpenSim IK
+    file: angles in rad (degrees converted when the header says so), translations in m, each
+    low-pass filtered (:func:`lowpass`)."""
+    ik = read_opensim_columns(ik_path)
+    in_degrees = read_opensim_header(ik_path).get("inDegrees", "no").strip().lower() == "yes"
+    t = ik.column("time")
+
+    def coord(name: str) -> np.ndarray:
+        x = ik.column(name)
+        return np.deg2rad(x) if in_degrees and name not in _OPENSIM_TRANSLATIONS else x
+
+    names = ("pelvis_tx", "pelvis_ty", "pelvis_tilt", *(OPENSIM_JOINTS[j] for j in OPENSIM_JOINTS))
+    values = lowpass(np.stack([coord(c) for c in names], axis=1), 1.0 / float(np.mean(np.diff(t))), cutoff)
+    return t, dict(zip(names, values.T))
+
+
 def opensim_inverse_dynamics(
     directory: str | Path | None = None,
     cutoff: float = DEFAULT_CUTOFF_HZ,
@@ -528,17 +545,8 @@ def opensim_inverse_dynamics(
     mass = model.mass
     gravity = float(-model.gravity[1])
 
-    ik = read_opensim_columns(ik_path)
-    in_degrees = read_opensim_header(ik_path).get("inDegrees", "no").strip().lower() == "yes"
-    t = ik.column("time")
+    t, filtered = filtered_ik(ik_path, cutoff)
     dt = float(np.mean(np.diff(t)))
-
-    def coord(name: str) -> np.ndarray:
-        x = ik.column(name)
-        return np.deg2rad(x) if in_degrees and name not in _OPENSIM_TRANSLATIONS else x
-
-    ik_names = ("pelvis_tx", "pelvis_ty", "pelvis_tilt", *(OPENSIM_JOINTS[j] for j in OPENSIM_JOINTS))
-    filtered = dict(zip(ik_names, lowpass(np.stack([coord(c) for c in ik_names], axis=1), 1.0 / dt, cutoff).T))
 
     grf_table = read_opensim_columns(grf_path)
     t_grf = grf_table.column("time")

@@ -85,6 +85,47 @@ def read_gait_csv(path: str | Path) -> Gait:
     return Gait(q, u, qdd, table[:, [col[g] for g in GRF]])
 
 
+def measured_stride(directory: str | Path, prefix: str = "subject01_walk", model_file: str = "subject01.osim") -> Gait:
+    """One stride of measured walking kinematics — OpenSim's subject01 (``<prefix>_IK.mot``,
+    60 Hz, low-passed at 6 Hz, mapped to sspinn's coordinates with the scaled model's right leg:
+    :func:`sspinn.validation.inverse_dynamics.sagittal_coordinates`) — as a periodic stride on the
+    100 Hz grid, for :func:`mounting_trials` on a real gait instead of a predicted one.
+
+    The stride is the span of 0.9–1.4 s whose end state (angles and rates, pelvis height) lies
+    nearest its start; the small mismatch is removed linearly over the stride, the forward
+    position keeps the stride's mean speed, and periodic cubic splines give q, u and q̈ at 100 Hz.
+    The GRF is not needed here and is zero."""
+    from scipy.interpolate import CubicSpline
+
+    from sspinn.data.opensim_files import read_osim_model, sagittal_leg_from_osim
+    from sspinn.validation.inverse_dynamics import filtered_ik, sagittal_coordinates
+
+    directory = Path(directory)
+    t, ik = filtered_ik(directory / f"{prefix}_IK.mot")
+    q = sagittal_coordinates(ik, sagittal_leg_from_osim(read_osim_model(directory / model_file), "r"))
+    rate = 1.0 / float(np.mean(np.diff(t)))
+    u = np.gradient(q, axis=0) * rate
+    best, span = np.inf, (0, 0)
+    for i in range(len(q)):
+        for j in range(i + int(0.9 * rate), min(len(q), i + int(1.4 * rate) + 1)):
+            d = float(np.sum((q[j, 1:] - q[i, 1:]) ** 2) + 0.01 * np.sum((u[j, 1:] - u[i, 1:]) ** 2))
+            if d < best:
+                best, span = d, (i, j)
+    i, j = span
+    stride = q[i:j + 1].copy()
+    n = j - i
+    ramp = np.arange(n + 1)[:, None] / n
+    speed = (stride[-1, 0] - stride[0, 0]) / (n / rate)
+    stride[:, 0] -= speed * np.arange(n + 1) / rate  # forward position minus the mean progress
+    stride -= ramp * (stride[-1] - stride[0])  # close the loop
+    spline = CubicSpline(np.arange(n + 1) / rate, stride, axis=0, bc_type="periodic")
+    grid = np.arange(int(round(n / rate * RATE_HZ))) / RATE_HZ
+    qs, us, qdds = spline(grid), spline(grid, 1), spline(grid, 2)
+    qs[:, 0] += speed * grid
+    us[:, 0] += speed
+    return Gait(qs, us, qdds, np.zeros((len(grid), len(GRF))))
+
+
 def synthetic_walk(q: np.ndarray, u: np.ndarray, qdd: np.ndarray, strides: int = 12, standing_s: float = 2.0,
                    body: BodyParameters | None = None) -> np.ndarray:
     """(n, 7, 3) 2D virtual IMU signals: ``standing_s`` of standing in the zero pose, then the
