@@ -171,6 +171,7 @@ def _infer(args: argparse.Namespace) -> int:
         load_calibration,
     )
     from sspinn.estimator.sspinnpose import SSPINNpose
+    from sspinn.imu.turns import turn_findings
 
     _new_output_folder(args, lambda f: any(f.glob("*_estimate.csv")), "estimates", "")
     recs = open_recordings(args.data, args.split, args.periods, args.height, args.mass)
@@ -209,6 +210,7 @@ def _infer(args: argparse.Namespace) -> int:
         print(f"{estimate.name}: {len(estimate.time)} samples → {path}; quality of {quality.n_windows} windows{flagged} → {where}")
         if calibration is not None:
             findings += flag_findings(quality, calibration, str(where))
+        findings += turn_findings(rec)
         for text in findings:
             warnings.warn(text, QualityWarning, stacklevel=1)
     return 0

@@ -11,7 +11,7 @@ import pytest
 
 from sspinn.imu.calibration import calibrate
 from sspinn.imu.sensor_map import SensorAssignment
-from sspinn.imu.turns import MIN_TURN_DEG, detect_turns, turning_mask
+from sspinn.imu.turns import MIN_TURN_DEG, detect_turns, turn_findings, turning_mask
 from sspinn.model.conventions import SEGMENTS
 from sspinn.testing import walking_recording
 from sspinn.validation.sensor_mounting import OutOfPlane, embed_in_3d, random_mounting, read_gait_csv, synthetic_walk
@@ -81,3 +81,18 @@ def test_turning_mask_reads_the_import_provenance() -> None:
     mask = turning_mask(rec)
     assert mask.sum() == 50 + 50 and mask[50:100].all() and mask[450:].all() and not mask[:50].any()
     assert not turning_mask(plain).any()
+
+
+def test_infer_names_the_turns_of_an_imported_recording(tiny_run, tmp_path, capsys) -> None:
+    from sspinn.cli import main
+    from sspinn.data.dataset import Dataset
+
+    rec = dataclasses.replace(walking_recording(500), name="turned",
+                              provenance={"start_s_in_files": 2.0, "turning_s": [[2.5, 3.0, -170.0]]})
+    [line] = turn_findings(rec)
+    assert line.startswith("turned: turning at 0.50–1.00 s (heading -170°)")
+    assert turn_findings(walking_recording(500)) == []
+    Dataset.write(tmp_path / "data", {"test": [rec]})
+    model = tiny_run[4] / "model.pt"
+    assert main(["infer", "--model", str(model), "--data", str(tmp_path / "data"), "--out", str(tmp_path / "out")]) == 0
+    assert "WARNING: turned: turning at 0.50–1.00 s" in capsys.readouterr().err

@@ -100,4 +100,17 @@ def turning_mask(rec: Recording) -> np.ndarray:
     return rec.provenance_mask("turning_s")
 
 
-__all__ = ["MIN_TURN_DEG", "TURN_RATE_DEG_S", "Turn", "detect_turns", "turning_mask", "yaw_rate"]
+def turn_findings(rec: Recording) -> list[str]:
+    """One line naming the recording and the turns ``sspinn import`` found in it (times in s of
+    the recording), or none."""
+    prov = rec.provenance if isinstance(rec.provenance, dict) else {}
+    t0 = float(prov.get("start_s_in_files", 0.0))
+    spans = [(max(0.0, float(a) - t0), float(b) - t0, float(h)) for a, b, h in prov.get("turning_s") or [] if float(b) > t0]
+    if not spans:
+        return []
+    where = ", ".join(f"{a:.2f}–{b:.2f} s (heading {h:+.0f}°)" for a, b, h in spans)
+    return [f"{rec.name}: turning at {where}: a sagittal model does not describe a turn, so the estimate there is not "
+            "one of the gait"]
+
+
+__all__ = ["MIN_TURN_DEG", "TURN_RATE_DEG_S", "Turn", "detect_turns", "turn_findings", "turning_mask", "yaw_rate"]
