@@ -96,3 +96,14 @@ def test_infer_names_the_turns_of_an_imported_recording(tiny_run, tmp_path, caps
     model = tiny_run[4] / "model.pt"
     assert main(["infer", "--model", str(model), "--data", str(tmp_path / "data"), "--out", str(tmp_path / "out")]) == 0
     assert "WARNING: turned: turning at 0.50–1.00 s" in capsys.readouterr().err
+
+
+def test_evaluate_names_the_spans_whose_labels_do_not_measure_the_gait() -> None:
+    from sspinn.estimator.evaluation import unreliable_label_findings
+
+    rec = dataclasses.replace(walking_recording(500), name="odd", provenance={
+        "start_s_in_files": 1.0, "turning_s": [[0.5, 1.5, 90.0]], "grf_misaligned_s": [[4.0, 9.0, 0.17]]})
+    [line] = unreliable_label_findings([rec, walking_recording(500)])
+    assert line.startswith("odd: turning (a sagittal model does not describe a turn) at 0.0–0.5 s; GRF labels off in time")
+    assert "at 3.0–5.0 s: its metrics include these samples" in line  # clipped to the recording's 5 s
+    assert rec.provenance_spans("grf_misaligned_s") == [(3.0, 5.0, (0.17,))]

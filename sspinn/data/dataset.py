@@ -188,17 +188,26 @@ class Recording:
     def duration(self) -> float:
         return self.n_samples / SAMPLE_RATE_HZ
 
-    def provenance_mask(self, key: str) -> np.ndarray:
-        """(T,) bool: the samples inside the spans that ``provenance[key]`` lists, each [start,
-        stop, ...] in s of the source files, whose time of the first sample is the provenance's
-        ``start_s_in_files`` (``sspinn import`` writes both: ``turning_s``, ``grf_misaligned_s``);
-        all False when the key is absent."""
-        mask = np.zeros(self.n_samples, dtype=bool)
+    def provenance_spans(self, key: str) -> list[tuple[float, float, tuple[Any, ...]]]:
+        """The spans that ``provenance[key]`` lists — each [start, stop, ...] in s of the source
+        files, whose time of the recording's first sample is the provenance's
+        ``start_s_in_files`` (``sspinn import`` writes both: ``turning_s``, ``grf_misaligned_s``)
+        — as (start, stop) in s of this recording, clipped to it, and the entries after them;
+        none when the key is absent."""
         prov = self.provenance if isinstance(self.provenance, dict) else {}
         t0 = float(prov.get("start_s_in_files", 0.0))
+        spans = []
         for span in prov.get(key) or []:
-            a, b = (int(round((float(t) - t0) * SAMPLE_RATE_HZ)) for t in span[:2])
-            mask[max(0, a):max(0, min(self.n_samples, b))] = True
+            a, b = max(0.0, float(span[0]) - t0), min(self.duration, float(span[1]) - t0)
+            if b > a:
+                spans.append((a, b, tuple(span[2:])))
+        return spans
+
+    def provenance_mask(self, key: str) -> np.ndarray:
+        """(T,) bool: the samples inside :meth:`provenance_spans` of ``key``."""
+        mask = np.zeros(self.n_samples, dtype=bool)
+        for a, b, _ in self.provenance_spans(key):
+            mask[int(round(a * SAMPLE_RATE_HZ)):int(round(b * SAMPLE_RATE_HZ))] = True
         return mask
 
     def imu_columns(self) -> list[str]:

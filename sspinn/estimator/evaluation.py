@@ -27,16 +27,17 @@ paper's "averaged" protocol, which by design trains and evaluates on the same un
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Labels, Recording
 from sspinn.data.gait_events import detect_events, grf_event_timing, normalise_cycles, strides
-from sspinn.errors import UserError
+from sspinn.errors import InputWarning, UserError
 from sspinn.estimator.inference import GaitEstimate
 from sspinn.model.body import BodyParameters
 from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, JOINTS
@@ -386,6 +387,24 @@ def finite_or_null(value: Any) -> Any:
     return value
 
 
+#: Spans of an imported recording whose labels do not measure a sagittal estimate (written by
+#: ``sspinn import``): turns, and jumps of the lag between the IMU and GRF files.
+UNRELIABLE_SPANS: Final = {"turning_s": "turning (a sagittal model does not describe a turn)",
+                           "grf_misaligned_s": "GRF labels off in time (a jump of the lag between the files)"}
+
+
+def unreliable_label_findings(recordings: list[Recording]) -> list[str]:
+    """One line per recording with spans of :data:`UNRELIABLE_SPANS`, naming them in the
+    recording's own times and what to do: the metrics include them."""
+    lines = []
+    for rec in recordings:
+        parts = [f"{what} at {a:.1f}–{b:.1f} s" for key, what in UNRELIABLE_SPANS.items() for a, b, _ in rec.provenance_spans(key)]
+        if parts:
+            lines.append(f"{rec.name}: {'; '.join(parts)}: its metrics include these samples; crop them away "
+                         "(`sspinn import --start/--end`) for figures of the gait alone")
+    return lines
+
+
 def evaluate(
     estimator: SSPINNpose,
     recordings: list[Recording],
@@ -419,6 +438,8 @@ def evaluate(
         print(f"NOTE: {note}")
     estimates = [estimator.predict(r) for r in recordings]
     check_evaluable(estimates, recordings, skip)
+    for text in unreliable_label_findings(recordings):
+        warnings.warn(text, InputWarning, stacklevel=2)
     from sspinn.estimator.trivial_predictors import reference_predictor
 
     stored = estimator.baselines_

@@ -103,12 +103,10 @@ def turning_mask(rec: Recording) -> np.ndarray:
 def turn_findings(rec: Recording) -> list[str]:
     """One line naming the recording and the turns ``sspinn import`` found in it (times in s of
     the recording), or none."""
-    prov = rec.provenance if isinstance(rec.provenance, dict) else {}
-    t0 = float(prov.get("start_s_in_files", 0.0))
-    spans = [(max(0.0, float(a) - t0), float(b) - t0, float(h)) for a, b, h in prov.get("turning_s") or [] if float(b) > t0]
+    spans = rec.provenance_spans("turning_s")
     if not spans:
         return []
-    where = ", ".join(f"{a:.2f}–{b:.2f} s (heading {h:+.0f}°)" for a, b, h in spans)
+    where = ", ".join(f"{a:.2f}–{b:.2f} s (heading {float(extra[0]):+.0f}°)" for a, b, extra in spans)
     return [f"{rec.name}: turning at {where}: a sagittal model does not describe a turn, so the estimate there is not "
             "one of the gait"]
 
