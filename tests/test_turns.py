@@ -107,3 +107,27 @@ def test_evaluate_names_the_spans_whose_labels_do_not_measure_the_gait() -> None
     assert line.startswith("odd: turning (a sagittal model does not describe a turn) at 0.0–0.5 s; GRF labels off in time")
     assert "at 3.0–5.0 s: its metrics include these samples" in line  # clipped to the recording's 5 s
     assert rec.provenance_spans("grf_misaligned_s") == [(3.0, 5.0, (0.17,))]
+
+
+def test_training_windows_leave_the_turns_out() -> None:
+    """No training window overlaps a turn the import found; a recording without turns is
+    sampled with the same random draws as before (same windows, same seed)."""
+    from sspinn.estimator.training import WindowSampler, prepare
+
+    plain = walking_recording(600)
+    turned = dataclasses.replace(walking_recording(600), name="turned",
+                                 provenance={"start_s_in_files": 0.0, "turning_s": [[1.0, 3.0, 120.0]]})
+    data = prepare([plain, turned], plain.segments, zupt=False)
+    sampler = WindowSampler(data, 64, np.random.default_rng(0))
+    which, starts = sampler.sample(4000)
+    for k, s in zip(which, starts):
+        if k == 1:
+            assert s + 64 <= 100 or s >= 300, s
+    assert sampler.prob[1] == pytest.approx((600 - 64 + 1 - (300 - 100 + 63)) / (2 * (600 - 64 + 1) - (300 - 100 + 63)))
+    rng_a, rng_b = np.random.default_rng(7), np.random.default_rng(7)
+    alone = WindowSampler(prepare([plain], plain.segments, zupt=False), 64, rng_a).sample(50)
+    expected = [int(rng_b.integers(0, 600 - 64 + 1)) for _ in rng_b.choice(1, size=50, p=[1.0])]
+    assert alone[1] == expected
+    blocked = dataclasses.replace(turned, provenance={"turning_s": [[0.0, 6.0, 180.0]]})
+    with pytest.raises(ValueError, match="turned: no 64-sample window outside its turns"):
+        WindowSampler(prepare([blocked], plain.segments, zupt=False), 64, np.random.default_rng(0))

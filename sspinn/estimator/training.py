@@ -354,19 +354,39 @@ def foot_zupt_speeds(rec: Recording) -> tuple[np.ndarray | None, list[str]]:
 
 
 class WindowSampler:
-    """Random windows of ``window`` samples (with replacement) from prepared recordings."""
+    """Random windows of ``window`` samples (with replacement) from prepared recordings, none
+    overlapping a turn that ``sspinn import`` found (its ``turning_s``: a sagittal model does not
+    describe a turn, so the losses there would teach a gait that did not happen)."""
 
     def __init__(self, data: list[PreparedRecording], window: int, rng: np.random.Generator) -> None:
         short = [d.recording.name for d in data if d.recording.n_samples < window]
         if short:
             raise ValueError(f"recordings shorter than the {window}-sample window: {short}")
         self.data, self.window, self.rng = data, window, rng
-        lengths = np.array([d.recording.n_samples - window + 1 for d in data], dtype=float)
+        self.starts: list[np.ndarray | None] = []  # the allowed starts where a recording has turns
+        for d in data:
+            turning = d.recording.provenance_mask("turning_s")
+            if not turning.any():
+                self.starts.append(None)
+                continue
+            inside = np.concatenate([[0], np.cumsum(turning)])
+            n = d.recording.n_samples - window + 1
+            allowed = np.flatnonzero(inside[window:window + n] - inside[:n] == 0)
+            if not len(allowed):
+                raise ValueError(f"{d.recording.name}: no {window}-sample window outside its turns {d.recording.provenance_spans('turning_s')}")
+            self.starts.append(allowed)
+        lengths = np.array([d.recording.n_samples - window + 1 if s is None else len(s) for d, s in zip(data, self.starts)], dtype=float)
         self.prob = lengths / lengths.sum()
 
     def sample(self, batch_size: int) -> tuple[list[int], list[int]]:
         which = self.rng.choice(len(self.data), size=batch_size, p=self.prob)
-        starts = [int(self.rng.integers(0, self.data[k].recording.n_samples - self.window + 1)) for k in which]
+        starts = []
+        for k in which:
+            allowed = self.starts[k]
+            if allowed is None:
+                starts.append(int(self.rng.integers(0, self.data[k].recording.n_samples - self.window + 1)))
+            else:
+                starts.append(int(allowed[self.rng.integers(0, len(allowed))]))
         return [int(k) for k in which], starts
 
 
