@@ -18,7 +18,14 @@ from sspinn.data.dataset import Recording
 from sspinn.imu import pipeline as imu_import
 from sspinn.imu.grf_checks import GRFFileError, check_vertical_force, unloaded_share_warning
 from sspinn.model.conventions import GRAVITY
-from sspinn.testing import grf_scaled, grf_side_delayed, grf_sides_swapped, grf_unloaded, write_grf_edited
+from sspinn.testing import (
+    grf_clock_jump,
+    grf_scaled,
+    grf_side_delayed,
+    grf_sides_swapped,
+    grf_unloaded,
+    write_grf_edited,
+)
 from tests.conftest import shared_data
 
 REPO = Path(__file__).resolve().parents[1]
@@ -74,6 +81,21 @@ def test_grf_warnings_name_the_file(sub01, tmp_path, edit, mass, expected) -> No
     matches = [w for w in warned if re.fullmatch(expected + ".*", w)]
     assert len(matches) == 1, warned
     assert matches[0] in rec.provenance["warnings"]  # in the provenance as printed
+
+
+def test_a_jump_of_the_grf_clock_is_warned_and_its_span_stored(sub01, tmp_path) -> None:
+    """The GRF file loses 0.2 s of samples at 15 s (the first 30 s imported): the rest fits 0.2 s
+    away from the lag used, warned with its span, stored as ``grf_misaligned_s``."""
+    accel, grf = sub01
+    status, out, err = _import(accel, write_grf_edited(grf, tmp_path / "grf.mot", grf_clock_jump(15.0, 0.2)), tmp_path / "out",
+                               end="30")
+    assert status == 0, err
+    [warned] = [w for w in _warnings(out) if "jumps" in w]
+    assert re.fullmatch(r"\S+grf\.mot: the lag between the IMU and the GRF jumps: from 1\d\.\d to 30\.0 s \(IMU time\) the GRF fits "
+                        r"-0\.(1[7-9]|2[0-3]) s away from the lag used .*", warned), warned
+    rec = Recording.load(tmp_path / "out" / "OpenSim_Sub01_CSBaseline.csv")
+    [(start, stop, offset)] = rec.provenance_spans("grf_misaligned_s")
+    assert 10.0 <= start <= 17.5 and stop == pytest.approx(rec.duration, abs=0.02) and offset[0] == pytest.approx(-0.2, abs=0.03)
 
 
 @pytest.mark.parametrize("factor, message", [

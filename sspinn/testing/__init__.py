@@ -306,6 +306,19 @@ def grf_scaled(factor: float) -> GRFEdit:
     return edit
 
 
+def grf_clock_jump(at_s: float, seconds: float) -> GRFEdit:
+    """A GRF edit: ``seconds`` of samples lost at ``at_s`` without their time stamps (every later
+    row moves up; the last row repeated at the end): from ``at_s`` the forces run early."""
+    def edit(names: list[str], values: np.ndarray, time: np.ndarray) -> np.ndarray:
+        k = int(round(seconds / float(np.median(np.diff(time)))))
+        i = int(np.searchsorted(time, at_s))
+        cols = [c for c, n in enumerate(names) if n != "time"]
+        values[i:-k, cols] = values[i + k:, cols].copy()
+        values[-k:, cols] = values[-k - 1, cols]
+        return values
+    return edit
+
+
 def grf_unloaded(start_s: float, seconds: float) -> GRFEdit:
     """A GRF edit: both feet's forces zero from ``start_s`` for ``seconds`` (contact with the plates lost)."""
     def edit(names: list[str], values: np.ndarray, time: np.ndarray) -> np.ndarray:
