@@ -58,7 +58,7 @@ from pathlib import Path
 import numpy as np
 
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset, Recording
-from sspinn.data.gait_events import foot_imu_heel_strikes, grf_event_timing, standing_mask
+from sspinn.data.gait_events import foot_imu_heel_strikes, grf_event_timing, standing_mask, true_runs
 from sspinn.estimator.evaluation import finite_or_null
 from sspinn.estimator.inference import GaitEstimate, estimate_recording
 from sspinn.estimator.model_store import load_model
@@ -222,10 +222,8 @@ def evaluated(rec: Recording) -> slice:
     whole trial after the warm-up when it has neither)."""
     keep = ~(turning_mask(rec) | rec.provenance_mask("grf_misaligned_s"))
     keep[:WARMUP] = False
-    edges = np.diff(np.concatenate([[0], keep.astype(np.int8), [0]]))
-    runs = list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)))
-    start, stop = max(runs, key=lambda r: r[1] - r[0])
-    return slice(int(start), int(stop))
+    start, stop = max(true_runs(keep), key=lambda r: r[1] - r[0])
+    return slice(start, stop)
 
 
 def trial_metrics(grf: np.ndarray, speed: float | None, rec: Recording) -> dict[str, float]:

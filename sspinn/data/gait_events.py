@@ -107,11 +107,16 @@ def standing_mask(grf: np.ndarray, body_weight: float, rate_hz: float, min_s: fl
     return runs_at_least(both, round(min_s * rate_hz))
 
 
+def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """[start, stop) sample indices of the runs of True in ``mask`` (T,) bool, in order."""
+    edges = np.diff(np.concatenate(([0], np.asarray(mask).astype(np.int8), [0])))
+    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
+
+
 def runs_at_least(mask: np.ndarray, min_len: int) -> np.ndarray:
     """``mask`` (T,) bool with its runs of True shorter than ``min_len`` samples cleared."""
-    edges = np.diff(np.concatenate(([0], np.asarray(mask).astype(np.int8), [0])))
     out = np.zeros(len(mask), dtype=bool)
-    for start, end in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+    for start, end in true_runs(mask):
         if end - start >= min_len:
             out[start:end] = True
     return out

@@ -68,7 +68,7 @@ from typing import Self
 
 import numpy as np
 
-from sspinn.data.gait_events import runs_at_least
+from sspinn.data.gait_events import runs_at_least, true_runs
 from sspinn.estimator._zupt_kernels import eskf_rts
 from sspinn.model.conventions import GRAVITY
 
@@ -207,8 +207,7 @@ def speed_at_rest(vx: np.ndarray, still: np.ndarray, sample_rate_hz: float, tau_
 
 def stance_phases(stance: np.ndarray) -> np.ndarray:
     """(n, 2) int array of [start, end) sample indices of the True runs of a boolean mask."""
-    edges = np.diff(np.concatenate(([0], np.asarray(stance, dtype=np.int8), [0])))
-    return np.column_stack((np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)))
+    return np.array(true_runs(stance), dtype=np.int64).reshape(-1, 2)
 
 
 # --------------------------------------------------------------------------------------------

@@ -71,6 +71,7 @@ import numpy as np
 from scipy.signal import butter, sosfiltfilt
 from scipy.stats import skew
 
+from sspinn.data.gait_events import true_runs
 from sspinn.data.signal_checks import cross_spectrum
 from sspinn.errors import UserError
 from sspinn.imu import joint_centres
@@ -200,19 +201,13 @@ def moving_mean(x: np.ndarray, n: int) -> np.ndarray:
     return np.convolve(x, np.ones(n) / n, mode="same")
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """(start, stop) of the runs of True."""
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
-
-
 def detect_standing(gyr: list[np.ndarray], rate_hz: float) -> tuple[int, int] | None:
     """(start, stop) samples of the longest quiet-standing span (module docstring), trimmed by
     0.05 s at each end, or None."""
     still = np.ones(len(gyr[0]), dtype=bool)
     for g in gyr:
         still &= moving_mean(np.linalg.norm(g, axis=1), int(0.1 * rate_hz)) < STANDING_GYRO_RAD_S
-    runs = [(a, b) for a, b in _runs(still) if b - a >= MIN_STANDING_S * rate_hz]
+    runs = [(a, b) for a, b in true_runs(still) if b - a >= MIN_STANDING_S * rate_hz]
     if not runs:
         return None
     a, b = max(runs, key=lambda r: r[1] - r[0])
@@ -351,7 +346,7 @@ def calibrate(
     walking = detect_walking(gyr_all, rate_hz)
     if span is not None:
         walking[span[0]:span[1]] = False
-    runs = [r for r in _runs(walking) if r[1] - r[0] >= 2 * rate_hz]
+    runs = [r for r in true_runs(walking) if r[1] - r[0] >= 2 * rate_hz]
     walking_s = sum(b - a for a, b in runs) / rate_hz
     if walking_s < MIN_WALKING_S:
         raise SensorCalibrationError(f"{source}: {walking_s:.1f} s of walking found (angular-rate RMS above "
@@ -367,7 +362,7 @@ def calibrate(
     if turns:  # turning is not sagittal walking: left out of every walking-based step below
         for t in turns:
             walking[t.start:t.stop] = False
-        runs = [r for r in _runs(walking) if r[1] - r[0] >= 2 * rate_hz]
+        runs = [r for r in true_runs(walking) if r[1] - r[0] >= 2 * rate_hz]
         walking_s = sum(b - a for a, b in runs) / rate_hz
         if walking_s < MIN_WALKING_S:
             raise SensorCalibrationError(f"{source}: {walking_s:.1f} s of straight walking found once the turns "

@@ -25,6 +25,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.signal import butter, sosfiltfilt
 
+from sspinn.data.gait_events import true_runs
 from sspinn.errors import DataFormatError
 from sspinn.model.conventions import GRAVITY
 
@@ -266,8 +267,7 @@ def find_gaps(s: SensorSignals) -> list[Gap]:
             gaps.append(Gap(s.name, s.source, float(s.time[k]), float(dt[k]), int(round(dt[k] / step)) - 1, "time stamps"))
     bad = ~(np.isfinite(s.acc).all(axis=1) & np.isfinite(s.gyr).all(axis=1))
     if bad.any():
-        edges = np.diff(np.concatenate([[0], bad.astype(np.int8), [0]]))
-        for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+        for a, b in true_runs(bad):
             before, after = max(a - 1, 0), min(b, len(s.time) - 1)
             gaps.append(Gap(s.name, s.source, float(s.time[before]), float(s.time[after] - s.time[before]), int(b - a),
                             "non-finite values"))

@@ -53,6 +53,7 @@ from typing import Final
 import numpy as np
 from scipy.signal import correlate, find_peaks
 
+from sspinn.data.gait_events import true_runs
 from sspinn.errors import UserError
 
 #: Smallest overlap of the two signals for a lag to count, s.
@@ -329,16 +330,10 @@ def lag_jumps(stillness: dict[str, np.ndarray], impact: dict[str, np.ndarray], g
     shifts = np.arange(lag - half, lag + half + 1)
     local = np.full(len(starts), np.nan)
     for w, a in enumerate(starts):
-        score = np.zeros(len(shifts))
-        for imu, ref in pairs:
-            x = imu[a:a + window]
-            for k, shift in enumerate(shifts):
-                if a + shift < 0 or a + shift + window > len(ref):
-                    score[k] = np.nan
-                    continue
-                y = ref[a + shift:a + shift + window]
-                sx, sy = x.std(), y.std()
-                score[k] += float(np.mean((x - x.mean()) * (y - y.mean())) / (sx * sy)) if sx > 0 and sy > 0 else np.nan
+        # the window x = imu[a:a + window] against ref[a + shift:...]: normalized_xcorr's lag a + shift,
+        # NaN where ref does not hold the whole window
+        reach = int(max(abs(a + shifts[0]), abs(a + shifts[-1])))
+        score = sum(normalized_xcorr(ref, imu[a:a + window], reach, window)[1][a + shifts + reach] for imu, ref in pairs)
         if np.isfinite(score).any():
             local[w] = shifts[int(np.nanargmax(score))]
     if not np.isfinite(local).any():
@@ -346,8 +341,7 @@ def lag_jumps(stillness: dict[str, np.ndarray], impact: dict[str, np.ndarray], g
     offset = (local - np.nanmedian(local)) / rate_hz
     off = np.abs(np.nan_to_num(offset)) > LAG_JUMP_TOLERANCE_S
     spans = []
-    edges = np.diff(np.concatenate([[0], off.astype(np.int8), [0]]))
-    for i, j in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+    for i, j in true_runs(off):
         a = 0 if i == 0 else int(starts[i] + window // 2 - step // 2)
         b = n if j == len(starts) else int(starts[j - 1] + window // 2 + step // 2)
         spans.append((a, b, float(np.median(offset[i:j]))))
@@ -360,9 +354,8 @@ def walking_direction_sign(fx: np.ndarray, fy: np.ndarray, rate_hz: float = 100.
     the last 40 % (propulsion) minus that of the first 40 % (braking) is positive along the walking
     direction; the median over stances decides."""
     loaded = fy > 0.2 * np.percentile(fy, 95)
-    edges = np.diff(np.concatenate([[0], loaded.astype(np.int8), [0]]))
     diffs = []
-    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+    for a, b in true_runs(loaded):
         if b - a < 0.2 * rate_hz:
             continue
         k = int(0.4 * (b - a))

@@ -28,6 +28,7 @@ from typing import Final
 import numpy as np
 
 from sspinn.data.dataset import Recording
+from sspinn.data.gait_events import true_runs
 
 #: Stride-averaged yaw rate above which the walker is turning, deg/s. A 90° turn within 6 s
 #: exceeds it; straight walking does not: the pelvis's yaw oscillation cancels over a stride, and
@@ -74,12 +75,8 @@ def detect_turns(gyr: np.ndarray, up: np.ndarray, rate_hz: float, stride_period_
     omega = yaw_rate(gyr, up)
     mean = np.convolve(omega, np.ones(stride) / stride, mode="same")
     fast = np.abs(mean) > np.radians(TURN_RATE_DEG_S)
-    if not fast.any():
-        return []
-    edges = np.diff(np.concatenate([[0], fast.astype(np.int8), [0]]))
-    runs = [[int(a), int(b)] for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1))]
     merged: list[list[int]] = []
-    for a, b in runs:
+    for a, b in true_runs(fast):
         a, b = max(0, a - stride // 2), min(len(omega), b + stride // 2)
         if merged and a - merged[-1][1] < stride:
             merged[-1][1] = b
