@@ -233,7 +233,10 @@ def _calibrate_quality(args: argparse.Namespace) -> int:
     est = SSPINNpose.load(args.model)
     recs = [r for split in args.split for r in open_recordings(args.data, split, args.periods, args.height, args.mass)]
     estimates = [est.predict(r) for r in recs]
-    training = training_recordings(dataset_recordings(args.data), est.trained_on_)
+    # the calibration recordings when they hold the training ones (the default, --split train),
+    # else the whole dataset: each file is read once
+    training = training_recordings(recs, est.trained_on_) or training_recordings(dataset_recordings(args.data),
+                                                                                 est.trained_on_)
     if not training:
         print(f"NOTE: the {len(est.trained_on_)} recordings {args.model} was trained on are not all in {args.data}: "
               "the input ranges are those of the calibration recordings")

@@ -47,6 +47,7 @@ Three more checks of the force file against the IMUs, each a warning naming the 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Final
 
@@ -230,15 +231,15 @@ def align_to_grf(
     load = grf_vertical[sides[0]] if len(sides) == 1 else np.abs(grf_vertical["r"] - grf_vertical["l"])
     lags, c_activity = normalized_xcorr(_zscore(_smooth(load, 2 * stride), "the GRF activity envelope"),
                                         _zscore(_smooth(activity, 2 * stride), "the IMU activity envelope"), max_lag, overlap)
-    loading_by_side = {s: normalized_xcorr(_zscore(grf_vertical[s], f"the vertical GRF of side {s}"),
-                                           _zscore(-_smooth(stillness[s], round(0.09 * rate_hz)), f"the {names[0]}_{s} rate"),
-                                           max_lag, overlap)[1] for s in sides}
+    loading_pairs, impact_pairs = event_signals(stillness, impact, grf_vertical, rate_hz)
+    loading_by_side = {s: normalized_xcorr(_zscore(ref, f"the vertical GRF of side {s}"),
+                                           _zscore(imu, f"the {names[0]}_{s} rate"), max_lag, overlap)[1]
+                       for s, (ref, imu) in loading_pairs.items()}
     c_loading = sum(loading_by_side.values()) / len(sides)
-    hit = [s for s in sides if s in impact]
-    impact_by_side = {s: normalized_xcorr(
-        _zscore(_smooth(np.maximum(np.diff(grf_vertical[s], prepend=grf_vertical[s][0]), 0), 3), f"the vertical GRF rise of side {s}"),
-        _zscore(_smooth(np.linalg.norm(np.diff(impact[s], axis=0, prepend=impact[s][:1]), axis=1), 3), f"the {names[1]}_{s} jerk"),
-        max_lag, overlap)[1] for s in hit}
+    hit = list(impact_pairs)
+    impact_by_side = {s: normalized_xcorr(_zscore(ref, f"the vertical GRF rise of side {s}"),
+                                          _zscore(imu, f"the {names[1]}_{s} jerk"), max_lag, overlap)[1]
+                      for s, (ref, imu) in impact_pairs.items()}
     c_impact = sum(impact_by_side.values()) / len(hit) if hit else np.zeros(len(lags))
     valid = np.isfinite(c_activity) & np.isfinite(c_loading) & np.isfinite(c_impact)
     if not valid.any():
@@ -283,7 +284,8 @@ def align_to_grf(
             f"the right and left force channels look offset in time: the right foot's stance aligns at lag {side_lags['r']:+.2f} s, "
             f"the left at {side_lags['l']:+.2f} s (more than {SIDE_LAG_TOLERANCE_S:g} s apart); the labels use {best.lag_s:+.2f} s "
             "for both: check the GRF file's channels")
-    jumps = lag_jumps(stillness, impact, grf_vertical, k_best - max_lag, stride, rate_hz) if check_sides else []  # not again for the exchanged sides
+    jumps = (lag_jumps([*loading_pairs.values(), *impact_pairs.values()], k_best - max_lag, stride, rate_hz)
+             if check_sides else [])  # not again for the exchanged sides
     for a, b, d in jumps:
         warnings.append(
             f"the lag between the IMU and the GRF jumps: from {a / rate_hz:.1f} to {b / rate_hz:.1f} s (IMU time) the GRF fits "
@@ -311,21 +313,31 @@ def align_to_grf(
     return dataclasses.replace(result, notes=tuple(notes), warnings=tuple(warnings), swapped_sides_score=swapped.best.score)
 
 
-def lag_jumps(stillness: dict[str, np.ndarray], impact: dict[str, np.ndarray], grf_vertical: dict[str, np.ndarray],
-              lag: int, stride: int, rate_hz: float = 100.0) -> list[tuple[int, int, float]]:
-    """The spans (start, stop IMU samples, offset s) whose lag differs from the others' (module
-    docstring, "lag jumps"); ``lag`` is the chosen lag and ``stride`` the stride period, in samples."""
+def event_signals(stillness: dict[str, np.ndarray], impact: dict[str, np.ndarray], grf_vertical: dict[str, np.ndarray],
+                  rate_hz: float = 100.0) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """The (GRF, IMU) signal pairs the alignment correlates, per side with both (arguments as in
+    :func:`align_to_grf`): "loading", the vertical force against the foot's stillness −|ω|
+    (smoothed over 0.09 s); "impact", the force's rise against the impact sensor's jerk |Δacc|
+    (smoothed over 3 samples), for the sides with an impact sensor."""
     sides = [s for s in ("r", "l") if s in stillness and s in grf_vertical]
-    n = min(len(stillness[s]) for s in sides)
+    loading = {s: (grf_vertical[s], -_smooth(stillness[s], round(0.09 * rate_hz))) for s in sides}
+    hits = {s: (_smooth(np.maximum(np.diff(grf_vertical[s], prepend=grf_vertical[s][0]), 0), 3),
+                _smooth(np.linalg.norm(np.diff(impact[s], axis=0, prepend=impact[s][:1]), axis=1), 3))
+            for s in sides if s in impact}
+    return loading, hits
+
+
+def lag_jumps(pairs: Sequence[tuple[np.ndarray, np.ndarray]], lag: int, stride: int,
+              rate_hz: float = 100.0) -> list[tuple[int, int, float]]:
+    """The spans (start, stop IMU samples, offset s) whose lag differs from the others' (module
+    docstring, "lag jumps"), from the (GRF, IMU) signal ``pairs`` of :func:`event_signals`;
+    ``lag`` is the chosen lag and ``stride`` the stride period, in samples."""
+    if not pairs:
+        return []
+    n = min(len(imu) for _, imu in pairs)
     window, step, half = int(LOCAL_WINDOW_S * rate_hz), int(LOCAL_STEP_S * rate_hz), max(1, stride // 2)
     if n < window + step:
         return []
-    pairs = []
-    for s in sides:
-        pairs.append((-_smooth(stillness[s], round(0.09 * rate_hz)), grf_vertical[s]))
-        if s in impact:
-            jerk = _smooth(np.linalg.norm(np.diff(impact[s], axis=0, prepend=impact[s][:1]), axis=1), 3)
-            pairs.append((jerk, _smooth(np.maximum(np.diff(grf_vertical[s], prepend=grf_vertical[s][0]), 0), 3)))
     starts = np.arange(0, n - window + 1, step)
     shifts = np.arange(lag - half, lag + half + 1)
     local = np.full(len(starts), np.nan)
@@ -333,7 +345,7 @@ def lag_jumps(stillness: dict[str, np.ndarray], impact: dict[str, np.ndarray], g
         # the window x = imu[a:a + window] against ref[a + shift:...]: normalized_xcorr's lag a + shift,
         # NaN where ref does not hold the whole window
         reach = int(max(abs(a + shifts[0]), abs(a + shifts[-1])))
-        score = sum(normalized_xcorr(ref, imu[a:a + window], reach, window)[1][a + shifts + reach] for imu, ref in pairs)
+        score = sum(normalized_xcorr(ref, imu[a:a + window], reach, window)[1][a + shifts + reach] for ref, imu in pairs)
         if np.isfinite(score).any():
             local[w] = shifts[int(np.nanargmax(score))]
     if not np.isfinite(local).any():
