@@ -2,7 +2,7 @@
 
 Command line (``python -m agents --help``)::
 
-    python -m agents train --algo ppo --config configs/agents/ppo.yaml --out runs/ppo [--resume]
+    python -m agents train --algo ppo --config configs/agents/ppo.yaml --out runs/ppo [--resume | --overwrite]
     python -m agents evaluate --checkpoint runs/ppo/best_model.zip --episodes 5 --out runs/ppo/eval
     python -m agents record --checkpoint runs/ppo/best_model.zip --out walk.gif
 

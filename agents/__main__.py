@@ -36,6 +36,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--config", required=True, help="YAML file (configs/agents/*.yaml)")
     p.add_argument("--out", required=True, help="run directory (checkpoints, logs, best model)")
     p.add_argument("--resume", action="store_true", help="continue from the latest checkpoint in --out")
+    p.add_argument("--overwrite", action="store_true", help="replace the run already in --out (its checkpoints, "
+                   "models, evaluations, monitor and TensorBoard files are deleted first)")
     add_config_flags(p, AgentConfig, TRAIN_FLAGS, flags=TRAIN_FLAGS, helps={
         "algo": "must match the config's algo if given",
         "env.eval_target_speed": "override the training and evaluation target speed, m/s (env.kwargs.target_speed)",
@@ -86,7 +88,7 @@ def _main(argv: list[str]) -> int:
         config = load_config(args.config, overrides)
         if algo is not None and algo != config.algo:
             raise ConfigError(f"--algo {algo} but {args.config} has algo: {config.algo}")
-        train(config, args.out, resume=args.resume)
+        train(config, args.out, resume=args.resume, overwrite=args.overwrite)
     elif args.command == "evaluate":
         from agents.evaluate import evaluate
 

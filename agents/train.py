@@ -13,6 +13,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import shutil
 import time
 from pathlib import Path
 from typing import Any
@@ -47,6 +48,13 @@ from agents.rollout import SUMMARY_GAIT_KEYS, run_episode, summarize
 from agents.vec_env import PerEnvVecMonitor, WalkerVecEnv
 from sspinn.data.gait_metrics import winter_or_none
 from sspinn.run_folder import RunLock, atomic_write_text
+
+#: What a run leaves in its folder (:mod:`agents.checkpoints`), besides its config: a folder
+#: holding any of them holds a run, which only ``--resume`` continues and ``--overwrite`` replaces.
+RUN_OUTPUTS: tuple[str, ...] = (
+    "final_model.zip", "final_vecnormalize.pkl", "best_model.zip", "best_vecnormalize.pkl", "evaluations.csv",
+    CHECKPOINT_DIR, "monitor", "tb",
+)
 
 #: Info fields of the environment written to the Monitor CSV of every training episode.
 MONITOR_INFO_KEYS: tuple[str, ...] = ("distance", "cost_of_transport")
@@ -213,28 +221,41 @@ def _fmt(value: float | None) -> str:
     return "n/a" if value is None else f"{value:.1f}"
 
 
-def train(config: AgentConfig, out: str | Path, resume: bool = False) -> BaseAlgorithm:
+def train(config: AgentConfig, out: str | Path, resume: bool = False, overwrite: bool = False) -> BaseAlgorithm:
     """Train according to ``config`` into the run directory ``out`` and return the model.
 
     With ``resume``, the latest checkpoint in ``<out>/checkpoints`` and its VecNormalize statistics
     are loaded and training continues up to ``total_timesteps`` (``reset_num_timesteps=False``, so
-    step counts, schedules and TensorBoard curves carry on). Without it, ``out`` must not hold
-    checkpoints already. The run directory is owned by this run while it trains
+    step counts, schedules and TensorBoard curves carry on). Without it, ``out`` must not hold a
+    run already (any of :data:`RUN_OUTPUTS`: a :class:`FileExistsError` names them) unless
+    ``overwrite``, which deletes them first. The run directory is owned by this run while it trains
     (:class:`sspinn.run_folder.RunLock`): a second run into it stops with an error naming this one.
     """
+    if resume and overwrite:
+        raise ValueError("--resume continues the run in --out and --overwrite replaces it: give one of them")
     with RunLock(out):
-        return _train(config, Path(out), resume)
+        return _train(config, Path(out), resume, overwrite)
 
 
-def _train(config: AgentConfig, out: Path, resume: bool) -> BaseAlgorithm:
+def _train(config: AgentConfig, out: Path, resume: bool, overwrite: bool) -> BaseAlgorithm:
     # 1. run directory, threads, seeds (a resumed run continues from seed + steps done, so that its
     #    environments do not replay the initial states of the first part)
     run_dir = Path(out)
     checkpoint = latest_checkpoint(run_dir)
     if resume and checkpoint is None:
         raise FileNotFoundError(f"--resume: no checkpoint in {run_dir / CHECKPOINT_DIR}")
-    if not resume and checkpoint is not None:
-        raise FileExistsError(f"{run_dir} already holds checkpoints; use --resume or another --out")
+    present = [name for name in RUN_OUTPUTS if (run_dir / name).exists()]
+    if not resume and present and not overwrite:
+        hint = "continue it with --resume, " if checkpoint is not None else ""
+        raise FileExistsError(f"{run_dir} already holds a run ({', '.join(present)}); {hint}replace it with --overwrite, "
+                              "or choose another --out")
+    if overwrite:
+        for name in present:
+            path = run_dir / name
+            if path.is_dir():
+                shutil.rmtree(path)
+            else:
+                path.unlink()
     run_dir.mkdir(parents=True, exist_ok=True)
     save_config(config, run_dir / CONFIG_FILE)
     torch.set_num_threads(config.logging.torch_threads)
@@ -280,6 +301,11 @@ def _train(config: AgentConfig, out: Path, resume: bool) -> BaseAlgorithm:
     if tensorboard_log is None:  # else SB3 makes an empty SB3-<time> folder in the system's temp dir per run
         model.set_logger(configure_logger(str(run_dir), ["stdout"] if config.logging.verbose else []))
 
+    steps_before = model.num_timesteps
+    print(f"training {config.algo.upper()} on {config.env.id} ({config.env.n_envs} envs, {config.env.vec_env}) "
+          f"from step {steps_before:,} to {config.total_timesteps:,} → {run_dir}", flush=True)
+    started = time.perf_counter()
+
     # 4. callbacks: periodic checkpoints (+ VecNormalize, replay buffer) and evaluations
     callbacks: list[BaseCallback] = [
         PeriodicCheckpoint(run_dir / CHECKPOINT_DIR, max(config.logging.checkpoint_freq // config.env.n_envs, 1),
@@ -297,4 +323,7 @@ def _train(config: AgentConfig, out: Path, resume: bool) -> BaseAlgorithm:
     )
     save_checkpoint(model, run_dir / "final_model.zip", vec_normalize)
     venv.close()
+    wall = time.perf_counter() - started
+    print(f"trained {model.num_timesteps:,} steps ({model.num_timesteps - steps_before:,} in this run, {wall:.0f} s) "
+          f"→ {run_dir / 'final_model.zip'}", flush=True)
     return model

@@ -154,6 +154,27 @@ def test_resume_without_checkpoint_fails(tmp_path: Path) -> None:
         train(tiny(), tmp_path, resume=True)
 
 
+def test_a_finished_run_is_replaced_only_with_overwrite(tmp_path: Path) -> None:
+    """A run shorter than one checkpoint leaves only its final model: training into its folder again
+    is refused (naming what it holds) until --overwrite, which deletes the old run's files first."""
+    from agents.train import train
+
+    short = tiny(logging={"checkpoint_freq": 10_000, "eval_freq": 0, "tensorboard": False})
+    train(short, tmp_path)
+    assert latest_checkpoint(tmp_path) is None and (tmp_path / "final_model.zip").is_file()
+    before = (tmp_path / "final_model.zip").stat().st_mtime_ns
+    with pytest.raises(FileExistsError, match=r"already holds a run \(final_model.zip.*--overwrite") as info:
+        train(short, tmp_path)
+    assert "--resume" not in str(info.value)  # nothing to resume from
+    assert (tmp_path / "final_model.zip").stat().st_mtime_ns == before
+    (tmp_path / "evaluations.csv").write_text("timesteps\n1\n")  # a file of the old run that the new one would not write
+    with pytest.raises(ValueError, match="give one of them"):
+        train(short, tmp_path, resume=True, overwrite=True)
+    model = train(short, tmp_path, overwrite=True)
+    assert model.num_timesteps == 128 and not (tmp_path / "evaluations.csv").exists()
+    assert (tmp_path / "final_model.zip").stat().st_mtime_ns != before
+
+
 def test_evaluate_writes_report_plot_and_animation(trained_run: Path, tmp_path: Path) -> None:
     out = tmp_path / "eval"
     code = main(["evaluate", "--checkpoint", str(trained_run / "final_model.zip"), "--episodes", "2",
