@@ -5,9 +5,11 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from envs.openmp import prefer_passive_openmp
 from sspinn.errors import ArgumentParser, bounded
+from sspinn.run_folder import output_target
 from sspinn.yaml_config import add_config_flags, flag_overrides
 
 #: Fields of :class:`agents.config.AgentConfig` that ``train`` takes as flags (dotted) → flag name
@@ -52,6 +54,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--seed", type=bounded(int, 0, MAX_SEED), default=0, help=f"first episode seed (0–{MAX_SEED})")
         p.add_argument("--max-steps", type=bounded(int, 1, MAX_EPISODE_STEPS),
                        help=f"episode length in control steps, 1–{MAX_EPISODE_STEPS} (default: the env's)")
+        p.add_argument("--overwrite", action="store_true",
+                       help="replace the result already at --out (else a NOTE and the first free <out>_2, …)")
         if name == "evaluate":
             p.add_argument("--episodes", type=bounded(int, 1, MAX_EPISODES), default=5,
                            help=f"episodes (seeds seed, seed+1, ...), 1–{MAX_EPISODES}")
@@ -92,6 +96,7 @@ def _main(argv: list[str]) -> int:
     elif args.command == "evaluate":
         from agents.evaluate import evaluate
 
+        args.out = output_target(args.out, lambda f: (f / "metrics.json").exists(), args.overwrite, "an evaluation")
         report = evaluate(args.checkpoint, args.out, episodes=args.episodes, seed=args.seed,
                           target_speed=args.target_speed, max_steps=args.max_steps,
                           video=not args.no_video, fps=args.fps, data_dir=args.data_dir)
@@ -112,6 +117,7 @@ def _main(argv: list[str]) -> int:
     else:
         from agents.evaluate import record
 
+        args.out = output_target(args.out, Path.exists, args.overwrite, "a recording", keep_suffix=True)
         result = record(args.checkpoint, args.out, seed=args.seed, target_speed=args.target_speed,
                         max_steps=args.max_steps, fps=args.fps)
         print(f"distance {result.distance:.2f} m in {result.duration:.2f} s, fell: {result.fell}; wrote {args.out}")

@@ -13,7 +13,6 @@ from __future__ import annotations
 import csv
 import io
 import math
-import shutil
 import time
 from pathlib import Path
 from typing import Any
@@ -47,7 +46,7 @@ from agents.gait_prior import GaitPrior, GaitPriorReward, load_prior
 from agents.rollout import SUMMARY_GAIT_KEYS, run_episode, summarize
 from agents.vec_env import PerEnvVecMonitor, WalkerVecEnv
 from sspinn.data.gait_metrics import winter_or_none
-from sspinn.run_folder import RunLock, atomic_write_text
+from sspinn.run_folder import RunLock, atomic_write_text, claim_run_folder
 
 #: What a run leaves in its folder (:mod:`agents.checkpoints`), besides its config: a folder
 #: holding any of them holds a run, which only ``--resume`` continues and ``--overwrite`` replaces.
@@ -244,18 +243,8 @@ def _train(config: AgentConfig, out: Path, resume: bool, overwrite: bool) -> Bas
     checkpoint = latest_checkpoint(run_dir)
     if resume and checkpoint is None:
         raise FileNotFoundError(f"--resume: no checkpoint in {run_dir / CHECKPOINT_DIR}")
-    present = [name for name in RUN_OUTPUTS if (run_dir / name).exists()]
-    if not resume and present and not overwrite:
-        hint = "continue it with --resume, " if checkpoint is not None else ""
-        raise FileExistsError(f"{run_dir} already holds a run ({', '.join(present)}); {hint}replace it with --overwrite, "
-                              "or choose another --out")
-    if overwrite:
-        for name in present:
-            path = run_dir / name
-            if path.is_dir():
-                shutil.rmtree(path)
-            else:
-                path.unlink()
+    if not resume:
+        claim_run_folder(run_dir, RUN_OUTPUTS, overwrite, "continue it with --resume, " if checkpoint is not None else "")
     run_dir.mkdir(parents=True, exist_ok=True)
     save_config(config, run_dir / CONFIG_FILE)
     torch.set_num_threads(config.logging.torch_threads)

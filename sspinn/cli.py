@@ -21,7 +21,7 @@ from sspinn.data.dataset import Dataset
 from sspinn.data.loading import dataset_recordings, open_recordings
 from sspinn.errors import ArgumentParser, UserError, bounded, run_cli
 from sspinn.estimator.inference import ImplausibleEstimateError, NonFiniteEstimateError
-from sspinn.run_folder import RunLock, free_folder
+from sspinn.run_folder import RunLock, output_target
 from sspinn.yaml_config import add_config_flags, flag_overrides, shipped_path
 
 #: Fields of :class:`~sspinn.estimator.training.TrainConfig` that ``train`` and ``finetune`` take as flags.
@@ -75,12 +75,8 @@ def _holds_run(folder: Path) -> bool:
 def _new_output_folder(args: argparse.Namespace, holds_result: Callable[[Path], bool], what: str, hint: str) -> None:
     """A finished result is never replaced without ``--overwrite``: when ``args.out`` holds one
     (``holds_result``), the command writes to the first free ``<out>_2``, ``<out>_3``, … instead
-    and says so."""
-    if getattr(args, "overwrite", False) or not holds_result(args.out):
-        return
-    new = free_folder(args.out, holds_result)
-    print(f"NOTE: {args.out} holds {what}; writing to {new} instead ({hint}replace it with --overwrite)")
-    args.out = new
+    and says so (:func:`sspinn.run_folder.output_target`)."""
+    args.out = output_target(args.out, holds_result, getattr(args, "overwrite", False), what, hint)
 
 
 def _check_run_folder(args: argparse.Namespace, command: str) -> None:

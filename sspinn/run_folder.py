@@ -11,6 +11,9 @@
   one), on an exception the temporary file is removed. Temporary names are unique per process and
   call (``.<name>.<pid>.<random>.tmp``), so two writers never share one. An OSError while writing
   (no space left, a read-only file system, ...) names ``path``, not the temporary file.
+* :func:`output_target` — where a command writes: ``--out``, or the first free ``<out>_2``, …
+  when it holds a finished result and ``--overwrite`` was not given (a finished result is never
+  replaced without that flag).
 * :func:`atomic_write_text`, :func:`atomic_write_json` — the same for a text or JSON file;
   :func:`json_text` refuses NaN and infinity (which are not JSON: Python would write ``NaN``
   literals that other readers reject) with :class:`NonFiniteValueError` naming the key, or
@@ -24,6 +27,7 @@ import fcntl
 import json
 import math
 import os
+import shutil
 import socket
 import sys
 import time
@@ -141,17 +145,60 @@ class RunLock:
         self.release()
 
 
-def free_folder(out: str | Path, holds_result: Callable[[Path], bool]) -> Path:
+def free_folder(out: str | Path, holds_result: Callable[[Path], bool], keep_suffix: bool = False) -> Path:
     """``out`` if ``holds_result(out)`` is false, else the first of ``out_2``, ``out_3``, … for which
     it is false: where a command writes when ``out`` holds a finished result that only an explicit
-    ``--overwrite`` may replace."""
+    ``--overwrite`` may replace. With ``keep_suffix`` the number goes before the file suffix
+    (``walk.gif`` → ``walk_2.gif``); without it after the whole name (``walk_1.3`` → ``walk_1.3_2``)."""
     out = Path(out)
     k = 1
     candidate = out
     while holds_result(candidate):
         k += 1
-        candidate = out.with_name(f"{out.name}_{k}")
+        name = f"{out.stem}_{k}{out.suffix}" if keep_suffix else f"{out.name}_{k}"
+        candidate = out.with_name(name)
     return candidate
+
+
+def output_target(out: str | Path, holds_result: Callable[[Path], bool], overwrite: bool, what: str,
+                  hint: str = "", keep_suffix: bool = False) -> Path:
+    """Where a command writes its result: ``out``, unless ``out`` holds a finished result
+    (``holds_result``: ``what`` names it in the message) and ``overwrite`` is false; then the first
+    free ``out_2``, ``out_3``, … (:func:`free_folder`), announced on a ``NOTE`` line (``hint``: what
+    else the user could do, ending in ", "). A finished result is never replaced without the flag."""
+    out = Path(out)
+    if overwrite or not holds_result(out):
+        return out
+    new = free_folder(out, holds_result, keep_suffix)
+    print(f"NOTE: {out} holds {what}; writing to {new} instead ({hint}replace it with --overwrite)", flush=True)
+    return new
+
+
+def run_outputs(folder: str | Path, names: tuple[str, ...]) -> list[str]:
+    """The entries of ``names`` (files or folders a run writes) that exist in ``folder``."""
+    return [name for name in names if (Path(folder) / name).exists()]
+
+
+def claim_run_folder(folder: str | Path, names: tuple[str, ...], overwrite: bool, hint: str = "") -> None:
+    """Make ``folder`` ready for a new run that writes ``names``: refuse (:class:`FileExistsError`
+    naming what is there) when it holds any of them, unless ``overwrite``, which deletes them
+    (only those: other files in the folder stay). ``hint``: how else to go on, ending in ", "."""
+    present = run_outputs(folder, names)
+    if present and not overwrite:
+        raise FileExistsError(f"{folder} already holds a run ({', '.join(present)}); {hint}replace it with --overwrite, "
+                              "or choose another --out")
+    for name in present:
+        path = Path(folder) / name
+        if path.is_dir():
+            shutil.rmtree(path)
+        else:
+            path.unlink()
+
+
+def stem_outputs(suffixes: tuple[str, ...]) -> Callable[[Path], bool]:
+    """``holds_result`` for a command whose ``--out`` is a path without suffix: true when any
+    ``<out><suffix>`` exists (e.g. ``.npz``, ``.json``, ``_summary.json``)."""
+    return lambda stem: any(stem.with_name(stem.name + suffix).exists() for suffix in suffixes)
 
 
 @contextlib.contextmanager

@@ -77,7 +77,7 @@ def test_config_validation() -> None:
         ComparisonConfig(seeds=[])
 
 
-def test_run_comparison_end_to_end_on_tiny_budgets(tmp_path) -> None:
+def test_run_comparison_end_to_end_on_tiny_budgets(tmp_path, capsys) -> None:
     gen = GeneratorConfig(harmonics=3, hidden=16, layers=1, points=8, batch_size=4, warmup_steps=5, steps=2,
                           snapshot_every=5, log_every=1)
     GeneratorTrainer(gen, tmp_path / "gen").fit()
@@ -105,6 +105,22 @@ def test_run_comparison_end_to_end_on_tiny_budgets(tmp_path) -> None:
     with pytest.raises(ValueError, match="conditions.bad"):
         ComparisonConfig(conditions={"bad": {"target_speed": 2.0}})
     assert (tmp_path / "report" / "learning_curves.png").exists()
+
+    # an interrupted or repeated run into the folder keeps the finished cells whose inputs are unchanged
+    (tmp_path / "report" / "report.md").unlink()
+    again = run_comparison(cfg, tmp_path / "report")
+    assert [c.episodes for c in again] == [c.episodes for c in cells]
+    assert again[0].setup_time_s == cells[0].setup_time_s  # read back, not measured again
+    assert np.isnan(again[1].setup_time_s) and np.isnan(cells[1].setup_time_s)  # nothing built: NaN, written as null
+    assert (tmp_path / "report" / "report.md").exists()
+    kept = sorted(p.name for p in (tmp_path / "report" / "cells").iterdir())
+    assert kept == ["generator@1.3.json", "ppo@1.3.json"]
+    GeneratorTrainer(gen, tmp_path / "gen").fit(overwrite=True)  # the model file changed: its cell runs again
+    capsys.readouterr()
+    rerun = run_comparison(cfg, tmp_path / "report")
+    printed = capsys.readouterr().out
+    assert "[compare] generator at 1.3 m/s …" in printed and "[compare] PPO at 1.3 m/s: kept from an earlier run" in printed
+    assert rerun[0].setup_time_s != cells[0].setup_time_s  # measured again
 
 
 @pytest.mark.slow

@@ -210,7 +210,7 @@ def test_default_configs_are_the_shipped_ones() -> None:
 def test_train_generator_runs_from_another_folder(tmp_path: Path) -> None:
     env = {**os.environ, "PYTHONPATH": str(ROOT), "OMP_NUM_THREADS": "1"}
     sets = ["harmonics=2", "hidden=8", "layers=1", "points=4", "batch_size=2", "warmup_steps=1", "steps=1",
-            "snapshot_every=0", "threads=1"]
+            "snapshot_every=0", "threads=1", "polish_iterations=0"]
     proc = subprocess.run([sys.executable, "-m", "predictive", "train-generator", "--out", "run",
                            *[a for s in sets for a in ("--set", s)]],
                           cwd=tmp_path, capture_output=True, text=True, env=env, timeout=180)
@@ -228,3 +228,51 @@ def test_torch_files_on_a_full_disk_are_os_errors_naming_the_file(tmp_path: Path
     with pytest.raises(OSError) as caught, file_size_limit(4096):
         save_torch_file(tmp_path / "g2.pt", "gait-generator", {"w": torch.zeros(10_000)})
     assert caught.value.filename == str(tmp_path / "g2.pt")
+
+
+# ------------------------------------------------------------------------------------------------
+# a finished result is never replaced without --overwrite
+# ------------------------------------------------------------------------------------------------
+def test_generate_writes_beside_an_earlier_gait_unless_overwrite(small_generator, tmp_path: Path, capsys) -> None:
+    out = tmp_path / "walk_1.2"
+    argv = ["generate", "--model", str(small_generator), "--speed", "1.2", "--out", str(out)]
+    assert predictive_cli.main(argv) == 0
+    first = (tmp_path / "walk_1.2.npz").read_bytes()
+    capsys.readouterr()
+    assert predictive_cli.main(argv) == 0
+    assert f"NOTE: {out} holds a generated gait; writing to {tmp_path / 'walk_1.2_2'} instead" in capsys.readouterr().out
+    assert (tmp_path / "walk_1.2.npz").read_bytes() == first and (tmp_path / "walk_1.2_2.npz").is_file()
+    (tmp_path / "walk_1.2.npz").write_bytes(b"old")
+    assert predictive_cli.main([*argv, "--overwrite"]) == 0
+    assert (tmp_path / "walk_1.2.npz").read_bytes() == first and not (tmp_path / "walk_1.2_3.npz").exists()
+
+
+def test_train_generator_starts_a_new_folder_beside_a_finished_run(tmp_path: Path, capsys) -> None:
+    sets = ["harmonics=2", "hidden=8", "layers=1", "points=4", "batch_size=2", "warmup_steps=1", "steps=1",
+            "snapshot_every=0", "threads=1", "polish_iterations=0"]
+    argv = ["train-generator", "--out", str(tmp_path / "run"), *[a for s in sets for a in ("--set", s)]]
+    assert predictive_cli.main(argv) == 0
+    before = (tmp_path / "run" / "generator.pt").stat().st_mtime_ns
+    capsys.readouterr()
+    assert predictive_cli.main(argv) == 0
+    assert "NOTE:" in capsys.readouterr().out and (tmp_path / "run_2" / "generator.pt").is_file()
+    assert (tmp_path / "run" / "generator.pt").stat().st_mtime_ns == before
+    (tmp_path / "run" / "snapshots").mkdir()  # a file of the old run that the new one does not write
+    assert predictive_cli.main([*argv, "--overwrite"]) == 0
+    assert not (tmp_path / "run" / "snapshots").exists() and not (tmp_path / "run_3").exists()
+    assert predictive_cli.main([*argv, "--overwrite", "--resume"]) == 2
+
+
+def test_synth_refuses_to_replace_a_dataset_of_another_configuration(tmp_path: Path) -> None:
+    from predictive.synth import pipeline
+
+    index = {"splits": {"train": ["a"]}, "info": {"generator": pipeline.GENERATOR_NAME, "config_key": "1" * 64}}
+    (tmp_path / "dataset.json").write_text(json.dumps(index))
+    (tmp_path / "a.csv").write_text("x")
+    pipeline._check_out_dir(tmp_path, "1" * 64, overwrite=False)  # the same configuration: written again
+    with pytest.raises(FileExistsError, match="another configuration or generator version.*--overwrite"):
+        pipeline._check_out_dir(tmp_path, "2" * 64, overwrite=False)
+    pipeline._check_out_dir(tmp_path, "2" * 64, overwrite=True)
+    assert (tmp_path / "a.csv").exists()  # nothing is removed before the new recordings are ready
+    pipeline._remove_earlier_output(tmp_path)
+    assert list(tmp_path.iterdir()) == []

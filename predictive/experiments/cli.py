@@ -29,7 +29,7 @@ from typing import Any
 
 from predictive.ocp.limits import MAX_SPEED, NODES_RANGE, WEIGHT_RANGE
 from sspinn.errors import bounded
-from sspinn.run_folder import atomic_write_text
+from sspinn.run_folder import atomic_write_text, claim_run_folder, output_target, run_outputs, stem_outputs
 from sspinn.yaml_config import shipped_path
 
 #: Sub-command names.
@@ -69,6 +69,7 @@ def add_track_imu_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--align", choices=("data", "heel_strike"), default="data",
                    help="time alignment with the labels (data: node 0 = first data sample)")
     p.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
+    p.add_argument("--overwrite", action="store_true", help="replace the result already at --out (else a NOTE and the first free <out>_2, <out>_3, …)")
     return p
 
 
@@ -80,6 +81,9 @@ def add_compare_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, required=True, help="report folder")
     p.add_argument("--seeds", type=bounded(int, 1, MAX_SEEDS), default=None,
                    help=f"use only the first N seeds (quick runs; 1–{MAX_SEEDS})")
+    p.add_argument("--overwrite", action="store_true",
+                   help="run every cell again and replace the report in --out (else a finished report is kept: a NOTE and "
+                   "the first free <out>_2, …; an interrupted run in --out continues with the cells it finished)")
     return p
 
 
@@ -91,6 +95,7 @@ def add_robustness_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, required=True, help="report folder")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a config entry (repeatable), e.g. --set env.reset_noise_scale=0.005")
+    p.add_argument("--overwrite", action="store_true", help="replace the result already at --out (else a NOTE and the first free <out>_2, <out>_3, …)")
     return p
 
 
@@ -105,13 +110,28 @@ def run(args: argparse.Namespace) -> int:
     raise ValueError(f"not an experiment sub-command: {args.command!r}")
 
 
+#: What ``track-imu`` writes beside its ``--out`` path (the solution, the tracked signals, the
+#: plot, the table and the metrics).
+TRACK_IMU_OUTPUTS: tuple[str, ...] = (".npz", ".json", "_tracked.npz", "_tracked.json", ".png", "_table.md", "_metrics.json")
+
+#: The files of a finished ``compare`` or ``robustness`` report folder.
+REPORT_FILES: tuple[str, ...] = ("report.md", "results.json")
+
+
+def _holds_report(folder: Path) -> bool:
+    return bool(run_outputs(folder, REPORT_FILES))
+
+
 def run_compare(args: argparse.Namespace) -> int:
     """Run ``compare``; returns the exit code (a bad configuration raises a user error)."""
-    from predictive.experiments.controller_comparison import ComparisonConfig, run_comparison
+    from predictive.experiments.controller_comparison import CELLS_DIR, ComparisonConfig, run_comparison
 
     config = ComparisonConfig.from_yaml(args.config)
     if args.seeds is not None:
         config.seeds = config.seeds[: args.seeds]
+    args.out = output_target(args.out, _holds_report, args.overwrite, "a finished comparison")
+    if args.overwrite:
+        claim_run_folder(args.out, (CELLS_DIR, *REPORT_FILES), overwrite=True)
     run_comparison(config, args.out)
     print(f"report: {args.out / 'report.md'}")
     return 0
@@ -122,6 +142,7 @@ def run_robustness(args: argparse.Namespace) -> int:
     from predictive.experiments.robustness import RobustnessConfig, report, run_robustness
 
     config = RobustnessConfig.from_yaml(args.config, settings=args.set)  # a bad one is a one-line user error
+    args.out = output_target(args.out, _holds_report, args.overwrite, "a finished robustness report")
     results = run_robustness(config, args.out)
     print(report(config, results))
     print(f"report: {args.out / 'report.md'}")
@@ -137,6 +158,7 @@ def run_track_imu(args: argparse.Namespace) -> int:
     from sspinn.model.body import BodyParameters
 
     check_body(args.height, args.mass)
+    args.out = output_target(args.out, stem_outputs(TRACK_IMU_OUTPUTS), args.overwrite, "an IMU tracking result")
     t0 = time.perf_counter()
     recording = read_averaged_stride(args.data, height=args.height, mass=args.mass, periods=1)
     body = BodyParameters.from_anthropometry(args.height, args.mass)

@@ -37,10 +37,18 @@ heel strikes after the first 2 s; speeds < 2 m/s and when ``../shared/data`` exi
 (mean |d³θ/dt³|, rad/s³), and the wall-clock **time to obtain the controller** (one-off training)
 and **time per new speed** (what a new target speed costs: a forward pass + LQR; an OCP solve +
 LQR; retraining the agent).
+
+A comparison is a long job: every finished (method, speed) cell is kept in ``<out>/cells/`` (one
+JSON file, written atomically), so a run stopped by Ctrl-C or a crash continues where it stopped
+when started again with the same ``--out``. A kept cell is reused only while its inputs are
+unchanged — the configuration that shapes it (method, speed, seeds, body, tracker, conditions)
+and the SHA-256 of the method's model files (:func:`cell_key`); otherwise it is run again. The
+run owns its folder while it runs (:class:`sspinn.run_folder.RunLock`).
 """
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from dataclasses import asdict, dataclass, field
@@ -51,7 +59,7 @@ import gymnasium
 import numpy as np
 
 import envs  # noqa: F401  (registers the environment)
-from agents.checkpoints import checkpoint_steps, load_agent
+from agents.checkpoints import checkpoint_steps, load_agent, vecnormalize_path
 from agents.evaluate import write_animation
 from agents.plot_learning_curve import read_evaluations
 from agents.rollout import run_episode
@@ -61,13 +69,14 @@ from predictive.generator.closed_loop import TrackerSettings
 from predictive.generator.controllers import GeneratorControllers, OCPControllers
 from predictive.ocp.collocation import OCPError
 from predictive.ocp.gait_analysis import load_winter
-from predictive.synth.cache import jsonable
+from predictive.synth.cache import jsonable, stable_hash
 from sspinn.data.gait_events import contact_onsets
+from sspinn.estimator.calibration_files import file_sha256
 from sspinn.estimator.evaluation import angle_jitter
 from sspinn.model.body import BodyParameters
 from sspinn.model.drawing import draw_stick_figure, save_figure
 from sspinn.model.trajectory import Trajectory
-from sspinn.run_folder import atomic_write_json, atomic_write_text
+from sspinn.run_folder import RunLock, atomic_write_json, atomic_write_text
 from sspinn.yaml_config import load_config
 
 #: Samples of the normalised gait cycle.
@@ -403,15 +412,71 @@ def write_gait_animation(built: BuiltController, config: ComparisonConfig, speed
     return write_animation(res.frames, path, fps=25)
 
 
+#: Sub-folder of a comparison's ``--out`` holding its finished cells (module docstring).
+CELLS_DIR = "cells"
+
+
+def method_files(spec: MethodSpec, speed: float) -> list[Path]:
+    """The files a method's cell at ``speed`` reads: the generator's model, or the SB3 checkpoint
+    for that speed with its VecNormalize statistics (those that exist); none for the OCP."""
+    if spec.kind == "generator" and spec.model:
+        return [Path(spec.model)]
+    if spec.kind == "sb3" and speed in spec.checkpoints:
+        zip_path = Path(spec.checkpoints[speed])
+        return [p for p in (zip_path, vecnormalize_path(zip_path)) if p.exists()]
+    return []
+
+
+def cell_key(config: ComparisonConfig, spec: MethodSpec, speed: float) -> str:
+    """What a cell's result depends on, hashed: the configuration fields that shape it, the method,
+    the speed, and the SHA-256 of the files it reads (:func:`method_files`)."""
+    shaping = {k: v for k, v in asdict(config).items() if k not in ("methods", "speeds", "snapshot_seeds")}
+    files = {str(p): file_sha256(p) for p in method_files(spec, speed) if p.is_file()}
+    return stable_hash({"config": jsonable(shaping), "method": jsonable(asdict(spec)), "speed": speed, "files": files})
+
+
+def _cell_path(out: Path, spec: MethodSpec, speed: float) -> Path:
+    return out / CELLS_DIR / f"{slug(spec.name)}@{speed:g}.json"
+
+
+def load_cell(path: Path, key: str) -> CellResult | None:
+    """The cell kept at ``path`` if it was computed from the same inputs (``key``), else None
+    (also for an unreadable file, which is then run again)."""
+    try:
+        data = json.loads(path.read_text())
+        if data.get("key") != key:
+            return None
+        fields = dict(data["cell"])
+        for name in ("setup_time_s", "per_speed_time_s"):  # NaN (nothing built) is written as null
+            fields[name] = float("nan") if fields[name] is None else float(fields[name])
+        return CellResult(**fields)
+    except (OSError, ValueError, TypeError, KeyError):
+        return None
+
+
 def run_comparison(config: ComparisonConfig, out: str | Path) -> list[CellResult]:
-    """Run every method at every speed; write ``results.json``, ``report.md`` and plots to ``out``."""
+    """Run every method at every speed; write ``results.json``, ``report.md`` and plots to ``out``.
+    Cells finished by an earlier, interrupted run into ``out`` with the same inputs are reused
+    (module docstring)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    with RunLock(out):
+        return _run_comparison(config, out)
+
+
+def _run_comparison(config: ComparisonConfig, out: Path) -> list[CellResult]:
     reference = _winter(config.data_dir)
     cells: list[CellResult] = []
     for speed in config.speeds:
-        env = make_env(config, speed)
+        env = None
         for spec in config.methods:
+            path, key = _cell_path(out, spec, speed), cell_key(config, spec, speed)
+            cell = load_cell(path, key) if path.exists() else None
+            if cell is not None:
+                print(f"[compare] {spec.name} at {speed} m/s: kept from an earlier run ({path})", flush=True)
+                cells.append(cell)
+                continue
+            env = env or make_env(config, speed)
             print(f"[compare] {spec.name} at {speed} m/s …", flush=True)
             ctrl = BUILDERS[spec.kind](spec, config, speed, env)
             cell = CellResult(spec.name, spec.kind, speed, ctrl.note, ctrl.setup_time_s, ctrl.per_speed_time_s)
@@ -424,11 +489,14 @@ def run_comparison(config: ComparisonConfig, out: str | Path) -> list[CellResult
                     cell.conditions[name] = evaluate_controller(ctrl, env, speed, config.seeds, reference, options)[0]
                 if config.animation_s > 0:
                     write_gait_animation(ctrl, config, speed, out / f"gait_{slug(spec.name)}_{speed}.gif")
+            path.parent.mkdir(exist_ok=True)
+            atomic_write_json(path, {"key": key, "cell": asdict(cell)}, default=_json_default, non_finite="null")
             cells.append(cell)
             s = cell.summary()
             print(f"[compare]   success {s.get('success_rate')}, distance {s.get('mean_distance_m')}, "
                   f"under disturbances {s.get('condition_success', {})}, note: {cell.note}", flush=True)
-        env.close()
+        if env is not None:
+            env.close()
     write_report(config, cells, out, reference)
     return cells
 

@@ -38,7 +38,7 @@ from predictive.generator.closed_loop import GaitTracker, TrackerSettings
 from predictive.generator.controllers import GeneratorControllers
 from predictive.synth.cache import jsonable
 from sspinn.model.body import BodyParameters
-from sspinn.run_folder import atomic_write_text
+from sspinn.run_folder import RunLock, atomic_write_text
 from sspinn.yaml_config import load_config
 
 
@@ -122,9 +122,15 @@ class OpenLoop:
 
 
 def run_robustness(config: RobustnessConfig, out: str | Path) -> dict[str, Any]:
-    """Evaluate every generator; write ``results.json`` and ``report.md`` to ``out``."""
+    """Evaluate every generator; write ``results.json`` and ``report.md`` to ``out`` (owned by this
+    run while it runs, :class:`sspinn.run_folder.RunLock`)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    with RunLock(out):
+        return _run_robustness(config, out)
+
+
+def _run_robustness(config: RobustnessConfig, out: Path) -> dict[str, Any]:
     body = BodyParameters.from_anthropometry(config.height, config.mass)
     results: dict[str, Any] = {"config": jsonable(dataclasses.asdict(config)), "tracked": {}, "open_loop": {}}
     for path in config.generators:

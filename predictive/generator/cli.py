@@ -1,6 +1,6 @@
 """``python -m predictive train-generator`` and ``python -m predictive generate``.
 
-* ``train-generator --config configs/predictive/generator.yaml --out runs/generator [--resume]``:
+* ``train-generator --config configs/predictive/generator.yaml --out runs/generator [--resume | --overwrite]``:
   trains the self-supervised gait generator (:mod:`predictive.generator.gait_generator`); writes
   ``checkpoint.pt`` (also on Ctrl-C), ``generator.pt``, ``history.csv`` and ``config.yaml``. The
   default ``--config`` is the one shipped with the project, wherever the command runs.
@@ -18,7 +18,8 @@ import sys
 from pathlib import Path
 
 from predictive.ocp.limits import MAX_REFINE_ITERATIONS
-from sspinn.errors import bounded
+from sspinn.errors import UserError, bounded
+from sspinn.run_folder import output_target, run_outputs, stem_outputs
 from sspinn.yaml_config import shipped_path
 
 COMMANDS = ("train-generator", "generate")
@@ -31,6 +32,9 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     train.add_argument("--out", type=Path, required=True, help="run folder")
     train.add_argument("--resume", action="store_true", help="continue from <out>/checkpoint.pt")
     train.add_argument("--auto-resume", action="store_true", help="resume if <out>/checkpoint.pt exists")
+    train.add_argument("--overwrite", action="store_true",
+                       help="replace the run already in --out (its checkpoint, generator, history and snapshots are deleted "
+                       "first; else a NOTE and the first free <out>_2, …)")
     train.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                        help="override a config entry (repeatable), e.g. --set steps=30000 --set weights.kane=3000")
     gen = sub.add_parser(COMMANDS[1], help="one gait cycle from a trained generator")
@@ -45,10 +49,12 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     gen.add_argument("--force", action="store_true",
                      help="generate even outside the generator's training range (with a WARNING)")
     gen.add_argument("--out", type=Path, required=True, help="output path without suffix")
+    gen.add_argument("--overwrite", action="store_true", help="replace the result already at --out (else a NOTE and the first free <out>_2, <out>_3, …)")
 
 
 def run(args: argparse.Namespace) -> int:
     from predictive.generator.gait_generator import (
+        RUN_OUTPUTS,
         GeneratorConfig,
         GeneratorTrainer,
         generate,
@@ -58,18 +64,25 @@ def run(args: argparse.Namespace) -> int:
 
     if args.command == COMMANDS[0]:
         config = GeneratorConfig.from_yaml(args.config, settings=args.set)
-        trainer = GeneratorTrainer(config, args.out)
         resume = args.resume or (args.auto_resume and (args.out / "checkpoint.pt").exists())
-        trainer.fit(resume=resume)
+        if args.resume and args.overwrite:
+            raise UserError("--resume continues the run in --out and --overwrite replaces it: give one of them")
+        if not resume:  # a folder holding a run: continued with --resume, replaced with --overwrite, else a new folder
+            args.out = output_target(args.out, lambda f: bool(run_outputs(f, RUN_OUTPUTS)), args.overwrite,
+                                     "a generator run", "continue it with --resume, ")
+        trainer = GeneratorTrainer(config, args.out)
+        trainer.fit(resume=resume, overwrite=args.overwrite and not resume)
         print(f"trained {trainer.step} steps in {trainer.wall:.0f} s → {args.out / 'generator.pt'}")
         return 0
     from predictive.ocp.gait_analysis import compare_with_reference, load_winter, plot_gait
     from predictive.ocp.limits import RequestError, check_body, check_speed
+    from predictive.ocp.solution import SOLUTION_OUTPUTS
     from sspinn.model.body import BodyParameters
     from sspinn.run_folder import atomic_write_text, json_text
 
     check_speed(args.speed, "--speed")
     check_body(args.height, args.mass)
+    args.out = output_target(args.out, stem_outputs(SOLUTION_OUTPUTS), args.overwrite, "a generated gait")
     model, config = load_generator(args.model)
     outside = outside_training_range(config, args.speed, args.height, args.mass)
     if outside and not args.force:

@@ -67,7 +67,7 @@ from sspinn.model.body import BodyParameters
 from sspinn.model.contact import ContactParameters
 from sspinn.model.conventions import GRAVITY, N_TAU
 from sspinn.model.passive import passive_parameters, passive_torque
-from sspinn.run_folder import RunLock, atomic_path, atomic_write_text
+from sspinn.run_folder import RunLock, atomic_path, atomic_write_text, claim_run_folder
 from sspinn.torch_files import load_torch_file, save_torch_file
 from sspinn.yaml_config import config_from_mapping, load_config
 
@@ -349,6 +349,10 @@ class GaitLosses:
         return terms
 
 
+#: What a generator run writes into its folder (:class:`GeneratorTrainer`).
+RUN_OUTPUTS: tuple[str, ...] = ("checkpoint.pt", "generator.pt", "history.csv", "snapshots")
+
+
 class GeneratorTrainer:
     """Trains a :class:`GaitGenerator` (module docstring). ``fit()`` writes ``checkpoint.pt``,
     ``generator.pt`` and ``history.csv`` (step, wall time, losses) into ``out``.
@@ -486,10 +490,16 @@ class GeneratorTrainer:
         self.step += 1
         return terms
 
-    def fit(self, resume: bool = False) -> GaitGenerator:
+    def fit(self, resume: bool = False, overwrite: bool = False) -> GaitGenerator:
         """Train (continuing from ``<out>/checkpoint.pt`` with ``resume``); the run folder is
-        owned by this run while it trains (:class:`sspinn.run_folder.RunLock`)."""
+        owned by this run while it trains (:class:`sspinn.run_folder.RunLock`). Without
+        ``resume``, a folder holding a run (:data:`RUN_OUTPUTS`) is refused unless ``overwrite``,
+        which deletes that run's files first."""
+        if resume and overwrite:
+            raise ValueError("resume continues the run in the folder and overwrite replaces it: give one of them")
         with RunLock(self.out):
+            if not resume:
+                claim_run_folder(self.out, RUN_OUTPUTS, overwrite, "continue it with --resume, ")
             return self._fit(resume)
 
     def _fit(self, resume: bool) -> GaitGenerator:

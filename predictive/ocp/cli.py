@@ -6,7 +6,8 @@ Solves the predictive gait problem (:func:`predictive.ocp.collocation.solve_pred
 IPOPT's status, iterations, solve time, the Kane residual at the nodes, stance fractions and —
 when ``../shared/data/winter_walking`` exists — the RMSD against Winter's normal walking, and
 writes ``<out>.npz``/``<out>.json`` (the solution), ``<out>_summary.json`` and ``<out>.png``
-(angles and GRF versus % gait cycle).
+(angles and GRF versus % gait cycle). When ``--out`` already holds a solution, it writes to the
+first free ``<out>_2``, ``<out>_3``, … and says so, unless ``--overwrite``.
 """
 
 from __future__ import annotations
@@ -29,9 +30,9 @@ from predictive.ocp.limits import (
     check_speed,
     solution_problems,
 )
-from predictive.ocp.solution import GaitSolution
+from predictive.ocp.solution import SOLUTION_OUTPUTS, GaitSolution
 from sspinn.errors import UserError, bounded
-from sspinn.run_folder import atomic_write_text, json_text
+from sspinn.run_folder import atomic_write_text, json_text, output_target, stem_outputs
 
 #: Sub-command name.
 COMMAND = "solve"
@@ -62,6 +63,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     solve.add_argument("--mass", type=float, default=70.0, help="body mass, kg")
     solve.add_argument("--data-dir", type=Path, default=DEFAULT_DATA_DIR, help="folder holding winter_walking/")
     solve.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
+    solve.add_argument("--overwrite", action="store_true", help="replace the result already at --out (else a NOTE and the first free <out>_2, <out>_3, …)")
     return solve
 
 
@@ -81,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
     from sspinn.model.body import BodyParameters
 
     _check_solve_args(args)
+    args.out = output_target(args.out, stem_outputs(SOLUTION_OUTPUTS), args.overwrite, "a solution")
     body = BodyParameters.from_anthropometry(args.height, args.mass)
     extra = {} if args.w_acc is None else {"w_acc": args.w_acc}
     guess = GaitSolution.load(args.guess) if args.guess is not None else None

@@ -33,6 +33,9 @@ MIRROR_GRF = np.array(conventions.MIRROR_GRF)
 
 #: The arrays of the npz file: the trajectory's fields and the normalising torques.
 _ARRAYS = (*FIELDS, "tau_max")
+#: What the commands that write one gait (``python -m predictive solve``, ``generate``) put beside
+#: their ``--out`` path: the solution (:meth:`GaitSolution.save`), its summary and its plot.
+SOLUTION_OUTPUTS: tuple[str, ...] = (".npz", ".json", "_summary.json", ".png")
 
 
 def mirror_states(x: Any) -> Any:

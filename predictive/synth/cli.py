@@ -44,6 +44,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     p.add_argument("--seed", type=bounded(int, 0, MAX_SEED), default=None, help=f"override the config's seed (0–{MAX_SEED})")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a dataset of another configuration in --out (the same configuration is written again anyway)")
     return p
 
 
@@ -54,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
 
     config = SynthConfig.from_yaml(args.config, workers=args.workers, seed=args.seed, backend=args.backend)
     t0 = time.perf_counter()
-    dataset = generate_dataset(config, args.out, progress=not args.no_progress, cache_dir=args.cache_dir)
+    dataset = generate_dataset(config, args.out, progress=not args.no_progress, cache_dir=args.cache_dir,
+                               overwrite=args.overwrite)
     elapsed = time.perf_counter() - t0
     info = dataset.info
     size = sum(p.stat().st_size for p in Path(args.out).iterdir() if p.is_file())

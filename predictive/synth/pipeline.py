@@ -190,12 +190,16 @@ def _subject_job(config: SynthConfig, subject: VirtualSubject, queue: Any) -> tu
 
 
 def generate_dataset(
-    config: SynthConfig, out_dir: str | Path, progress: bool = True, cache_dir: str | Path | None = None
+    config: SynthConfig, out_dir: str | Path, progress: bool = True, cache_dir: str | Path | None = None,
+    overwrite: bool = False,
 ) -> Dataset:
     """Generate (or load from the caches) the dataset of ``config`` into ``out_dir``.
 
-    ``out_dir`` must be empty, absent, or hold an earlier output of this generator (whose
-    recordings are replaced). The returned dataset's ``info`` holds the configuration, the
+    ``out_dir`` must be empty, absent, or hold an earlier output of this generator: of the same
+    configuration and generator version (:meth:`SynthConfig.key`: it is written again, identical),
+    or of another one only with ``overwrite`` (else a :class:`FileExistsError` names both: a
+    dataset a model was trained on is never replaced silently). The earlier files are removed
+    only once the new recordings are ready, so an interrupted run leaves them as they were. The returned dataset's ``info`` holds the configuration, the
     generation time, the Kane residual of the written labels (BW, BW·H), per-recording
     statistics and the cache hits.
     """
@@ -203,7 +207,7 @@ def generate_dataset(
     if config.workers > 1:
         check_backend(config.backend)  # before the output folder is touched
     out = Path(out_dir)
-    _prepare_out_dir(out)
+    _check_out_dir(out, config.key(), overwrite)
     if cache_dir is not None:
         config = dataclasses.replace(config, cache_dir=str(cache_dir))
     subjects = sample_subjects(config)
@@ -251,6 +255,7 @@ def generate_dataset(
         for o in outputs:
             cache_stats.add(o.cache)
     info: dict[str, Any] = {"generator": GENERATOR_NAME, "config_key": config.key()}
+    _remove_earlier_output(out)
     dataset = Dataset.write(out, by_split, info)
     # the residual of the labels as written (CSV precision), with each subject's true body
     body_of = {s.id: s.body for s in subjects}
@@ -346,27 +351,45 @@ def _combine_residuals(stats: Sequence[Mapping[str, float]]) -> dict[str, float]
     }
 
 
-def _prepare_out_dir(out: Path) -> None:
-    """Remove an earlier output of this generator from ``out``; refuse other non-empty folders."""
+def _earlier_output(out: Path) -> dict[str, Any] | None:
+    """The index (``dataset.json``) of an earlier output of this generator in ``out``, or None."""
+    index = out / "dataset.json"
+    try:
+        meta = json.loads(index.read_text()) if index.exists() else {}
+    except json.JSONDecodeError:
+        meta = {}
+    return meta if isinstance(meta, dict) and meta.get("info", {}).get("generator") == GENERATOR_NAME else None
+
+
+def _check_out_dir(out: Path, key: str, overwrite: bool) -> None:
+    """Refuse an ``out`` that holds something else than an earlier output of this generator, or
+    one of another configuration without ``overwrite`` (:func:`generate_dataset`); create it if absent."""
     if not out.exists():
         out.mkdir(parents=True)
         return
-    index = out / "dataset.json"
-    if index.exists():
-        try:
-            meta = json.loads(index.read_text())
-        except json.JSONDecodeError:
-            meta = {}
-        if meta.get("info", {}).get("generator") == GENERATOR_NAME:
-            for names in meta.get("splits", {}).values():
-                for n in names:
-                    for ext in (".csv", ".json"):
-                        (out / f"{n}{ext}").unlink(missing_ok=True)
-            index.unlink()
-    if any(out.iterdir()):
+    earlier = _earlier_output(out)
+    if earlier is None:
+        if any(out.iterdir()):
+            raise FileExistsError(f"{out} is not empty and holds no earlier output of {GENERATOR_NAME}; choose another --out")
+        return
+    if earlier["info"].get("config_key") != key and not overwrite:
         raise FileExistsError(
-            f"{out} is not empty and holds no earlier output of {GENERATOR_NAME}; choose another --out"
+            f"{out} holds a synthetic dataset of another configuration or generator version (key "
+            f"{str(earlier['info'].get('config_key'))[:12]}…, this one {key[:12]}…); replace it with --overwrite (models "
+            "trained on it no longer match it then), or choose another --out"
         )
+
+
+def _remove_earlier_output(out: Path) -> None:
+    """Remove the recordings and index of an earlier output of this generator from ``out``."""
+    earlier = _earlier_output(out)
+    if earlier is None:
+        return
+    for names in earlier.get("splits", {}).values():
+        for n in names:
+            for ext in (".csv", ".json"):
+                (out / f"{n}{ext}").unlink(missing_ok=True)
+    (out / "dataset.json").unlink()
 
 
 def _progress_bar(enabled: bool, total: float) -> Any:
