@@ -46,6 +46,7 @@ from agents.gait_prior import GaitPrior, GaitPriorReward, load_prior
 from agents.rollout import SUMMARY_GAIT_KEYS, run_episode, summarize
 from agents.vec_env import PerEnvVecMonitor, WalkerVecEnv
 from sspinn.data.gait_metrics import winter_or_none
+from sspinn.interrupt import DeferredInterrupt
 from sspinn.run_folder import RunLock, atomic_write_text, claim_run_folder
 
 #: What a run leaves in its folder (:mod:`agents.checkpoints`), besides its config: a folder
@@ -108,19 +109,34 @@ class PeriodicCheckpoint(BaseCallback):
     ``<run>/checkpoints/model_<steps>_steps.*``, written by :func:`agents.checkpoints.save_checkpoint`
     (atomic files, the ``.zip`` last). SB3's ``CheckpointCallback`` writes the same names but
     straight into the final files, so a crash mid-write would leave a truncated checkpoint that
-    ``--resume`` picks as the latest."""
+    ``--resume`` picks as the latest.
 
-    def __init__(self, folder: Path, save_freq: int, vec_normalize: VecNormalize | None, replay_buffer: bool) -> None:
+    With ``interrupt`` (:class:`sspinn.interrupt.DeferredInterrupt`), a Ctrl-C also saves a
+    checkpoint, at the end of the vector step it arrived in, and stops training (``learn`` returns;
+    :attr:`interrupted_at` is the checkpoint written), so that nothing since the last periodic
+    checkpoint is lost and ``--resume`` continues from there."""
+
+    def __init__(self, folder: Path, save_freq: int, vec_normalize: VecNormalize | None, replay_buffer: bool,
+                 interrupt: DeferredInterrupt | None = None) -> None:
         super().__init__()
         self.folder = folder
         self.save_freq = save_freq
         self.vec_normalize = vec_normalize
         self.replay_buffer = replay_buffer
+        self.interrupt = interrupt
+        self.interrupted_at: Path | None = None
+
+    def _save(self) -> Path:
+        path = self.folder / f"{CHECKPOINT_PREFIX}_{self.num_timesteps}_steps.zip"
+        save_checkpoint(self.model, path, self.vec_normalize, self.replay_buffer)
+        return path
 
     def _on_step(self) -> bool:
         if self.n_calls % self.save_freq == 0:
-            path = self.folder / f"{CHECKPOINT_PREFIX}_{self.num_timesteps}_steps.zip"
-            save_checkpoint(self.model, path, self.vec_normalize, self.replay_buffer)
+            self._save()
+        if self.interrupt is not None and self.interrupt.requested:
+            self.interrupted_at = self._save()
+            return False
         return True
 
 
@@ -296,20 +312,30 @@ def _train(config: AgentConfig, out: Path, resume: bool, overwrite: bool) -> Bas
     started = time.perf_counter()
 
     # 4. callbacks: periodic checkpoints (+ VecNormalize, replay buffer) and evaluations
-    callbacks: list[BaseCallback] = [
-        PeriodicCheckpoint(run_dir / CHECKPOINT_DIR, max(config.logging.checkpoint_freq // config.env.n_envs, 1),
-                           vec_normalize, config.logging.keep_replay_buffer)
-    ]
+    interrupt = DeferredInterrupt("finishing the current vector step, then saving a checkpoint (Ctrl-C again to stop at once)")
+    checkpoints = PeriodicCheckpoint(run_dir / CHECKPOINT_DIR, max(config.logging.checkpoint_freq // config.env.n_envs, 1),
+                                     vec_normalize, config.logging.keep_replay_buffer, interrupt)
+    callbacks: list[BaseCallback] = [checkpoints]
     if config.logging.eval_freq > 0:
         callbacks.append(WalkerEvalCallback(config, run_dir, vec_normalize, prior))
 
     # 5. learn, then save the final model and statistics
-    model.learn(
-        total_timesteps=config.total_timesteps if not resume else max(config.total_timesteps - model.num_timesteps, 0),
-        callback=callbacks,
-        tb_log_name="run",
-        reset_num_timesteps=not resume,
-    )
+    #    (a first Ctrl-C saves a checkpoint at the end of the vector step and stops: continue with --resume)
+    interrupt.install()
+    try:
+        model.learn(
+            total_timesteps=config.total_timesteps if not resume else max(config.total_timesteps - model.num_timesteps, 0),
+            callback=callbacks,
+            tb_log_name="run",
+            reset_num_timesteps=not resume,
+        )
+    finally:
+        interrupt.restore()
+    if checkpoints.interrupted_at is not None:
+        venv.close()
+        print(f"interrupted at step {model.num_timesteps:,}: saved {checkpoints.interrupted_at} (continue with --resume)",
+              flush=True)
+        raise KeyboardInterrupt
     save_checkpoint(model, run_dir / "final_model.zip", vec_normalize)
     venv.close()
     wall = time.perf_counter() - started

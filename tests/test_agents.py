@@ -175,6 +175,37 @@ def test_a_finished_run_is_replaced_only_with_overwrite(tmp_path: Path) -> None:
     assert (tmp_path / "final_model.zip").stat().st_mtime_ns != before
 
 
+def test_ctrl_c_saves_a_checkpoint_that_resume_continues(tmp_path: Path, monkeypatch) -> None:
+    """A Ctrl-C during training saves a checkpoint at the end of that vector step and stops with
+    KeyboardInterrupt (no final model); --resume continues from it to the planned steps."""
+    import signal
+
+    from agents.train import train
+    from agents.vec_env import WalkerVecEnv
+
+    handler_before = signal.getsignal(signal.SIGINT)
+    config = tiny(logging={"checkpoint_freq": 10_000, "eval_freq": 0, "tensorboard": False})
+    real_step_wait = WalkerVecEnv.step_wait
+    calls = {"n": 0}
+
+    def step_then_sigint(self):  # Ctrl-C arrives during the 70th environment step
+        calls["n"] += 1
+        if calls["n"] == 70:
+            signal.raise_signal(signal.SIGINT)
+        return real_step_wait(self)
+
+    with monkeypatch.context() as m:
+        m.setattr(WalkerVecEnv, "step_wait", step_then_sigint)
+        with pytest.raises(KeyboardInterrupt):
+            train(config, tmp_path)
+    assert signal.getsignal(signal.SIGINT) is handler_before
+    latest = latest_checkpoint(tmp_path)
+    assert latest is not None and latest.name == "model_70_steps.zip" and vecnormalize_path(latest).is_file()
+    assert not (tmp_path / "final_model.zip").exists()
+    model = train(config, tmp_path, resume=True)
+    assert model.num_timesteps >= 128 and (tmp_path / "final_model.zip").is_file()  # PPO rolls out whole n_steps
+
+
 def test_evaluate_writes_report_plot_and_animation(trained_run: Path, tmp_path: Path) -> None:
     out = tmp_path / "eval"
     code = main(["evaluate", "--checkpoint", str(trained_run / "final_model.zip"), "--episodes", "2",
