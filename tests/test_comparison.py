@@ -197,3 +197,13 @@ def test_leg_length_calibration_picks_a_controller_per_episode() -> None:
     assert action[0] == pytest.approx(1.75) and state[0][0] == 1.0
     ctrl.predict(np.r_[0.9 * 1.05, np.zeros(21)], state, episode_start=True)
     assert made == pytest.approx([1.75, 1.75 * 1.05])  # made once per ratio
+
+
+def test_a_missing_generator_stops_the_comparison_before_any_method_runs(tmp_path, capsys) -> None:
+    cfg = ComparisonConfig(speeds=[1.3], seeds=[0], methods=[
+        {"name": "OCP", "kind": "ocp", "n_nodes": 10},
+        {"name": "generator", "kind": "generator", "model": str(tmp_path / "missing" / "generator.pt")},
+    ])
+    with pytest.raises(FileNotFoundError, match=r"missing/generator.pt: no gait generator here.*train-generator"):
+        run_comparison(cfg, tmp_path / "report")
+    assert "[compare]" not in capsys.readouterr().out

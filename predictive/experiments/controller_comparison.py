@@ -465,6 +465,10 @@ def run_comparison(config: ComparisonConfig, out: str | Path) -> list[CellResult
 
 
 def _run_comparison(config: ComparisonConfig, out: Path) -> list[CellResult]:
+    missing = sorted({spec.model for spec in config.methods if spec.kind == "generator" and not Path(str(spec.model)).is_file()})
+    if missing:  # before hours of other methods, not when the method's turn comes
+        raise FileNotFoundError(f"{', '.join(missing)}: no gait generator here (train one with `python -m predictive "
+                                "train-generator`, or remove its methods from the configuration)")
     reference = _winter(config.data_dir)
     cells: list[CellResult] = []
     for speed in config.speeds:

@@ -591,7 +591,7 @@ def load_generator(path: str | Path) -> tuple[GaitGenerator, GeneratorConfig]:
     ``training_wall_s_`` is the training wall time (s) when the file was written (NaN if unknown)."""
     path = Path(path)
     if not path.exists():
-        raise FileNotFoundError(f"{path}: no gait generator here (train one with `python -m predictive generator`)")
+        raise FileNotFoundError(f"{path}: no gait generator here (train one with `python -m predictive train-generator`)")
     data = load_torch_file(path, (GENERATOR,), ("state", "config"), "train one with `python -m predictive train-generator`")
     cfg = config_from_mapping(GeneratorConfig, dict(data["config"]), str(path))
     model = GaitGenerator(cfg.harmonics, cfg.hidden, cfg.layers).double()
