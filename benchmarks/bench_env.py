@@ -203,7 +203,8 @@ def bench_roofline(n: int, repeats: int) -> dict[str, float]:
     tau, grf = np.zeros((n, 6)), np.zeros((n, 4))
     p = np.tile(env.body_vector, (n, 1))
     method = METHODS.index(env.method)
-    args = (env.passive_parameters, p, env.contact_vector, env.physics_dt, env.substeps, method, grf)
+    work = np.zeros((n, kernels.WALKER_WORK_ROWS, 9))
+    args = (env.passive_parameters, p, env.contact_vector, env.physics_dt, env.substeps, method, grf, work)
     kernels.physics_parallel(q.copy(), u.copy(), tau, *args)  # compile / load
     best = float("inf")
     for _ in range(repeats):

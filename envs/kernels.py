@@ -22,6 +22,9 @@ Arrays (N walkers; "row i" is walker i):
   and ``ipar`` (:data:`N_IPAR`,) task and physics constants, columns ``P_*``.
 * outputs: ``obs`` (N, 22) float32, ``out`` (N, :data:`N_OUT`) float64 columns ``O_*``, ``flags``
   (N, 3) bool: terminated, truncated, physics failure.
+* ``work`` (N, :data:`WALKER_WORK_ROWS`, 9) float64: each walker's workspace (the physics'
+  :func:`~sspinn.model.simulation.advance_forced_into` rows, then the state before the step and the
+  external force), so that a step allocates nothing.
 
 Observation noise uses a counter-based generator (SplitMix64 finaliser as the hash, Box–Muller for
 the normal draws): draw k of walker i is a pure function of (key_i, k), so results do not depend on
@@ -41,7 +44,7 @@ import numpy as np
 
 from envs import task
 from sspinn.model.conventions import N_Q, N_TAU
-from sspinn.model.simulation import advance_forced, contact_into
+from sspinn.model.simulation import WORK_ROWS, advance_forced_into, contact_into
 
 # ---------------------------------------------------------------------------------- array layouts
 #: ``fenv`` columns: target speed (m/s), hip x at reset (m), joint work so far (J), standing hip
@@ -74,6 +77,10 @@ N_IPAR: Final[int] = 3
 #: of transport, tracking term, alive term, effort term, push force applied during the step (N).
 O_REWARD, O_SPEED, O_DISTANCE, O_COT, O_TRACKING, O_ALIVE, O_EFFORT, O_PUSH = range(8)
 N_OUT: Final[int] = 8
+#: Rows of a walker's workspace: the physics' (:data:`sspinn.model.simulation.WORK_ROWS`), then
+#: q before the step, u before the step, the external generalized force.
+W_Q_BEFORE, W_U_BEFORE, W_FORCE = WORK_ROWS, WORK_ROWS + 1, WORK_ROWS + 2
+WALKER_WORK_ROWS: Final[int] = WORK_ROWS + 3
 #: Length of the observation history ring (largest delay + 1).
 HISTORY: Final[int] = 51
 OBS_SIZE: Final[int] = task.OBS_SIZE
@@ -283,22 +290,26 @@ def _push_now(i, grf, fenv, ienv, fpar):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def _step_walker(i, actions, q, u, grf, tau, p, fenv, ienv, strength, noise_std, history, c, passive, tau_max,
-                 fpar, ipar, obs, out, flags):  # pragma: no cover - compiled
+                 fpar, ipar, obs, out, flags, work):  # pragma: no cover - compiled
     """One control interval of walker i (module docstring); writes obs[i], out[i], flags[i]."""
     effort = 0.0
     for j in range(N_TAU):
         a = min(max(actions[i, j], -1.0), 1.0)
         effort += a * a
         tau[i, j] = a * tau_max[j] * strength[i, j]
-    q_before = q[i].copy()
-    u_before = u[i].copy()
-    force = np.zeros(N_Q)
+    q_before = work[i, W_Q_BEFORE]
+    u_before = work[i, W_U_BEFORE]
+    force = work[i, W_FORCE]
+    for j in range(N_Q):
+        q_before[j] = q[i, j]
+        u_before[j] = u[i, j]
+        force[j] = 0.0
     if _push_now(i, grf, fenv, ienv, fpar):
         force[0] = fenv[i, F_PUSH_FORCE]
     fenv[i, F_FX_PREV_R] = grf[i, 0]
     fenv[i, F_FX_PREV_L] = grf[i, 2]
-    finite = advance_forced(q[i], u[i], tau[i], force, passive, p[i], c, fpar[P_PHYSICS_DT], ipar[Q_SUBSTEPS],
-                            ipar[Q_METHOD], True, grf[i])
+    finite = advance_forced_into(q[i], u[i], tau[i], force, passive, p[i], c, fpar[P_PHYSICS_DT], ipar[Q_SUBSTEPS],
+                                 ipar[Q_METHOD], True, grf[i], work[i])
     if not finite:  # keep the last finite state; the episode ends
         q[i, :] = q_before
         u[i, :] = u_before
@@ -347,37 +358,39 @@ def _step_walker(i, actions, q, u, grf, tau, p, fenv, ienv, strength, noise_std,
 
 @numba.njit(cache=True)
 def step_serial(active, actions, q, u, grf, tau, p, fenv, ienv, strength, noise_std, history, c, passive, tau_max,
-                fpar, ipar, obs, out, flags):  # pragma: no cover - compiled
+                fpar, ipar, obs, out, flags, work):  # pragma: no cover - compiled
     """:func:`_step_walker` for every walker where ``active`` (N,) is True, one after another."""
     for i in range(q.shape[0]):
         if active[i]:
             _step_walker(i, actions, q, u, grf, tau, p, fenv, ienv, strength, noise_std, history, c, passive,
-                         tau_max, fpar, ipar, obs, out, flags)
+                         tau_max, fpar, ipar, obs, out, flags, work)
 
 
 @numba.njit(cache=True, parallel=True)
 def step_parallel(active, actions, q, u, grf, tau, p, fenv, ienv, strength, noise_std, history, c, passive, tau_max,
-                  fpar, ipar, obs, out, flags):  # pragma: no cover - compiled
+                  fpar, ipar, obs, out, flags, work):  # pragma: no cover - compiled
     """:func:`_step_walker` for every walker where ``active`` (N,) is True, in parallel (``prange``)."""
     for i in numba.prange(q.shape[0]):
         if active[i]:
             _step_walker(i, actions, q, u, grf, tau, p, fenv, ienv, strength, noise_std, history, c, passive,
-                         tau_max, fpar, ipar, obs, out, flags)
+                         tau_max, fpar, ipar, obs, out, flags, work)
 
 
 @numba.njit(cache=True, parallel=True)
-def physics_parallel(q, u, tau, passive, p, c, dt, substeps, method, grf):  # pragma: no cover - compiled
+def physics_parallel(q, u, tau, passive, p, c, dt, substeps, method, grf, work):  # pragma: no cover - compiled
     """Only the physics of one control interval for every row, in parallel: the roofline of
-    :func:`step_parallel` (``benchmarks/bench_env.py``). Returns the number of non-finite rows."""
+    :func:`step_parallel` (``benchmarks/bench_env.py``; ``work`` as there). Returns the number of
+    non-finite rows."""
     failures = 0
     force = np.zeros(N_Q)
     for i in numba.prange(q.shape[0]):
-        if not advance_forced(q[i], u[i], tau[i], force, passive, p[i], c, dt, substeps, method, True, grf[i]):
+        if not advance_forced_into(q[i], u[i], tau[i], force, passive, p[i], c, dt, substeps, method, True, grf[i],
+                                   work[i]):
             failures += 1
     return failures
 
 
 __all__ = [
-    "HISTORY", "N_FENV", "N_FPAR", "N_IENV", "N_IPAR", "N_OUT", "normal", "physics_parallel", "start_rows",
+    "HISTORY", "N_FENV", "N_FPAR", "N_IENV", "N_IPAR", "N_OUT", "WALKER_WORK_ROWS", "normal", "physics_parallel", "start_rows",
     "step_parallel", "step_serial", "uniform",
 ]

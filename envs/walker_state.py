@@ -152,6 +152,7 @@ class WalkerState:
         self.obs = np.zeros((n, task.OBS_SIZE), dtype=np.float32)
         self.out = np.zeros((n, k.N_OUT))
         self.flags = np.zeros((n, 3), dtype=bool)
+        self.work = np.zeros((n, k.WALKER_WORK_ROWS, N_Q))  # each walker's workspace: a step allocates nothing
         self._episode_cache: dict[str, dict[str, Any]] = {}
         self._last_disturbances: Disturbances | None = None
         self._last_episode: dict[str, Any] = {}
@@ -244,7 +245,7 @@ class WalkerState:
         kernel = k.step_parallel if parallel else k.step_serial
         kernel(active, actions, self.q, self.u, self.grf, self.tau, self.p, self.fenv, self.ienv, self.strength,
                self.noise_std, self.history, self.c, self.passive, self.tau_max, self.fpar, self.ipar, self.obs,
-               self.out, self.flags)
+               self.out, self.flags, self.work)
 
     def set_state(self, i: int, q: np.ndarray, u: np.ndarray) -> None:
         """Overwrite walker i's state (finite float64 (9,) arrays) and recompute its contact forces
