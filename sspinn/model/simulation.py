@@ -1,7 +1,8 @@
 """Forward simulation of the sagittal model: fast numba single-state stepping and batched torch.
 
-* NumPy/numba: :func:`advance` is *the* single-state stepper — an allocation-free, in-place,
-  compiled control interval built on the generated scalar kernels
+* NumPy/numba: :func:`advance` is *the* single-state stepper — an in-place compiled control
+  interval (allocating nothing but its workspace; :func:`advance_forced_into` takes the caller's,
+  as the environments do) built on the generated scalar kernels
   (``sspinn/model/_generated/model_numba.py``). :func:`step` (one control interval, returns new arrays),
   :func:`simulate` (a whole rollout) and the Gymnasium environment (``envs/``) all call it;
   :func:`accel` evaluates q̈ once. About 0.4–0.5 µs per model evaluation with contact
