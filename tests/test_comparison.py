@@ -120,6 +120,8 @@ def test_run_comparison_end_to_end_on_tiny_budgets(tmp_path, capsys) -> None:
     rerun = run_comparison(cfg, tmp_path / "report")
     printed = capsys.readouterr().out
     assert "[compare] generator at 1.3 m/s …" in printed and "[compare] PPO at 1.3 m/s: kept from an earlier run" in printed
+    run_comparison(cfg, tmp_path / "report", overwrite=True)  # everything again
+    assert "kept from an earlier run" not in capsys.readouterr().out
     assert rerun[0].setup_time_s != cells[0].setup_time_s  # measured again
 
 

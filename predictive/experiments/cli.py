@@ -29,7 +29,7 @@ from typing import Any
 
 from predictive.ocp.limits import MAX_SPEED, NODES_RANGE, WEIGHT_RANGE
 from sspinn.errors import bounded
-from sspinn.run_folder import atomic_write_text, claim_run_folder, output_target, run_outputs, stem_outputs
+from sspinn.run_folder import atomic_write_text, output_target, run_outputs, stem_outputs
 from sspinn.yaml_config import shipped_path
 
 #: Sub-command names.
@@ -114,25 +114,22 @@ def run(args: argparse.Namespace) -> int:
 #: plot, the table and the metrics).
 TRACK_IMU_OUTPUTS: tuple[str, ...] = (".npz", ".json", "_tracked.npz", "_tracked.json", ".png", "_table.md", "_metrics.json")
 
-#: The files of a finished ``compare`` or ``robustness`` report folder.
-REPORT_FILES: tuple[str, ...] = ("report.md", "results.json")
-
-
 def _holds_report(folder: Path) -> bool:
+    """Whether ``folder`` holds a finished ``compare`` or ``robustness`` report (the same two files)."""
+    from predictive.experiments.controller_comparison import REPORT_FILES
+
     return bool(run_outputs(folder, REPORT_FILES))
 
 
 def run_compare(args: argparse.Namespace) -> int:
     """Run ``compare``; returns the exit code (a bad configuration raises a user error)."""
-    from predictive.experiments.controller_comparison import CELLS_DIR, ComparisonConfig, run_comparison
+    from predictive.experiments.controller_comparison import ComparisonConfig, run_comparison
 
     config = ComparisonConfig.from_yaml(args.config)
     if args.seeds is not None:
         config.seeds = config.seeds[: args.seeds]
     args.out = output_target(args.out, _holds_report, args.overwrite, "a finished comparison")
-    if args.overwrite:
-        claim_run_folder(args.out, (CELLS_DIR, *REPORT_FILES), overwrite=True)
-    run_comparison(config, args.out)
+    run_comparison(config, args.out, overwrite=args.overwrite)
     print(f"report: {args.out / 'report.md'}")
     return 0
 

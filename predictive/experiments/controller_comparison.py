@@ -76,7 +76,7 @@ from sspinn.estimator.evaluation import angle_jitter
 from sspinn.model.body import BodyParameters
 from sspinn.model.drawing import draw_stick_figure, save_figure
 from sspinn.model.trajectory import Trajectory
-from sspinn.run_folder import RunLock, atomic_write_json, atomic_write_text
+from sspinn.run_folder import RunLock, atomic_write_json, atomic_write_text, claim_run_folder
 from sspinn.yaml_config import load_config
 
 #: Samples of the normalised gait cycle.
@@ -414,6 +414,8 @@ def write_gait_animation(built: BuiltController, config: ComparisonConfig, speed
 
 #: Sub-folder of a comparison's ``--out`` holding its finished cells (module docstring).
 CELLS_DIR = "cells"
+#: The report files of a finished comparison (and of ``python -m predictive robustness``).
+REPORT_FILES: tuple[str, ...] = ("report.md", "results.json")
 
 
 def method_files(spec: MethodSpec, speed: float) -> list[Path]:
@@ -454,13 +456,15 @@ def load_cell(path: Path, key: str) -> CellResult | None:
         return None
 
 
-def run_comparison(config: ComparisonConfig, out: str | Path) -> list[CellResult]:
+def run_comparison(config: ComparisonConfig, out: str | Path, overwrite: bool = False) -> list[CellResult]:
     """Run every method at every speed; write ``results.json``, ``report.md`` and plots to ``out``.
     Cells finished by an earlier, interrupted run into ``out`` with the same inputs are reused
-    (module docstring)."""
+    (module docstring), unless ``overwrite``: then the kept cells and the report are deleted first."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     with RunLock(out):
+        if overwrite:
+            claim_run_folder(out, (CELLS_DIR, *REPORT_FILES), overwrite=True)
         return _run_comparison(config, out)
 
 
