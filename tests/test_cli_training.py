@@ -411,3 +411,26 @@ def test_the_physics_compile_options_leave_later_compilations_alone(tmp_path):
     for order in ("default-only", "physics-first"):  # the first fills the cache with vector code
         done = subprocess.run([sys.executable, "-c", _VECTOR_KERNEL, order], env=env, capture_output=True, text=True)
         assert done.returncode == 0, f"{order}: {done.stderr[-2000:]}"
+
+
+def test_placement_learning_options(tiny):
+    """learn_placement moves each training recording's placement; placement_angles=false keeps the
+    angles where they were; placement_lr_factor scales the placement's steps (a group of its own)."""
+    root, data, cfg = tiny
+    train = Dataset.open(data).load("train")
+    nominal = np.stack([r.placement.vector() for r in train]).astype(np.float32)
+
+    def learned(out: str, **changes: object) -> tuple[np.ndarray, Trainer]:
+        trainer = Trainer(TrainConfig.from_yaml(cfg, learn_placement=True, **changes), root / out)
+        trainer.fit(train)
+        return trainer.placement.detach().numpy() - nominal, trainer
+
+    moved, _ = learned("place_all")
+    assert np.abs(moved[:, 0::3]).max() > 0 and np.abs(moved[:, 2::3]).max() > 0
+    positions, _ = learned("place_positions", placement_angles=False)
+    assert np.abs(positions[:, 0::3]).max() > 0 and np.abs(positions[:, 2::3]).max() == 0.0
+    slow, trainer = learned("place_slow", placement_lr_factor=0.1)
+    assert [g.get("lr_scale", 1.0) for g in trainer.optimizer.param_groups] == [1.0, 0.1]
+    assert 0 < np.abs(slow).max() < np.abs(moved).max()  # Adam: each step moves a parameter by about its learning rate
+    with pytest.raises(ValueError, match="placement_lr_factor"):
+        TrainConfig(placement_lr_factor=0.0)

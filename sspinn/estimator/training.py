@@ -89,7 +89,15 @@ class TrainConfig:
         finetune: use the fine-tuning weights (kane, temporal and contact × 10).
         finetune_last: the last this many steps use the fine-tuning weights (the paper's
             fine-tuning as the end of one run; 0 = none).
-        learn_placement: also optimise the IMU placement.
+        learn_placement: also optimise the IMU placement of each training recording (the paper's
+            placement optimisation).
+        placement_lr_factor: with ``learn_placement``, the placement's learning rate as a fraction
+            of the network's (the same schedule). Adam moves each parameter by up to about its
+            learning rate per step — 2 mm at the demo's ``lr`` — a coarse step for sensor positions
+            that are off by a few centimetres.
+        placement_angles: with ``learn_placement``, learn the sensors' in-plane angles too (the
+            paper's); False keeps each recording's angles (from the sensor calibration) and learns
+            the positions only.
         steps: optimiser steps.
         batch_size: windows per step.
         window: samples per window (>= 8).
@@ -147,6 +155,8 @@ class TrainConfig:
     finetune: bool = False
     finetune_last: int = 0
     learn_placement: bool = False
+    placement_lr_factor: float = 1.0
+    placement_angles: bool = True
     steps: int = 2000
     batch_size: int = 32
     window: int = 256
@@ -207,6 +217,8 @@ class TrainConfig:
                 raise ValueError(f"weights_after_starts.{name} must be a finite number >= 0, got {value}")
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}")
+        if not (math.isfinite(self.placement_lr_factor) and self.placement_lr_factor > 0):
+            raise ValueError(f"placement_lr_factor must be a finite number > 0, got {self.placement_lr_factor}")
         if not math.isfinite(self.input_noise) or self.input_noise < 0:
             raise ValueError(f"input_noise must be a finite number >= 0, got {self.input_noise}")
 
@@ -551,7 +563,15 @@ class Trainer:
         self.noise_std[3 * len(self.segments):] = 0.0  # no noise on the constants
         # learnable IMU placement per recording (the paper's placement optimisation)
         self.placement = torch.nn.Parameter(torch.as_tensor(np.stack([d.placement for d in self.data]), dtype=torch.float32, device=self.device))
-        params = list(self.model.parameters()) + ([self.placement] if cfg.learn_placement else [])
+        params: list[Any] = list(self.model.parameters())
+        if cfg.learn_placement and cfg.placement_lr_factor == 1.0:
+            params.append(self.placement)
+        elif cfg.learn_placement:  # a group of its own, lr_scale × the schedule's lr (_fit)
+            params = [{"params": params}, {"params": [self.placement], "lr_scale": cfg.placement_lr_factor}]
+        if cfg.learn_placement and not cfg.placement_angles:  # positions only: no gradient reaches the angles
+            keep = torch.ones_like(self.placement)
+            keep[:, 2::3] = 0.0
+            self.placement.register_hook(lambda grad: grad * keep)
         self.optimizer = torch.optim.Adam(params, lr=cfg.lr)
         limits = JointLimits.named(cfg.joint_limits)
         self.losses = PhysicsLosses(cfg.weights, limits=limits, grf=cfg.network.grf)  # weighted per step: cfg.weights_at
@@ -696,7 +716,7 @@ class Trainer:
             while self.step < cfg.steps:
                 boundary_rng, mid_step = self._rng_state(), True  # the state a resume must start from
                 for group in self.optimizer.param_groups:
-                    group["lr"] = cfg.lr_at(self.step)
+                    group["lr"] = cfg.lr_at(self.step) * group.get("lr_scale", 1.0)
                 which, starts = self.sampler.sample(cfg.batch_size)
                 x, batch = make_batch(self.data, which, starts, cfg.window, self.segments, self.imu_std, self.device)
                 batch.placement = self.placement[which]
