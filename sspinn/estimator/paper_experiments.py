@@ -434,7 +434,8 @@ def true_placement(rec: Recording) -> np.ndarray | None:
 def placement_errors(checkpoint: Path, train: list[Recording]) -> dict[str, Any]:
     """Per sensor: the mean absolute error (over the training recordings) of the nominal and of
     the placement in ``checkpoint`` (the learned one with ``learn_placement``) against the truth:
-    x and y in the segment frame (cm) and the angle (°)."""
+    x and y in the segment frame (cm) and the angle (°); and the median over the recordings of
+    the position error's length √(Δx² + Δy²) (cm)."""
     from sspinn.estimator.training import CHECKPOINT_ENTRIES
     from sspinn.torch_files import CHECKPOINT, load_torch_file
 
@@ -455,8 +456,11 @@ def placement_errors(checkpoint: Path, train: list[Recording]) -> dict[str, Any]
     truth = np.stack(truths)
 
     def errors(values: list[np.ndarray]) -> dict[str, dict[str, float]]:
-        err = np.abs(np.stack(values) - truth).mean(0)
-        return {s: {"x_cm": 100 * err[i, 0], "y_cm": 100 * err[i, 1], "angle_deg": float(np.degrees(err[i, 2]))}
+        diff = np.stack(values) - truth
+        err = np.abs(diff).mean(0)
+        position = np.median(np.hypot(diff[..., 0], diff[..., 1]), axis=0)
+        return {s: {"x_cm": 100 * err[i, 0], "y_cm": 100 * err[i, 1], "angle_deg": float(np.degrees(err[i, 2])),
+                    "position_median_cm": float(100 * position[i])}
                 for i, s in enumerate(SEGMENTS) if s in state["segments"]}
 
     return {"truth_stored": True, "recordings": len(truths), "nominal": errors(nominal), "after": errors(after)}
@@ -574,15 +578,18 @@ def report(results: dict[str, Any]) -> str:
     if placements:
         lines += ["## IMU placement against the truth", "",
                   "Mean absolute error over the training recordings, in each segment's frame (y along the thigh, shank "
-                  "and pelvis, x along the foot): nominal (what the estimator is told) → after training.", ""]
+                  "and pelvis, x along the foot), and the median length of the position error: nominal (what the "
+                  "estimator is told) → after training.", ""]
         for name, p in placements.items():
             if not p["truth_stored"]:
                 lines += [f"- {name}: {p['note']}.", ""]
                 continue
-            lines += [f"### {name} ({p['recordings']} recordings)", "", "| sensor | x (cm) | y (cm) | angle (°) |", "|---|---|---|---|"]
+            keys = ("x_cm", "y_cm", "angle_deg", "position_median_cm")
+            lines += [f"### {name} ({p['recordings']} recordings)", "",
+                      "| sensor | x (cm) | y (cm) | angle (°) | median position error (cm) |", "|---|---|---|---|---|"]
             for s, nom in p["nominal"].items():
                 aft = p["after"][s]
-                lines.append(f"| {s} | " + " | ".join(f"{_cell(nom[k], '.2f')} → {_cell(aft[k], '.2f')}" for k in ("x_cm", "y_cm", "angle_deg")) + " |")
+                lines.append(f"| {s} | " + " | ".join(f"{_cell(nom.get(k), '.2f')} → {_cell(aft.get(k), '.2f')}" for k in keys) + " |")
             lines.append("")
     for name, a in finished.items():
         if a.get("by_subset"):
