@@ -117,7 +117,7 @@ def _main(argv: list[str]) -> int:
     else:
         from agents.evaluate import record
 
-        args.out = output_target(args.out, Path.exists, args.overwrite, "a recording", keep_suffix=True)
+        args.out = output_target(args.out, Path.exists, args.overwrite, "an earlier recording", keep_suffix=True)
         result = record(args.checkpoint, args.out, seed=args.seed, target_speed=args.target_speed,
                         max_steps=args.max_steps, fps=args.fps)
         print(f"distance {result.distance:.2f} m in {result.duration:.2f} s, fell: {result.fell}; wrote {args.out}")

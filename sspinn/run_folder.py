@@ -165,12 +165,14 @@ def output_target(out: str | Path, holds_result: Callable[[Path], bool], overwri
     """Where a command writes its result: ``out``, unless ``out`` holds a finished result
     (``holds_result``: ``what`` names it in the message) and ``overwrite`` is false; then the first
     free ``out_2``, ``out_3``, … (:func:`free_folder`), announced on a ``NOTE`` line (``hint``: what
-    else the user could do, ending in ", "). A finished result is never replaced without the flag."""
+    else the user could do, ending in ", "). A finished result is never replaced without the flag.
+    With ``keep_suffix`` ``out`` is a file (``walk.gif`` → ``walk_2.gif``)."""
     out = Path(out)
     if overwrite or not holds_result(out):
         return out
     new = free_folder(out, holds_result, keep_suffix)
-    print(f"NOTE: {out} holds {what}; writing to {new} instead ({hint}replace it with --overwrite)", flush=True)
+    there = f"is {what}" if keep_suffix else f"holds {what}"  # a file (numbered before its suffix) or a folder/stem
+    print(f"NOTE: {out} {there}; writing to {new} instead ({hint}replace it with --overwrite)", flush=True)
     return new
 
 
