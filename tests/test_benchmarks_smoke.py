@@ -87,6 +87,18 @@ def test_bench_sspinn(tmp_path: Path, capsys: pytest.CaptureFixture[str], torch_
     assert json.loads((tmp_path / "r.json").read_text())["quick"] is True
 
 
+def test_bench_synth(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Both arms solve the same strides from the same periodic gaits: identical labels, one solver
+    build per stride in the baseline, fewer with the shared solvers."""
+    _, result = run_quick("bench_synth", tmp_path / "synth.json")
+    out = capsys.readouterr().out
+    before, after = result["arms"]["one solver per stride"], result["arms"]["shared solvers"]
+    assert before["strides"] == after["strides"] >= 1 and before["builds"] == before["strides"]
+    assert 1 <= after["builds"] <= before["builds"] and result["label_difference"] == 0.0
+    assert "| shared solvers |" in out and "strides/s" in out
+    assert json.loads((tmp_path / "synth.json").read_text())["subjects"] == 1
+
+
 def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str], tiny_run, torch_threads) -> None:
     """Real CMU data (skipped without it): import, both trainings, zero-shot, adaptation to the
     test trials, report, plots."""
