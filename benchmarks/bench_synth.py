@@ -5,7 +5,7 @@ The stride chains (:func:`predictive.synth.recording.recording_chain`) solve one
 The pipeline builds a handful of parametric NLPs (one per node-count bucket, the body as a
 parameter: :class:`predictive.ocp.stride_nlp.StrideSolverCache`) and reuses them for every stride
 of every subject; the baseline builds the stride's NLP and IPOPT solver anew for every stride, as
-a pipeline without that reuse does (:class:`BuildPerStride`). Both arms start from the same
+a pipeline without that reuse does (``StrideSolverCache(reuse=False)``). Both arms start from the same
 periodic gaits (solved once, before the timing, into a cache that both copy) and solve the same
 NLPs with the same IPOPT options, so their labels must agree to IPOPT's round-off.
 
@@ -37,36 +37,14 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 
 
-def build_per_stride_cache(settings: Any) -> Any:
-    """A :class:`~predictive.ocp.stride_nlp.StrideSolverCache` that builds every stride's NLP and
-    solver anew (the baseline): the same problems, never reused."""
-    from predictive.ocp.stride_nlp import StrideSolverCache
-
-    class BuildPerStride(StrideSolverCache):
-        def get(self, node_counts, warm=True):  # type: ignore[no-untyped-def]
-            self._problems.clear()
-            return super().get(node_counts, warm)
-
-    return BuildPerStride(settings)
-
-
 def run_arm(config: Any, subjects: list[Any], cache_root: Path, per_stride: bool) -> dict[str, Any]:
-    """Generate the subjects' recordings with the periodic gaits in ``cache_root`` (chains solved)."""
+    """Generate the subjects' recordings with the periodic gaits in ``cache_root`` (chains solved),
+    building every stride's solver anew with ``per_stride`` (the baseline) or sharing them."""
     from predictive.ocp.stride_nlp import StrideSolverCache
     from predictive.synth.cache import SynthCache
     from predictive.synth.pipeline import generate_subject
 
-    solvers = build_per_stride_cache(config.stride) if per_stride else StrideSolverCache(config.stride)
-    builds = [0]
-    original = type(solvers).get
-
-    def counted(self, node_counts, warm=True):  # type: ignore[no-untyped-def]
-        before = len(self._problems) if not per_stride else -1
-        problem = original(self, node_counts, warm)
-        builds[0] += 1 if per_stride or len(self._problems) != before else 0
-        return problem
-
-    solvers.get = counted.__get__(solvers)  # count the builds without changing what get does
+    solvers = StrideSolverCache(config.stride, reuse=not per_stride)
     cache = SynthCache(cache_root)
     t0 = time.perf_counter()
     outputs = [generate_subject(config, s, cache, solvers) for s in subjects]
@@ -74,7 +52,7 @@ def run_arm(config: Any, subjects: list[Any], cache_root: Path, per_stride: bool
     strides = [r for o in outputs for r in o.strides]
     ipopt = sum(r.solve_time for r in strides)
     return {
-        "wall_s": wall, "strides": len(strides), "strides_per_s": len(strides) / wall, "builds": builds[0],
+        "wall_s": wall, "strides": len(strides), "strides_per_s": len(strides) / wall, "builds": solvers.builds,
         "build_s": solvers.build_time, "ipopt_s": ipopt, "other_s": wall - solvers.build_time - ipopt,
         "iterations_per_stride": float(np.mean([r.iterations for r in strides])) if strides else float("nan"),
         "recordings": [rec for o in outputs for rec in o.recordings],

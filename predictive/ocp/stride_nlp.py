@@ -484,24 +484,29 @@ class StrideSolverCache:
     """Compiled :class:`StrideProblem` s by (buckets, attempt), built on first use.
 
     Compiling one costs a few seconds; each is reused for every subject, speed and plan whose
-    strides fit its buckets.
+    strides fit its buckets. With ``reuse=False`` every :meth:`get` builds its problem anew (the
+    same problem: the baseline of ``benchmarks/bench_synth.py``). ``builds`` counts the problems
+    built, ``build_time`` their seconds.
     """
 
-    def __init__(self, settings: StrideSettings, contact: ContactParameters | None = None) -> None:
+    def __init__(self, settings: StrideSettings, contact: ContactParameters | None = None, reuse: bool = True) -> None:
         self.settings = settings
         self.contact = contact if contact is not None else ContactParameters()
+        self.reuse = reuse
         self._problems: dict[tuple[tuple[int, ...], bool], StrideProblem] = {}
         self.build_time = 0.0
+        self.builds = 0
 
     def get(self, node_counts: Sequence[int], warm: bool = True) -> StrideProblem:
         """The problem whose buckets hold strides of ``node_counts`` nodes; ``warm`` selects the
         warm-start IPOPT options (:data:`WARM_START_IPOPT`), else IPOPT's defaults."""
         buckets = tuple(bucket_for(int(n), self.settings.buckets) for n in node_counts)
         key = (buckets, warm)
-        if key not in self._problems:
+        if key not in self._problems or not self.reuse:
             options = WARM_START_IPOPT if warm else None
             problem = StrideProblem(buckets, self.settings, self.contact, ipopt_options=options)
             self.build_time += problem.build_time
+            self.builds += 1
             self._problems[key] = problem
         return self._problems[key]
 
