@@ -9,7 +9,7 @@ from pathlib import Path
 
 from envs.openmp import prefer_passive_openmp
 from sspinn.errors import ArgumentParser, bounded
-from sspinn.run_folder import output_target
+from sspinn.run_folder import OVERWRITE_HELP, output_target
 from sspinn.yaml_config import add_config_flags, flag_overrides
 
 #: Fields of :class:`agents.config.AgentConfig` that ``train`` takes as flags (dotted) → flag name
@@ -54,8 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--seed", type=bounded(int, 0, MAX_SEED), default=0, help=f"first episode seed (0–{MAX_SEED})")
         p.add_argument("--max-steps", type=bounded(int, 1, MAX_EPISODE_STEPS),
                        help=f"episode length in control steps, 1–{MAX_EPISODE_STEPS} (default: the env's)")
-        p.add_argument("--overwrite", action="store_true",
-                       help="replace the result already at --out (else a NOTE and the first free <out>_2, …)")
+        p.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
         if name == "evaluate":
             p.add_argument("--episodes", type=bounded(int, 1, MAX_EPISODES), default=5,
                            help=f"episodes (seeds seed, seed+1, ...), 1–{MAX_EPISODES}")

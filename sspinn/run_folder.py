@@ -176,6 +176,10 @@ def output_target(out: str | Path, holds_result: Callable[[Path], bool], overwri
     return new
 
 
+#: The ``--overwrite`` help of the commands that write one result (see :func:`output_target`).
+OVERWRITE_HELP: Final = "replace the result already at --out (else a NOTE and the first free <out>_2, <out>_3, …)"
+
+
 def run_outputs(folder: str | Path, names: tuple[str, ...]) -> list[str]:
     """The entries of ``names`` (files or folders a run writes) that exist in ``folder``."""
     return [name for name in names if (Path(folder) / name).exists()]

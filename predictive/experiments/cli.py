@@ -29,7 +29,7 @@ from typing import Any
 
 from predictive.ocp.limits import MAX_SPEED, NODES_RANGE, WEIGHT_RANGE
 from sspinn.errors import bounded
-from sspinn.run_folder import atomic_write_text, output_target, run_outputs, stem_outputs
+from sspinn.run_folder import OVERWRITE_HELP, atomic_write_text, output_target, run_outputs, stem_outputs
 from sspinn.yaml_config import shipped_path
 
 #: Sub-command names.
@@ -69,7 +69,7 @@ def add_track_imu_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--align", choices=("data", "heel_strike"), default="data",
                    help="time alignment with the labels (data: node 0 = first data sample)")
     p.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
-    p.add_argument("--overwrite", action="store_true", help="replace the result already at --out (else a NOTE and the first free <out>_2, <out>_3, …)")
+    p.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     return p
 
 
@@ -95,7 +95,7 @@ def add_robustness_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, required=True, help="report folder")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a config entry (repeatable), e.g. --set env.reset_noise_scale=0.005")
-    p.add_argument("--overwrite", action="store_true", help="replace the result already at --out (else a NOTE and the first free <out>_2, <out>_3, …)")
+    p.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     return p
 
 

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from predictive.ocp.limits import MAX_REFINE_ITERATIONS
 from sspinn.errors import UserError, bounded
-from sspinn.run_folder import output_target, run_outputs, stem_outputs
+from sspinn.run_folder import OVERWRITE_HELP, output_target, run_outputs, stem_outputs
 from sspinn.yaml_config import shipped_path
 
 COMMANDS = ("train-generator", "generate")
@@ -49,7 +49,7 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
     gen.add_argument("--force", action="store_true",
                      help="generate even outside the generator's training range (with a WARNING)")
     gen.add_argument("--out", type=Path, required=True, help="output path without suffix")
-    gen.add_argument("--overwrite", action="store_true", help="replace the result already at --out (else a NOTE and the first free <out>_2, <out>_3, …)")
+    gen.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -32,7 +32,7 @@ from predictive.ocp.limits import (
 )
 from predictive.ocp.solution import SOLUTION_OUTPUTS, GaitSolution
 from sspinn.errors import UserError, bounded
-from sspinn.run_folder import atomic_write_text, json_text, output_target, stem_outputs
+from sspinn.run_folder import OVERWRITE_HELP, atomic_write_text, json_text, output_target, stem_outputs
 
 #: Sub-command name.
 COMMAND = "solve"
@@ -63,7 +63,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     solve.add_argument("--mass", type=float, default=70.0, help="body mass, kg")
     solve.add_argument("--data-dir", type=Path, default=DEFAULT_DATA_DIR, help="folder holding winter_walking/")
     solve.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
-    solve.add_argument("--overwrite", action="store_true", help="replace the result already at --out (else a NOTE and the first free <out>_2, <out>_3, …)")
+    solve.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     return solve
 
 
