@@ -15,10 +15,10 @@ from predictive import GaitSolution, solve_predictive
 from predictive.__main__ import main as cli_main
 from predictive.experiments.solution_vs_labels import compare_with_labels, recording_from_solution
 from predictive.ocp.collocation import OCPSettings, PredictiveGaitProblem
-from predictive.ocp.imu_tracking import roll_cycle, solve_imu_tracking
+from predictive.ocp.imu_tracking import ContinuedGuesses, roll_cycle, solve_imu_tracking
 from predictive.ocp.tracking import TrackedSignal, TrackingGaitProblem, TrackingSettings, solve_tracking
 from predictive.ocp.tracking_data import signals_from_solution
-from sspinn.model.body import IMUPlacement
+from sspinn.model.body import BodyParameters, IMUPlacement
 from sspinn.model.conventions import COORDINATES
 
 #: every test here solves optimal-control problems, generates data or trains: the quick loop skips them
@@ -89,22 +89,48 @@ def test_imu_tracking_recovers_angles_and_speed(reference: GaitSolution) -> None
     assert min(offset, 100 - offset) <= 2 * 100 / sol.n_nodes
 
 
-def test_shared_starts_reach_the_optimum_of_independent_starts(reference: GaitSolution) -> None:
+def test_shared_starts_reach_the_optimum_of_independent_starts(reference: GaitSolution, tmp_path: Path) -> None:
     # The default multi-start ("shared": predictive guesses by speed continuation on one NLP, one
-    # tracking NLP and solver for every start) against a predictive multi-start and a tracking
-    # NLP per start ("independent"): the same label-free choice, the same optimum.
+    # tracking NLP and solver for every start, stopped once two starts agree) and the same with
+    # every start run, against a predictive multi-start and a tracking NLP per start
+    # ("independent"): the same label-free choice, the same optimum.
     rec = recording_from_solution(reference, IMUPlacement.default(1.75))
-    shared = solve_imu_tracking(rec, n_nodes=2 * HALF_NODES, imu_scales="std")
-    independent = solve_imu_tracking(rec, n_nodes=2 * HALF_NODES, imu_scales="std", starts="independent")
-    a, b = shared.solution, independent.solution
-    assert a.success and b.success
-    assert [s["speed_guess"] for s in shared.info["starts"]] == [s["speed_guess"] for s in independent.info["starts"]]
-    assert a.objective == pytest.approx(b.objective, rel=1e-6)
-    assert a.speed == pytest.approx(b.speed, abs=1e-4)
-    np.testing.assert_allclose(a.q[:, 1:], b.q[:, 1:], atol=1e-4)
-    np.testing.assert_allclose(a.tau, b.tau, atol=0.5)  # N·m
+    kw = {"n_nodes": 2 * HALF_NODES, "imu_scales": "std"}
+    shared = solve_imu_tracking(rec, guess_cache=tmp_path / "default", **kw)
+    every = solve_imu_tracking(rec, guess_cache=tmp_path / "every", agree_rtol=None, **kw)
+    independent = solve_imu_tracking(rec, starts="independent", **kw)
+    b = independent.solution
+    assert b.success
+    for result in (shared, every):
+        a = result.solution
+        assert a.success
+        assert [s["speed_guess"] for s in result.info["starts"]] == [s["speed_guess"] for s in independent.info["starts"]]
+        assert a.objective == pytest.approx(b.objective, rel=1e-6)
+        assert a.speed == pytest.approx(b.speed, abs=1e-4)
+        np.testing.assert_allclose(a.q[:, 1:], b.q[:, 1:], atol=1e-4)
+        np.testing.assert_allclose(a.tau, b.tau, atol=0.5)  # N·m
+    # every start ran without agree_rtol; the default ran the middle speed and the slower one first
+    # and solved the guesses of those starts only (the continued gaits it cached)
+    assert [s["status"] for s in every.info["starts"]] == ["Solve_Succeeded"] * 3
+    ran = [s["status"] != "skipped" for s in shared.info["starts"]]
+    assert ran[:2] == [True, True]
+    assert len(list((tmp_path / "default").glob("continued_*.npz"))) == sum(ran)
+    assert len(list((tmp_path / "every").glob("continued_*.npz"))) == 3
+    if not ran[2]:  # stopped early: the two starts that ran agree
+        first, second = (s["objective"] for s in shared.info["starts"][:2])
+        assert second == pytest.approx(first, rel=1e-4)
     with pytest.raises(ValueError, match="starts must be"):
         solve_imu_tracking(rec, n_nodes=2 * HALF_NODES, starts="parallel")  # type: ignore[arg-type]
+
+
+def test_continued_guesses_start_at_the_median_speed_and_solve_on_demand() -> None:
+    chain = ContinuedGuesses([0.85, 1.0, 1.2], DURATION, BodyParameters.from_anthropometry(1.75, 70.0))
+    assert chain.anchor == 1 and chain.trial_order() == [1, 0, 2]
+    assert [chain.neighbour(i) for i in range(3)] == [1, None, 1]
+    five = ContinuedGuesses([1.4, 0.6, 1.0, 0.8, 1.2], DURATION, BodyParameters.from_anthropometry(1.75, 70.0))
+    assert five.anchor == 2 and five.trial_order() == [2, 3, 4, 1, 0]  # outwards, the slower first
+    assert [five.neighbour(i) for i in range(5)] == [4, 3, None, 2, 2]
+    assert chain.solve_time_s == five.solve_time_s == 0.0  # nothing solved until asked for
 
 
 def test_a_problem_keeps_its_solver_and_resolves_identically() -> None:

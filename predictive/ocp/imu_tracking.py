@@ -14,7 +14,11 @@ ended in poor local optima, e.g. standing). Speed continuation: one solve at the
 speed, then the speed is freed (without it, a walking guess sometimes drifted to standing). By
 default a multi-start over three speed guesses (:data:`DEFAULT_SPEED_FACTORS`): among the
 successful starts whose right heel strike lies at the data's first sample (± 5 % of the cycle; an
-averaged stride is cut there), the lowest objective wins (label-free). With these, starts from
+averaged stride is cut there), the lowest objective wins (label-free). The starts run from the
+middle speed outwards, the slower first, and stop once two of those agree on the objective
+(``agree_rtol``, the rule of the predictive multi-start): a start that is not run costs neither its
+predictive guess nor its tracking (P03 walking 17.6 → 14.3 s per stride, the same optimum:
+``benchmarks/bench_imu_tracking.py``). With these, starts from
 0.9–1.5 m/s reached the same solution on the real data; the data-free
 :meth:`~predictive.ocp.collocation.PredictiveGaitProblem.generic_guess` is less robust.
 
@@ -34,9 +38,10 @@ iterations) saved guess time but cost more in tracking (IPOPT 8.6 vs 6.5 s on th
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
 
@@ -93,14 +98,26 @@ def predictive_guesses(
     verbose: bool = False,
 ) -> list[GaitSolution]:
     """The predictive gaits of :func:`predictive_guess` at several ``speeds`` (m/s), by speed
-    continuation on one NLP: the median speed from the data-free multi-start
+    continuation on one NLP (:class:`ContinuedGuesses`, every speed solved); returned in the
+    order of ``speeds``."""
+    chain = ContinuedGuesses(speeds, duration, body, n_nodes=n_nodes, cache_dir=cache_dir, verbose=verbose)
+    return [chain[i] for i in range(len(chain))]
+
+
+class ContinuedGuesses:
+    """The predictive gaits of :func:`predictive_guess` at several ``speeds`` (m/s) and one stride
+    ``duration`` (s), solved on demand by speed continuation on one NLP: ``chain[i]`` is the gait
+    at ``speeds[i]``, computed the first time it is asked for (with the gaits it continues from).
+
+    The median speed comes from the data-free multi-start
     (:data:`~predictive.ocp.collocation.DEFAULT_STARTS`, stopped once two starts agree on the
     objective within :data:`AGREE_RTOL`), every other speed from the solution at its neighbour
     towards the median (one IPOPT run with the monotone barrier of
     :data:`~predictive.ocp.collocation.MONOTONE_BARRIER`, the speed fixed by its bounds). One
     problem and its solvers serve all speeds, so the NLP is built once. A continuation that
     fails falls back to :func:`predictive_guess`. Cached in ``cache_dir`` like
-    :func:`predictive_guess` (under their own names). Returned in the order of ``speeds``.
+    :func:`predictive_guess` (under their own names). ``solve_time_s``: the seconds spent
+    solving so far.
 
     Measured (50 nodes per half cycle, the continuation from the median to × 0.85 and × 1.2, on
     the real walking stride and a synthetic 1.2 s one): with IPOPT's adaptive barrier the two
@@ -108,33 +125,72 @@ def predictive_guesses(
     (and it reached the lower of two optima at 0.85 m/s on the 1.2 s stride); in the five
     predictive multi-starts measured there (1.0–1.47 m/s) the third start never found a lower
     objective than two agreeing ones."""
-    order = np.argsort(speeds, kind="stable")
-    anchor = int(order[(len(order) - 1) // 2])
-    paths = [_cache_path(cache_dir, "continued", v, duration, body, n_nodes) for v in speeds]
-    out: list[GaitSolution | None] = [_load_cached(p, v, duration, body, n_nodes) for p, v in zip(paths, speeds)]
-    if all(sol is not None for sol in out):
-        return [sol for sol in out if sol is not None]
-    cfg = OCPSettings(speed=float(speeds[anchor]), n_nodes=n_nodes, duration=duration)
-    problem = PredictiveGaitProblem(cfg, body)
-    if out[anchor] is None:
-        out[anchor] = problem.solve_multistart(verbose=verbose, agree_rtol=AGREE_RTOL)
-    rank = int(np.flatnonzero(order == anchor)[0])
-    for chain in (order[:rank][::-1], order[rank + 1 :]):  # outwards from the median speed
-        prev = out[anchor]
-        for i in chain:
-            sol = out[i]
-            if sol is None:
-                sol = problem.solve(
-                    prev, fixed_speed=float(speeds[i]), ipopt_options=MONOTONE_BARRIER, verbose=verbose, raise_on_failure=False
-                )
-                if not sol.success:
-                    sol = predictive_guess(float(speeds[i]), duration, body, n_nodes=n_nodes, verbose=verbose)
-                out[i] = sol
-            prev = sol
-    for path, sol in zip(paths, out):
-        if path is not None and sol is not None and not path.with_name(path.name + ".npz").exists():
-            sol.save(path)
-    return [sol for sol in out if sol is not None]
+
+    def __init__(
+        self,
+        speeds: Sequence[float],
+        duration: float,
+        body: BodyParameters,
+        *,
+        n_nodes: int = 50,
+        cache_dir: str | Path | None = None,
+        verbose: bool = False,
+    ) -> None:
+        self.speeds = [float(v) for v in speeds]
+        self.duration, self.body, self.n_nodes, self.verbose = float(duration), body, n_nodes, verbose
+        self.order = [int(i) for i in np.argsort(self.speeds, kind="stable")]  # slowest first
+        self.anchor = self.order[(len(self.order) - 1) // 2]
+        self.solve_time_s = 0.0
+        self._paths = [_cache_path(cache_dir, "continued", v, duration, body, n_nodes) for v in self.speeds]
+        self._solutions: list[GaitSolution | None] = [
+            _load_cached(p, v, duration, body, n_nodes) for p, v in zip(self._paths, self.speeds)
+        ]
+        self._problem: PredictiveGaitProblem | None = None
+
+    def __len__(self) -> int:
+        return len(self.speeds)
+
+    def __getitem__(self, i: int) -> GaitSolution:
+        sol = self._solutions[i]
+        if sol is None:
+            neighbour = self.neighbour(i)
+            prev = None if neighbour is None else self[neighbour]  # solved before the timer starts
+            t0 = time.perf_counter()
+            sol = self._solve(i, prev)
+            self.solve_time_s += time.perf_counter() - t0
+            self._solutions[i] = sol
+            path = self._paths[i]
+            if path is not None and not path.with_name(path.name + ".npz").exists():
+                sol.save(path)
+        return sol
+
+    def neighbour(self, i: int) -> int | None:
+        """The speed whose gait ``speeds[i]`` continues from: its neighbour towards the median
+        (None for the median itself)."""
+        rank, anchor_rank = self.order.index(i), self.order.index(self.anchor)
+        if rank == anchor_rank:
+            return None
+        return self.order[rank + 1 if rank < anchor_rank else rank - 1]
+
+    def trial_order(self) -> list[int]:
+        """The speeds from the median outwards, the slower of two equally far first (a
+        multi-start that may stop early tries them in this order; every guess it needs then
+        continues from one it already has)."""
+        anchor_rank = self.order.index(self.anchor)
+        return sorted(range(len(self)), key=lambda i: (abs(self.order.index(i) - anchor_rank), self.order.index(i)))
+
+    def _solve(self, i: int, prev: GaitSolution | None) -> GaitSolution:
+        if self._problem is None:
+            cfg = OCPSettings(speed=self.speeds[self.anchor], n_nodes=self.n_nodes, duration=self.duration)
+            self._problem = PredictiveGaitProblem(cfg, self.body)
+        if prev is None:
+            return self._problem.solve_multistart(verbose=self.verbose, agree_rtol=AGREE_RTOL)
+        sol = self._problem.solve(
+            prev, fixed_speed=self.speeds[i], ipopt_options=MONOTONE_BARRIER, verbose=self.verbose, raise_on_failure=False
+        )
+        if not sol.success:
+            sol = predictive_guess(self.speeds[i], self.duration, self.body, n_nodes=self.n_nodes, verbose=self.verbose)
+        return sol
 
 
 def _cache_path(
@@ -208,6 +264,7 @@ def solve_imu_tracking(
     raise_on_failure: bool = False,
     heel_strike_tolerance: float | None = 0.05,
     starts: StartMode = "shared",
+    agree_rtol: float | None = AGREE_RTOL,
     **settings: Any,
 ) -> TrackingResult:
     """Label-free gait estimation from one averaged stride of IMU data (Dorschky et al. 2019).
@@ -259,6 +316,12 @@ def solve_imu_tracking(
             reach the same optimum on the real and synthetic strides of
             ``benchmarks/bench_imu_tracking.py``; "shared" in less than half the time. With a
             fixed speed the starts are independent.
+        agree_rtol: with ``starts="shared"``, the starts run from the middle speed guess
+            outwards, the slower first (:meth:`ContinuedGuesses.trial_order`), and stop once two
+            successful starts whose heel strike lies within ``heel_strike_tolerance`` reach the
+            same objective within this relative tolerance (two IPOPT paths from different
+            speeds to one optimum, the rule of the predictive multi-start); the starts left are
+            listed with status "skipped" and their guesses are not solved. None: every start runs.
         **settings: further :class:`TrackingSettings` fields.
 
     Returns:
@@ -285,14 +348,15 @@ def solve_imu_tracking(
     if starts not in ("shared", "independent"):
         raise ValueError(f"starts must be 'shared' or 'independent', got {starts!r}")
     shared = starts == "shared" and free_speed
+    half = max(n_nodes // 2, 4)
+    chain = ContinuedGuesses(speeds, duration, body, n_nodes=half, cache_dir=guess_cache) if shared else None
+    trial = chain.trial_order() if chain is not None else list(range(len(speeds)))
     t_guess = time.perf_counter()
-    guesses: list[GaitSolution | None]
-    if guess == "predictive":
-        half = max(n_nodes // 2, 4)
-        if shared:
-            predicted = predictive_guesses(speeds, duration, body, n_nodes=half, cache_dir=guess_cache)
-        else:
-            predicted = [predictive_guess(v0, duration, body, n_nodes=half, cache_dir=guess_cache) for v0 in speeds]
+    guesses: list[GaitSolution | None | Callable[[], GaitSolution]]
+    if guess == "predictive" and chain is not None:
+        guesses = [functools.partial(_at_heel_strike, chain, i) for i in trial]  # solved when their start runs
+    elif guess == "predictive":
+        predicted = [predictive_guess(v0, duration, body, n_nodes=half, cache_dir=guess_cache) for v0 in speeds]
         guesses = [roll_cycle(p, p.right_heel_strike()) for p in predicted]
     else:
         guesses = [guess if isinstance(guess, GaitSolution) else None] * len(speeds)
@@ -307,34 +371,60 @@ def solve_imu_tracking(
         "raise_on_failure": raise_on_failure,
         **settings,
     }
+    done: list[TrackingResult | None] = [None] * len(speeds)
     if shared:
-        results = track_starts(
-            signals, duration, float(np.median(speeds)), body, guesses=guesses, start_speeds=speeds, **kw
+        stop = None if agree_rtol is None else functools.partial(_two_agree, rtol=agree_rtol, tolerance=heel_strike_tolerance)
+        ran = track_starts(
+            signals, duration, float(np.median(speeds)), body, guesses=guesses, start_speeds=[speeds[i] for i in trial],
+            stop=stop, **kw
         )
+        for i, r in zip(trial, ran):
+            done[i] = r
     else:
-        results = [track_starts(signals, duration, v0, body, guesses=[g], **kw)[0] for v0, g in zip(speeds, guesses)]
+        done = [track_starts(signals, duration, v0, body, guesses=[g], **kw)[0] for v0, g in zip(speeds, guesses)]
+    results = [r for r in done if r is not None]
+    if chain is not None:
+        guess_time += chain.solve_time_s
     best = min(results, key=lambda r: _start_rank(r.solution, heel_strike_tolerance))
     best.info = {
         "scaling": scaling,
         "guess": guess if isinstance(guess, str) else "solution",
-        "starts": [
-            {
-                "speed_guess": v0,
-                "status": r.solution.status,
-                "objective": r.solution.objective,
-                "speed": r.solution.speed,
-                "iterations": r.solution.iterations,
-                "solve_time_s": r.solution.solve_time,
-                "heel_strike_pct": 100.0 * r.solution.right_heel_strike() / r.solution.n_nodes,
-                "chosen": r is best,
-            }
-            for v0, r in zip(speeds, results)
-        ],
+        "starts": [_describe_start(v0, r, r is best) for v0, r in zip(speeds, done)],
         "ipopt_time_s": float(sum(r.solution.solve_time for r in results)),
         "guess_time_s": guess_time,
         "wall_time_s": time.perf_counter() - t_start,
     }
     return best
+
+
+def _at_heel_strike(chain: ContinuedGuesses, i: int) -> GaitSolution:
+    """The guess of start ``i``: the chain's gait at ``speeds[i]`` started at its right heel strike."""
+    sol = chain[i]
+    return roll_cycle(sol, sol.right_heel_strike())
+
+
+def _two_agree(results: Sequence[TrackingResult], rtol: float, tolerance: float | None) -> bool:
+    """Whether two of the starts ``results`` are successful, in phase (heel strike within
+    ``tolerance`` of the first sample) and equal in objective within ``rtol`` (relative)."""
+    good = [r.solution.objective for r in results if _start_rank(r.solution, tolerance)[:2] == (False, False)]
+    return any(math.isclose(a, b, rel_tol=rtol) for k, a in enumerate(good) for b in good[k + 1 :])
+
+
+def _describe_start(speed_guess: float, result: TrackingResult | None, chosen: bool) -> dict[str, Any]:
+    """One start of the multi-start for ``result.info["starts"]`` (status "skipped": not run)."""
+    if result is None:
+        return {"speed_guess": speed_guess, "status": "skipped", "chosen": False}
+    sol = result.solution
+    return {
+        "speed_guess": speed_guess,
+        "status": sol.status,
+        "objective": sol.objective,
+        "speed": sol.speed,
+        "iterations": sol.iterations,
+        "solve_time_s": sol.solve_time,
+        "heel_strike_pct": 100.0 * sol.right_heel_strike() / sol.n_nodes,
+        "chosen": chosen,
+    }
 
 
 def heel_strike_offset(sol: GaitSolution) -> float:

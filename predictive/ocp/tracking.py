@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -367,8 +367,9 @@ def track_starts(
     speed: float,
     body: BodyParameters | None = None,
     *,
-    guesses: Sequence[GaitSolution | None] = (None,),
+    guesses: Sequence[GaitSolution | None | Callable[[], GaitSolution | None]] = (None,),
     start_speeds: Sequence[float] | None = None,
+    stop: Callable[[Sequence[TrackingResult]], bool] | None = None,
     free_speed: bool = False,
     speed_continuation: bool = True,
     effort_weight: float = 1.0,
@@ -385,14 +386,17 @@ def track_starts(
     :func:`solve_tracking`, plus:
 
     Args:
-        guesses: one initial guess per start (None: the default guess of :func:`solve_tracking`).
+        guesses: one initial guess per start (None: the default guess of :func:`solve_tracking`),
+            or a function of none returning it, called only when that start runs.
         start_speeds: with ``free_speed``, each start's initial speed, m/s (the fixed speed of
             the first step of the speed continuation and the speed its guess is resampled to);
             default ``speed`` for every start. The NLP's scaling uses ``speed``.
+        stop: called with the results so far after each start; True ends the multi-start there
+            (the starts left are not run; their guesses are not made).
         raise_on_failure: raise when a start fails (default False: its result is returned).
 
     Returns:
-        The results in the order of ``guesses``.
+        The results of the starts run, in the order of ``guesses``.
     """
     n_nodes = len(signals[0].target) if signals else 0
     cfg = TrackingSettings(
@@ -412,12 +416,16 @@ def track_starts(
     kw: dict[str, Any] = {"ipopt_options": ipopt_options, "verbose": verbose, "raise_on_failure": raise_on_failure}
     results: list[TrackingResult] = []
     for start, v0 in zip(guesses, speeds):
+        if callable(start):
+            start = start()
         g = start if start is not None else problem.guess_from_signals()
         if free_speed and speed_continuation:
             sol = problem.solve_with_speed_continuation(g, speed=v0, **kw)
         else:
             sol = problem.solve(problem.guess_from_solution(g, speed=v0) if isinstance(g, GaitSolution) else g, **kw)
         results.append(problem.result(sol))
+        if stop is not None and stop(results):
+            break
     return results
 
 
