@@ -1,12 +1,14 @@
 """Wall time per stride of label-free IMU tracking by optimal control, and its accuracy, for
-three ways of running its multi-start, measured in the same run on the same stride.
+four ways of running its multi-start, measured in the same run on the same stride.
 
-Run ``python benchmarks/bench_imu_tracking.py`` (about 2.5 min on an idle CPU core; both cases,
+Run ``python benchmarks/bench_imu_tracking.py`` (about 3 min on an idle 2-core CPU; both cases,
 all paths), ``--quick`` for a smoke run (the synthetic stride on 40 nodes only), ``--json PATH``
-to also save the results. Threads are pinned to one (``OMP_NUM_THREADS`` etc. default to 1).
+to also save the results. Threads are pinned to one per process (``OMP_NUM_THREADS`` etc.
+default to 1); every path but the default runs in this one process.
 
-Paths (:func:`predictive.ocp.imu_tracking.solve_imu_tracking`, its ``starts`` and ``agree_rtol``
-arguments; the default multi-start of three speed guesses, the same label-free choice rule in all):
+Paths (:func:`predictive.ocp.imu_tracking.solve_imu_tracking`, its ``starts``, ``agree_rtol`` and
+``workers`` arguments; the default multi-start of three speed guesses, the same label-free choice
+rule in all):
 
 * baseline, ``starts="independent"``: per start, a predictive multi-start
   (:data:`~predictive.ocp.collocation.DEFAULT_STARTS`) builds the guess and a tracking NLP of its
@@ -14,9 +16,13 @@ arguments; the default multi-start of three speed guesses, the same label-free c
 * ``starts="shared", agree_rtol=None``: the guesses by speed continuation on one predictive NLP
   (a multi-start at the middle speed only), and one tracking NLP and IPOPT solver for every
   start and both continuation steps; every start runs;
-* default (``starts="shared"``, ``agree_rtol`` 1e-4): as before, the starts from the middle
-  speed outwards, stopped once two in-phase successful starts agree on the objective (a start
-  not run costs neither its guess nor its tracking).
+* ``workers=1``: as before, the starts from the middle speed outwards, stopped once two
+  in-phase successful starts agree on the objective (``agree_rtol`` 1e-4; a start not run costs
+  neither its guess nor its tracking);
+* default: the same with a worker process for the predictive guesses where the machine has two
+  cores (:class:`predictive.ocp.imu_tracking.ContinuedGuesses`): the middle speed's first start
+  and the continuations run there while this process solves the second start and builds and
+  runs the tracking NLP.
 
 Cases: the averaged walking stride ``../shared/data/dorschky_P03_walking`` (skipped when absent;
 1.75 m / 70 kg assumed, variance scaling, 100 nodes, as ``python -m predictive track-imu``) and
@@ -49,7 +55,8 @@ DEFAULT_DATA = REPO.parent / "shared" / "data" / "dorschky_P03_walking"
 #: The paths compared: name → keyword arguments of ``solve_imu_tracking`` (baseline first, default last).
 PATHS: dict[str, dict[str, Any]] = {
     "independent": {"starts": "independent"},
-    "all starts": {"starts": "shared", "agree_rtol": None},
+    "all starts": {"starts": "shared", "agree_rtol": None, "workers": 1},
+    "one process": {"workers": 1},
     "default": {},
 }
 METRICS = ("angle_rmsd_deg", "moment_rmsd_pct_bwbh", "grf_rmse_pct_bw", "speed_error_mps")

@@ -50,7 +50,7 @@ def test_bench_imu_tracking(tmp_path: Path, capsys: pytest.CaptureFixture[str]) 
     _, rows = run_quick("bench_imu_tracking", tmp_path / "bench.json")
     out = capsys.readouterr().out
     assert "faster than the baseline" in out and "angles" in out
-    assert [(r["case"], r["path"]) for r in rows] == [("synthetic", p) for p in ("independent", "all starts", "default")]
+    assert [(r["case"], r["path"]) for r in rows] == [("synthetic", p) for p in ("independent", "all starts", "one process", "default")]
     assert all(r["status"] == "Solve_Succeeded" and r["wall_s"] > 0 for r in rows)
     # every path reports the same optimum and accuracy, side by side
     for row in rows[1:]:
@@ -58,7 +58,8 @@ def test_bench_imu_tracking(tmp_path: Path, capsys: pytest.CaptureFixture[str]) 
         assert row["angle_rmsd_deg"] == pytest.approx(rows[0]["angle_rmsd_deg"], abs=0.01)
     # the baseline and "all starts" run every start; the default may stop after two agree
     assert "-" not in rows[0]["iterations"] + rows[1]["iterations"] and len(rows[2]["iterations"]) == 3
-    assert json.loads((tmp_path / "bench.json").read_text())[2]["path"] == "default"
+    assert rows[3]["iterations"] == rows[2]["iterations"] and rows[3]["objective"] == rows[2]["objective"]  # a worker changes nothing
+    assert json.loads((tmp_path / "bench.json").read_text())[3]["path"] == "default"
 
 
 def test_bench_env(tmp_path: Path, capsys: pytest.CaptureFixture[str], torch_threads) -> None:

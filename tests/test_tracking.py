@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import multiprocessing
 from pathlib import Path
 
 import numpy as np
@@ -96,7 +97,8 @@ def test_shared_starts_reach_the_optimum_of_independent_starts(reference: GaitSo
     # ("independent"): the same label-free choice, the same optimum.
     rec = recording_from_solution(reference, IMUPlacement.default(1.75))
     kw = {"n_nodes": 2 * HALF_NODES, "imu_scales": "std"}
-    shared = solve_imu_tracking(rec, guess_cache=tmp_path / "default", **kw)
+    shared = solve_imu_tracking(rec, guess_cache=tmp_path / "default", workers=2, **kw)
+    one = solve_imu_tracking(rec, workers=1, **kw)
     every = solve_imu_tracking(rec, guess_cache=tmp_path / "every", agree_rtol=None, **kw)
     independent = solve_imu_tracking(rec, starts="independent", **kw)
     b = independent.solution
@@ -109,6 +111,11 @@ def test_shared_starts_reach_the_optimum_of_independent_starts(reference: GaitSo
         assert a.speed == pytest.approx(b.speed, abs=1e-4)
         np.testing.assert_allclose(a.q[:, 1:], b.q[:, 1:], atol=1e-4)
         np.testing.assert_allclose(a.tau, b.tau, atol=0.5)  # N·m
+    assert not multiprocessing.active_children()  # the guess worker is gone once the tracking returns
+    # a worker process for the guesses (where the platform forks) changes nothing, to the last bit
+    assert [s["status"] for s in one.info["starts"]] == [s["status"] for s in shared.info["starts"]]
+    assert one.solution.objective == shared.solution.objective
+    np.testing.assert_array_equal(one.solution.q, shared.solution.q)
     # every start ran without agree_rtol; the default ran the middle speed and the slower one first
     # and solved the guesses of those starts only (the continued gaits it cached)
     assert [s["status"] for s in every.info["starts"]] == ["Solve_Succeeded"] * 3

@@ -396,6 +396,14 @@ class PredictiveGaitProblem:
         effort, reg = self._effort_terms(x)
         return effort + self.settings.w_acc * reg
 
+    def prepare(self, ipopt_options: Mapping[str, Any] | None = None, verbose: bool = False) -> float:
+        """Build the IPOPT solver of these options now rather than on the first :meth:`solve`
+        with them (e.g. while another process works on the initial guess); returns the seconds
+        it took (0 when it was built already)."""
+        t0 = time.perf_counter()
+        self._get_solver(ipopt_options, verbose)
+        return time.perf_counter() - t0
+
     def _get_solver(self, ipopt_options: Mapping[str, Any] | None, verbose: bool) -> ca.Function:
         """The IPOPT solver of this NLP with these options, built on first use and kept: building
         it (CasADi's derivatives of the whole NLP) costs about as much as an IPOPT run, and only
@@ -528,6 +536,18 @@ class PredictiveGaitProblem:
             )
         return sol
 
+    def solve_start(
+        self, start: Start, *, ipopt_options: Mapping[str, Any] | None = None, verbose: bool = False
+    ) -> GaitSolution:
+        """One start of :meth:`solve_multistart`: IPOPT from the data-free guess of ``start``
+        (the caller's ``ipopt_options`` override the start's); never raises on failure."""
+        return self.solve(
+            self.generic_guess(start.amplitude),
+            ipopt_options={**(start.ipopt_options or {}), **(ipopt_options or {})},
+            verbose=verbose,
+            raise_on_failure=False,
+        )
+
     def solve_multistart(
         self,
         starts: Sequence[Start] = DEFAULT_STARTS,
@@ -536,13 +556,16 @@ class PredictiveGaitProblem:
         verbose: bool = False,
         raise_on_failure: bool = True,
         agree_rtol: float | None = None,
+        solved: Mapping[int, GaitSolution] | None = None,
     ) -> GaitSolution:
         """Solve from the data-free guess once per start and return the successful solution
         with the lowest objective (the others listed in its ``starts``).
 
         With ``agree_rtol``, the starts stop as soon as two successful ones reach the same
         objective within this relative tolerance (two IPOPT paths to one optimum); the starts
-        left out are listed with status "skipped".
+        left out are listed with status "skipped". ``solved``: the solutions of starts (by index
+        in ``starts``) already solved with :meth:`solve_start` elsewhere, e.g. in another
+        process; they are taken instead of solved again.
 
         Raises:
             OCPError: no start succeeded (and ``raise_on_failure``); its solution is the best
@@ -551,13 +574,10 @@ class PredictiveGaitProblem:
         if not starts:
             raise ValueError("a multi-start needs at least one Start")
         solutions: list[GaitSolution] = []
-        for start in starts:
-            new = self.solve(
-                self.generic_guess(start.amplitude),
-                ipopt_options={**(start.ipopt_options or {}), **(ipopt_options or {})},
-                verbose=verbose,
-                raise_on_failure=False,
-            )
+        for k, start in enumerate(starts):
+            new = (solved or {}).get(k)
+            if new is None:
+                new = self.solve_start(start, ipopt_options=ipopt_options, verbose=verbose)
             agreed = agree_rtol is not None and new.success and any(
                 s.success and math.isclose(s.objective, new.objective, rel_tol=agree_rtol) for s in solutions
             )

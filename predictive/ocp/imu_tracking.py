@@ -42,12 +42,14 @@ import functools
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
+from multiprocessing.pool import AsyncResult
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 
-from predictive.ocp.collocation import MONOTONE_BARRIER, OCPSettings, PredictiveGaitProblem, solve_predictive
+from predictive.ocp.collocation import DEFAULT_STARTS, OCPSettings, PredictiveGaitProblem, solve_predictive
+from predictive.ocp.guess_worker import FORK, GuessWorker, continued_gait, default_workers
 from predictive.ocp.solution import GaitSolution
 from predictive.ocp.tracking import TrackingResult, track_starts
 from predictive.ocp.tracking_data import averaged_stride_scales, signals_from_recording, stride_duration
@@ -112,12 +114,17 @@ class ContinuedGuesses:
     The median speed comes from the data-free multi-start
     (:data:`~predictive.ocp.collocation.DEFAULT_STARTS`, stopped once two starts agree on the
     objective within :data:`AGREE_RTOL`), every other speed from the solution at its neighbour
-    towards the median (one IPOPT run with the monotone barrier of
-    :data:`~predictive.ocp.collocation.MONOTONE_BARRIER`, the speed fixed by its bounds). One
-    problem and its solvers serve all speeds, so the NLP is built once. A continuation that
-    fails falls back to :func:`predictive_guess`. Cached in ``cache_dir`` like
-    :func:`predictive_guess` (under their own names). ``solve_time_s``: the seconds spent
-    solving so far.
+    towards the median (:func:`~predictive.ocp.guess_worker.continued_gait`: one IPOPT run with
+    the monotone barrier, the speed fixed by its bounds; a failed continuation falls back to the
+    predictive multi-start at that speed). One problem and its solvers serve all speeds, so the
+    NLP is built once. Cached in ``cache_dir`` like :func:`predictive_guess` (under their own
+    names). ``solve_time_s``: the seconds this process spent solving or waiting for them so far.
+
+    With ``workers`` 2 (where the platform can fork), one worker process
+    (:class:`~predictive.ocp.guess_worker.GuessWorker`, started at once) solves the multi-start's first start while this process solves its second
+    (and whatever the caller does meanwhile, e.g. build the tracking NLP), and, once the median
+    speed's gait is known, the continuations ahead of their use, in :meth:`trial_order`. The
+    results are those of ``workers`` 1. :meth:`close` (or ``with``) stops the worker.
 
     Measured (50 nodes per half cycle, the continuation from the median to × 0.85 and × 1.2, on
     the real walking stride and a synthetic 1.2 s one): with IPOPT's adaptive barrier the two
@@ -135,17 +142,29 @@ class ContinuedGuesses:
         n_nodes: int = 50,
         cache_dir: str | Path | None = None,
         verbose: bool = False,
+        workers: int = 1,
     ) -> None:
         self.speeds = [float(v) for v in speeds]
         self.duration, self.body, self.n_nodes, self.verbose = float(duration), body, n_nodes, verbose
         self.order = [int(i) for i in np.argsort(self.speeds, kind="stable")]  # slowest first
         self.anchor = self.order[(len(self.order) - 1) // 2]
         self.solve_time_s = 0.0
+        self.settings = OCPSettings(speed=self.speeds[self.anchor], n_nodes=n_nodes, duration=self.duration)
         self._paths = [_cache_path(cache_dir, "continued", v, duration, body, n_nodes) for v in self.speeds]
         self._solutions: list[GaitSolution | None] = [
             _load_cached(p, v, duration, body, n_nodes) for p, v in zip(self._paths, self.speeds)
         ]
         self._problem: PredictiveGaitProblem | None = None
+        self._worker: GuessWorker | None = None
+        self._pending: dict[int, AsyncResult[GaitSolution]] = {}
+        self._speculative: dict[int, AsyncResult[GaitSolution]] = {}  # continued from the worker's start
+        if workers >= 2 and FORK and any(sol is None for sol in self._solutions):
+            self._worker = GuessWorker(self.settings, body)
+            if self._solutions[self.anchor] is None:
+                self._pending[self.anchor] = self._worker.solve_start(0)
+                first = next((j for j in self.trial_order()[1:2] if self._solutions[j] is None), None)
+                if first is not None and self.neighbour(first) == self.anchor:
+                    self._speculative[first] = self._worker.continued_from_start(0, self.speeds[first])
 
     def __len__(self) -> int:
         return len(self.speeds)
@@ -162,6 +181,7 @@ class ContinuedGuesses:
             path = self._paths[i]
             if path is not None and not path.with_name(path.name + ".npz").exists():
                 sol.save(path)
+            self._hand_out()
         return sol
 
     def neighbour(self, i: int) -> int | None:
@@ -179,18 +199,48 @@ class ContinuedGuesses:
         anchor_rank = self.order.index(self.anchor)
         return sorted(range(len(self)), key=lambda i: (abs(self.order.index(i) - anchor_rank), self.order.index(i)))
 
+    def close(self) -> None:
+        """Stop the worker process, if any (what it is still solving is abandoned)."""
+        if self._worker is not None:
+            self._worker.close()
+            self._worker = None
+            self._pending.clear()
+            self._speculative.clear()
+
+    def __enter__(self) -> ContinuedGuesses:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
     def _solve(self, i: int, prev: GaitSolution | None) -> GaitSolution:
         if self._problem is None:
-            cfg = OCPSettings(speed=self.speeds[self.anchor], n_nodes=self.n_nodes, duration=self.duration)
-            self._problem = PredictiveGaitProblem(cfg, self.body)
+            self._problem = PredictiveGaitProblem(self.settings, self.body)
+        pending = self._pending.pop(i, None)
+        if prev is None and pending is not None:  # the first start in the worker, the second here
+            second = self._problem.solve_start(DEFAULT_STARTS[1], verbose=self.verbose)
+            solved = {0: pending.get(), 1: second}
+            sol = self._problem.solve_multistart(verbose=self.verbose, agree_rtol=AGREE_RTOL, solved=solved)
+            if sol is solved[0]:  # the worker's start: its continuation on speculation is the one needed
+                self._pending.update(self._speculative)
+            self._speculative.clear()
+            return sol
         if prev is None:
             return self._problem.solve_multistart(verbose=self.verbose, agree_rtol=AGREE_RTOL)
-        sol = self._problem.solve(
-            prev, fixed_speed=self.speeds[i], ipopt_options=MONOTONE_BARRIER, verbose=self.verbose, raise_on_failure=False
-        )
-        if not sol.success:
-            sol = predictive_guess(self.speeds[i], self.duration, self.body, n_nodes=self.n_nodes, verbose=self.verbose)
-        return sol
+        if pending is not None:
+            return pending.get()
+        return continued_gait(self._problem, prev, self.speeds[i], verbose=self.verbose)
+
+    def _hand_out(self) -> None:
+        """Give the worker, in :meth:`trial_order`, every continuation whose starting gait is known."""
+        if self._worker is None:
+            return
+        for j in self.trial_order():
+            neighbour = self.neighbour(j)
+            if self._solutions[j] is None and j not in self._pending and neighbour is not None:
+                prev = self._solutions[neighbour]
+                if prev is not None:
+                    self._pending[j] = self._worker.continued_gait(prev, self.speeds[j])
 
 
 def _cache_path(
@@ -265,6 +315,7 @@ def solve_imu_tracking(
     heel_strike_tolerance: float | None = 0.05,
     starts: StartMode = "shared",
     agree_rtol: float | None = AGREE_RTOL,
+    workers: int | None = None,
     **settings: Any,
 ) -> TrackingResult:
     """Label-free gait estimation from one averaged stride of IMU data (Dorschky et al. 2019).
@@ -322,6 +373,10 @@ def solve_imu_tracking(
             same objective within this relative tolerance (two IPOPT paths from different
             speeds to one optimum, the rule of the predictive multi-start); the starts left are
             listed with status "skipped" and their guesses are not solved. None: every start runs.
+        workers: with ``starts="shared"``, processes for the predictive guesses: 2 hands some of
+            them to a worker process (:class:`ContinuedGuesses`; where the platform can fork),
+            with the same results; default 2 where this process may use two or more CPU cores
+            (:func:`~predictive.ocp.guess_worker.default_workers`), else 1.
         **settings: further :class:`TrackingSettings` fields.
 
     Returns:
@@ -338,53 +393,59 @@ def solve_imu_tracking(
         speeds = [v0 * f for f in DEFAULT_SPEED_FACTORS]
     else:
         speeds = [float(v) for v in np.atleast_1d(np.asarray(speed_guess, dtype=float))]
-    names = [f"{s}_{c}" for s in recording.segments for c in IMU_CHANNELS]
-    scales, scaling = _imu_scales(recording, names, n_nodes, imu_scales)
-    signals = signals_from_recording(
-        recording, names, n_nodes, duration=duration, scales=scales, weights={n: imu_weight for n in names}
-    )
     if isinstance(guess, str) and guess not in ("predictive", "generic"):
         raise ValueError(f"guess must be 'predictive', 'generic' or a GaitSolution, got {guess!r}")
     if starts not in ("shared", "independent"):
         raise ValueError(f"starts must be 'shared' or 'independent', got {starts!r}")
     shared = starts == "shared" and free_speed
     half = max(n_nodes // 2, 4)
-    chain = ContinuedGuesses(speeds, duration, body, n_nodes=half, cache_dir=guess_cache) if shared else None
-    trial = chain.trial_order() if chain is not None else list(range(len(speeds)))
-    t_guess = time.perf_counter()
-    guesses: list[GaitSolution | None | Callable[[], GaitSolution]]
-    if guess == "predictive" and chain is not None:
-        guesses = [functools.partial(_at_heel_strike, chain, i) for i in trial]  # solved when their start runs
-    elif guess == "predictive":
-        predicted = [predictive_guess(v0, duration, body, n_nodes=half, cache_dir=guess_cache) for v0 in speeds]
-        guesses = [roll_cycle(p, p.right_heel_strike()) for p in predicted]
-    else:
-        guesses = [guess if isinstance(guess, GaitSolution) else None] * len(speeds)
-    guess_time = time.perf_counter() - t_guess
-    kw: dict[str, Any] = {
-        "free_speed": free_speed,
-        "effort_weight": effort_weight,
-        "w_acc": w_acc,
-        "placement": placement if placement is not None else recording.placement,
-        "ipopt_options": ipopt_options,
-        "verbose": verbose,
-        "raise_on_failure": raise_on_failure,
-        **settings,
-    }
-    done: list[TrackingResult | None] = [None] * len(speeds)
-    if shared:
-        stop = None if agree_rtol is None else functools.partial(_two_agree, rtol=agree_rtol, tolerance=heel_strike_tolerance)
-        ran = track_starts(
-            signals, duration, float(np.median(speeds)), body, guesses=guesses, start_speeds=[speeds[i] for i in trial],
-            stop=stop, **kw
+    workers = default_workers() if workers is None else workers
+    # the guesses first: with a worker, it starts on the middle speed's multi-start at once
+    chain = ContinuedGuesses(
+        speeds, duration, body, n_nodes=half, cache_dir=guess_cache, workers=workers if shared and guess == "predictive" else 1
+    )
+    try:
+        names = [f"{s}_{c}" for s in recording.segments for c in IMU_CHANNELS]
+        scales, scaling = _imu_scales(recording, names, n_nodes, imu_scales)
+        signals = signals_from_recording(
+            recording, names, n_nodes, duration=duration, scales=scales, weights={n: imu_weight for n in names}
         )
-        for i, r in zip(trial, ran):
-            done[i] = r
-    else:
-        done = [track_starts(signals, duration, v0, body, guesses=[g], **kw)[0] for v0, g in zip(speeds, guesses)]
+        trial = chain.trial_order() if shared else list(range(len(speeds)))
+        t_guess = time.perf_counter()
+        guesses: list[GaitSolution | None | Callable[[], GaitSolution]]
+        if guess == "predictive" and shared:
+            guesses = [functools.partial(_at_heel_strike, chain, i) for i in trial]  # solved when their start runs
+        elif guess == "predictive":
+            predicted = [predictive_guess(v0, duration, body, n_nodes=half, cache_dir=guess_cache) for v0 in speeds]
+            guesses = [roll_cycle(p, p.right_heel_strike()) for p in predicted]
+        else:
+            guesses = [guess if isinstance(guess, GaitSolution) else None] * len(speeds)
+        guess_time = time.perf_counter() - t_guess
+        kw: dict[str, Any] = {
+            "free_speed": free_speed,
+            "effort_weight": effort_weight,
+            "w_acc": w_acc,
+            "placement": placement if placement is not None else recording.placement,
+            "ipopt_options": ipopt_options,
+            "verbose": verbose,
+            "raise_on_failure": raise_on_failure,
+            **settings,
+        }
+        done: list[TrackingResult | None] = [None] * len(speeds)
+        if shared:
+            stop = None if agree_rtol is None else functools.partial(_two_agree, rtol=agree_rtol, tolerance=heel_strike_tolerance)
+            ran = track_starts(
+                signals, duration, float(np.median(speeds)), body, guesses=guesses, start_speeds=[speeds[i] for i in trial],
+                stop=stop, **kw
+            )
+            for i, r in zip(trial, ran):
+                done[i] = r
+        else:
+            done = [track_starts(signals, duration, v0, body, guesses=[g], **kw)[0] for v0, g in zip(speeds, guesses)]
+    finally:
+        chain.close()
     results = [r for r in done if r is not None]
-    if chain is not None:
-        guess_time += chain.solve_time_s
+    guess_time += chain.solve_time_s
     best = min(results, key=lambda r: _start_rank(r.solution, heel_strike_tolerance))
     best.info = {
         "scaling": scaling,

@@ -413,6 +413,7 @@ def track_starts(
     if start_speeds is not None and not free_speed:
         raise ValueError("start_speeds needs free_speed (a fixed speed is the same for every start)")
     problem = TrackingGaitProblem(cfg, signals, body, contact, joint_limits, placement)
+    problem.prepare(ipopt_options, verbose)  # before the first guess: it may still be on its way
     kw: dict[str, Any] = {"ipopt_options": ipopt_options, "verbose": verbose, "raise_on_failure": raise_on_failure}
     results: list[TrackingResult] = []
     for start, v0 in zip(guesses, speeds):
