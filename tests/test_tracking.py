@@ -16,6 +16,7 @@ from predictive import GaitSolution, solve_predictive
 from predictive.__main__ import main as cli_main
 from predictive.experiments.solution_vs_labels import compare_with_labels, recording_from_solution
 from predictive.ocp.collocation import OCPSettings, PredictiveGaitProblem
+from predictive.ocp.guess_worker import casadi_blas_threads
 from predictive.ocp.imu_tracking import ContinuedGuesses, roll_cycle, solve_imu_tracking
 from predictive.ocp.tracking import TrackedSignal, TrackingGaitProblem, TrackingSettings, solve_tracking
 from predictive.ocp.tracking_data import signals_from_solution
@@ -97,7 +98,9 @@ def test_shared_starts_reach_the_optimum_of_independent_starts(reference: GaitSo
     # ("independent"): the same label-free choice, the same optimum.
     rec = recording_from_solution(reference, IMUPlacement.default(1.75))
     kw = {"n_nodes": 2 * HALF_NODES, "imu_scales": "std"}
+    blas_threads = casadi_blas_threads(None)
     shared = solve_imu_tracking(rec, guess_cache=tmp_path / "default", workers=2, **kw)
+    assert casadi_blas_threads(None) == blas_threads  # one BLAS thread per process only while the worker lived
     one = solve_imu_tracking(rec, workers=1, **kw)
     every = solve_imu_tracking(rec, guess_cache=tmp_path / "every", agree_rtol=None, **kw)
     independent = solve_imu_tracking(rec, starts="independent", **kw)

@@ -186,7 +186,7 @@ def run_track_imu(args: argparse.Namespace) -> int:
         f"all of it (reading, {n_starts} predictive guess(es), NLP build, {n_starts} IPOPT run(s), {args.starts} starts); "
         f"guesses {result.info['guess_time_s']:.1f} s; IPOPT {result.info['ipopt_time_s']:.1f} s; "
         f"chosen run {sol.iterations} it., {sol.solve_time:.1f} s; "
-        f"one thread on a {os.cpu_count()}-CPU machine"
+        f"{result.info['processes']} process(es) of one thread on a {os.cpu_count()}-CPU machine"
     )
     comparison = compare_with_labels(sol, recording, align=args.align, solve_time_s=wall, solve_time_detail=detail)
     npz = result.save(args.out)

@@ -16,14 +16,21 @@ nothing to import, and no ``if __name__ == "__main__"`` guard needed in the call
 ``spawn`` would re-run in the worker); where ``fork`` is not available (:data:`FORK`), the guesses
 stay in the caller. The worker runs only CasADi and IPOPT, nothing of the threads the caller may
 have started (torch, numba). :meth:`GuessWorker.close` kills it with whatever it is still solving.
+
+While the worker lives, CasADi's own OpenBLAS (``libcasadi-tp-openblas``, which MUMPS calls) runs
+one thread in each process: with its default of one thread per core, the two processes' four
+threads on two cores made the tracking's IPOPT runs 25 % slower (P03 walking: 10.6–12.0 s per
+stride in ``python -m predictive track-imu`` against 8.4–9.0 s with one thread).
 """
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import os
 import pickle
 from multiprocessing.pool import AsyncResult, Pool
+from pathlib import Path
 from typing import Any
 
 from predictive.ocp.collocation import (
@@ -57,6 +64,25 @@ def usable_cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
+def casadi_blas_threads(n: int | None) -> int | None:
+    """Set the threads of CasADi's bundled OpenBLAS to ``n`` (None: leave them) and return the
+    number before, or None where CasADi bundles no OpenBLAS. Written by hand: threadpoolctl
+    recognises BLAS libraries by their usual names, and CasADi's carries its own."""
+    import casadi
+
+    path = next(iter(sorted(Path(casadi.__file__).parent.glob("libcasadi-tp-openblas.so*"))), None)
+    if path is None:
+        return None
+    try:
+        lib = ctypes.CDLL(str(path))  # the library CasADi loaded already (dlopen counts references)
+        before = int(lib.openblas_get_num_threads())
+        if n is not None:
+            lib.openblas_set_num_threads(int(n))
+    except (OSError, AttributeError):
+        return None
+    return before
+
+
 def default_workers() -> int:
     """2 where a worker can be forked and this process may use two or more cores, else 1."""
     return 2 if FORK and usable_cores() >= 2 else 1
@@ -70,6 +96,7 @@ class GuessWorker:
         self.settings, self.body = settings, body
         if not FORK:
             raise RuntimeError("a guess worker needs the 'fork' start method, which this platform lacks")
+        self._blas_threads = casadi_blas_threads(1)  # before the fork: the worker inherits it
         self._pool: Pool | None = multiprocessing.get_context("fork").Pool(1)
 
     def solve_start(self, index: int) -> AsyncResult[GaitSolution]:
@@ -97,6 +124,7 @@ class GuessWorker:
             self._pool.terminate()
             self._pool.join()
             self._pool = None
+            casadi_blas_threads(self._blas_threads)
 
 
 # ------------------------------------------------------------------------------ in the worker

@@ -17,8 +17,7 @@ successful starts whose right heel strike lies at the data's first sample (± 5 
 averaged stride is cut there), the lowest objective wins (label-free). The starts run from the
 middle speed outwards, the slower first, and stop once two of those agree on the objective
 (``agree_rtol``, the rule of the predictive multi-start): a start that is not run costs neither its
-predictive guess nor its tracking (P03 walking 17.6 → 14.3 s per stride, the same optimum:
-``benchmarks/bench_imu_tracking.py``). With these, starts from
+predictive guess nor its tracking. With these, starts from
 0.9–1.5 m/s reached the same solution on the real data; the data-free
 :meth:`~predictive.ocp.collocation.PredictiveGaitProblem.generic_guess` is less robust.
 
@@ -32,7 +31,10 @@ another optimum; a 25-node middle-speed multi-start refined on 50 nodes took as 
 11.6 s of guesses, 9.4 vs 6.9 s of tracking IPOPT); starting the middle speed from the shipped
 1.3 m/s walking gait (``configs/agents/gaits/walk_1.3.npz``, 134–150 instead of 178–280
 iterations) saved guess time but cost more in tracking (IPOPT 8.6 vs 6.5 s on the real stride,
-20.7 vs 15.8 s on the synthetic one).
+20.7 vs 15.8 s on the synthetic one). On two cores a worker process solves part of the guesses
+while this process solves the rest and builds the tracking NLP (:class:`ContinuedGuesses`,
+:mod:`predictive.ocp.guess_worker`; the same results). ``benchmarks/bench_imu_tracking.py``
+times each step: every start in one process, the early stop, the worker.
 """
 
 from __future__ import annotations
@@ -381,7 +383,8 @@ def solve_imu_tracking(
 
     Returns:
         The tracking result; ``result.solution`` holds angles, torques, GRFs and the speed;
-        ``result.info`` the scaling used, the starts, ``wall_time_s`` (everything: predictive
+        ``result.info`` the scaling used, the starts, ``processes`` (1, or 2 with a worker for
+        the guesses), ``wall_time_s`` (everything: predictive
         guesses, NLP construction, all IPOPT runs), ``guess_time_s`` (the predictive guesses)
         and ``ipopt_time_s`` (all IPOPT runs of the tracking).
     """
@@ -401,9 +404,8 @@ def solve_imu_tracking(
     half = max(n_nodes // 2, 4)
     workers = default_workers() if workers is None else workers
     # the guesses first: with a worker, it starts on the middle speed's multi-start at once
-    chain = ContinuedGuesses(
-        speeds, duration, body, n_nodes=half, cache_dir=guess_cache, workers=workers if shared and guess == "predictive" else 1
-    )
+    workers = workers if shared and guess == "predictive" and FORK else 1
+    chain = ContinuedGuesses(speeds, duration, body, n_nodes=half, cache_dir=guess_cache, workers=workers)
     try:
         names = [f"{s}_{c}" for s in recording.segments for c in IMU_CHANNELS]
         scales, scaling = _imu_scales(recording, names, n_nodes, imu_scales)
@@ -451,6 +453,7 @@ def solve_imu_tracking(
         "scaling": scaling,
         "guess": guess if isinstance(guess, str) else "solution",
         "starts": [_describe_start(v0, r, r is best) for v0, r in zip(speeds, done)],
+        "processes": workers,
         "ipopt_time_s": float(sum(r.solution.solve_time for r in results)),
         "guess_time_s": guess_time,
         "wall_time_s": time.perf_counter() - t_start,
