@@ -92,22 +92,6 @@ def predictive_guess(
 AGREE_RTOL: float = 1e-4
 
 
-def predictive_guesses(
-    speeds: Sequence[float],
-    duration: float,
-    body: BodyParameters,
-    *,
-    n_nodes: int = 50,
-    cache_dir: str | Path | None = None,
-    verbose: bool = False,
-) -> list[GaitSolution]:
-    """The predictive gaits of :func:`predictive_guess` at several ``speeds`` (m/s), by speed
-    continuation on one NLP (:class:`ContinuedGuesses`, every speed solved); returned in the
-    order of ``speeds``."""
-    chain = ContinuedGuesses(speeds, duration, body, n_nodes=n_nodes, cache_dir=cache_dir, verbose=verbose)
-    return [chain[i] for i in range(len(chain))]
-
-
 class ContinuedGuesses:
     """The predictive gaits of :func:`predictive_guess` at several ``speeds`` (m/s) and one stride
     ``duration`` (s), solved on demand by speed continuation on one NLP: ``chain[i]`` is the gait
@@ -123,10 +107,11 @@ class ContinuedGuesses:
     names). ``solve_time_s``: the seconds this process spent solving or waiting for them so far.
 
     With ``workers`` 2 (where the platform can fork), one worker process
-    (:class:`~predictive.ocp.guess_worker.GuessWorker`, started at once) solves the multi-start's first start while this process solves its second
-    (and whatever the caller does meanwhile, e.g. build the tracking NLP), and, once the median
-    speed's gait is known, the continuations ahead of their use, in :meth:`trial_order`. The
-    results are those of ``workers`` 1. :meth:`close` (or ``with``) stops the worker.
+    (:class:`~predictive.ocp.guess_worker.GuessWorker`, started at once) solves the multi-start's
+    first start while this process solves its second (and whatever the caller does meanwhile,
+    e.g. build the tracking NLP), the first continuation from that start on speculation, and,
+    once the median speed's gait is known, the continuations ahead of their use, in
+    :meth:`trial_order`. The results are those of ``workers`` 1. :meth:`close` (or ``with``) stops the worker.
 
     Measured (50 nodes per half cycle, the continuation from the median to × 0.85 and × 1.2, on
     the real walking stride and a synthetic 1.2 s one): with IPOPT's adaptive barrier the two
@@ -288,7 +273,7 @@ def roll_cycle(sol: GaitSolution, start: int) -> GaitSolution:
 DEFAULT_SPEED_FACTORS: tuple[float, ...] = (0.85, 1.0, 1.2)
 
 #: How the starts of :func:`solve_imu_tracking`'s multi-start are built: "shared" (one
-#: predictive NLP for the guesses by speed continuation, :func:`predictive_guesses`, and one
+#: predictive NLP for the guesses by speed continuation, :class:`ContinuedGuesses`, and one
 #: tracking NLP for all starts, :func:`~predictive.ocp.tracking.track_starts`) or "independent"
 #: (a predictive multi-start and a tracking NLP per start).
 StartMode = Literal["shared", "independent"]
@@ -362,7 +347,7 @@ def solve_imu_tracking(
             (moment correlation r 0.37 instead of 0.63).
         starts: how the multi-start is built (:data:`StartMode`): "shared" (default) solves
             the predictive guesses by speed continuation on one NLP
-            (:func:`predictive_guesses`: a multi-start at the middle speed only) and every
+            (:class:`ContinuedGuesses`: a multi-start at the middle speed only) and every
             start, both continuation steps included, on one tracking NLP and IPOPT solver
             (:func:`~predictive.ocp.tracking.track_starts`); "independent" runs a predictive
             multi-start (:func:`predictive_guess`) and builds a tracking NLP per start. Both
