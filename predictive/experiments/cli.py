@@ -153,7 +153,7 @@ def run_robustness(args: argparse.Namespace) -> int:
 def run_track_imu(args: argparse.Namespace) -> int:
     """Run ``track-imu``; returns the exit code (1 if IPOPT failed on every start)."""
     from predictive.experiments.solution_vs_labels import compare_with_labels, plot_against_labels, write_comparison
-    from predictive.ocp.imu_tracking import solve_imu_tracking
+    from predictive.ocp.imu_tracking import AGREE_RTOL, solve_imu_tracking
     from predictive.ocp.limits import check_body
     from sspinn.data.csv_readers import read_averaged_stride
     from sspinn.model.body import BodyParameters
@@ -177,7 +177,7 @@ def run_track_imu(args: argparse.Namespace) -> int:
         imu_scales=args.scales,
         verbose=args.verbose,
         starts=args.starts,
-        **({"agree_rtol": None} if args.all_starts else {}),
+        agree_rtol=None if args.all_starts else AGREE_RTOL,
     )
     sol = result.solution
     wall = time.perf_counter() - t0

@@ -151,6 +151,12 @@ class Start:
 #: IPOPT's monotone barrier from a larger initial barrier parameter: a different path to the optimum.
 MONOTONE_BARRIER: Final[Mapping[str, Any]] = {"mu_strategy": "monotone", "mu_init": 0.1}
 
+def objectives_agree(objectives: Sequence[float], rtol: float) -> bool:
+    """Whether two of ``objectives`` are equal within the relative tolerance ``rtol`` (two IPOPT
+    paths to one optimum: the stopping rule of a multi-start)."""
+    return any(math.isclose(a, b, rel_tol=rtol) for k, a in enumerate(objectives) for b in objectives[k + 1 :])
+
+
 #: The multi-start of every solve from the data-free guess (see the module docstring).
 DEFAULT_STARTS: Final[tuple[Start, ...]] = (
     Start(),
@@ -396,13 +402,10 @@ class PredictiveGaitProblem:
         effort, reg = self._effort_terms(x)
         return effort + self.settings.w_acc * reg
 
-    def prepare(self, ipopt_options: Mapping[str, Any] | None = None, verbose: bool = False) -> float:
+    def prepare(self, ipopt_options: Mapping[str, Any] | None = None, verbose: bool = False) -> None:
         """Build the IPOPT solver of these options now rather than on the first :meth:`solve`
-        with them (e.g. while another process works on the initial guess); returns the seconds
-        it took (0 when it was built already)."""
-        t0 = time.perf_counter()
+        with them (e.g. while another process works on the initial guess)."""
         self._get_solver(ipopt_options, verbose)
-        return time.perf_counter() - t0
 
     def _get_solver(self, ipopt_options: Mapping[str, Any] | None, verbose: bool) -> ca.Function:
         """The IPOPT solver of this NLP with these options, built on first use and kept: building
@@ -578,11 +581,9 @@ class PredictiveGaitProblem:
             new = (solved or {}).get(k)
             if new is None:
                 new = self.solve_start(start, ipopt_options=ipopt_options, verbose=verbose)
-            agreed = agree_rtol is not None and new.success and any(
-                s.success and math.isclose(s.objective, new.objective, rel_tol=agree_rtol) for s in solutions
-            )
             solutions.append(new)
-            if agreed:
+            # earlier starts never agreed (the loop would have stopped), so a pair found holds the new one
+            if agree_rtol is not None and objectives_agree([s.objective for s in solutions if s.success], agree_rtol):
                 break
         best = min(range(len(solutions)), key=lambda i: solutions[i].start_rank)
         sol = solutions[best]

@@ -50,7 +50,13 @@ from typing import Any, Literal
 
 import numpy as np
 
-from predictive.ocp.collocation import DEFAULT_STARTS, OCPSettings, PredictiveGaitProblem, solve_predictive
+from predictive.ocp.collocation import (
+    DEFAULT_STARTS,
+    OCPSettings,
+    PredictiveGaitProblem,
+    objectives_agree,
+    solve_predictive,
+)
 from predictive.ocp.guess_worker import FORK, GuessWorker, continued_gait, default_workers
 from predictive.ocp.solution import GaitSolution
 from predictive.ocp.tracking import TrackingResult, track_starts
@@ -152,6 +158,8 @@ class ContinuedGuesses:
                 first = next((j for j in self.trial_order()[1:2] if self._solutions[j] is None), None)
                 if first is not None and self.neighbour(first) == self.anchor:
                     self._speculative[first] = self._worker.continued_from_start(0, self.speeds[first])
+        #: processes solving the guesses: 2 with a worker (none where every gait was cached), else 1
+        self.processes = 1 if self._worker is None else 2
 
     def __len__(self) -> int:
         return len(self.speeds)
@@ -389,8 +397,9 @@ def solve_imu_tracking(
     half = max(n_nodes // 2, 4)
     workers = default_workers() if workers is None else workers
     # the guesses first: with a worker, it starts on the middle speed's multi-start at once
-    workers = workers if shared and guess == "predictive" and FORK else 1
-    chain = ContinuedGuesses(speeds, duration, body, n_nodes=half, cache_dir=guess_cache, workers=workers)
+    chain = ContinuedGuesses(
+        speeds, duration, body, n_nodes=half, cache_dir=guess_cache, workers=workers if shared and guess == "predictive" else 1
+    )
     try:
         names = [f"{s}_{c}" for s in recording.segments for c in IMU_CHANNELS]
         scales, scaling = _imu_scales(recording, names, n_nodes, imu_scales)
@@ -438,7 +447,7 @@ def solve_imu_tracking(
         "scaling": scaling,
         "guess": guess if isinstance(guess, str) else "solution",
         "starts": [_describe_start(v0, r, r is best) for v0, r in zip(speeds, done)],
-        "processes": workers,
+        "processes": chain.processes,
         "ipopt_time_s": float(sum(r.solution.solve_time for r in results)),
         "guess_time_s": guess_time,
         "wall_time_s": time.perf_counter() - t_start,
@@ -456,7 +465,7 @@ def _two_agree(results: Sequence[TrackingResult], rtol: float, tolerance: float 
     """Whether two of the starts ``results`` are successful, in phase (heel strike within
     ``tolerance`` of the first sample) and equal in objective within ``rtol`` (relative)."""
     good = [r.solution.objective for r in results if _start_rank(r.solution, tolerance)[:2] == (False, False)]
-    return any(math.isclose(a, b, rel_tol=rtol) for k, a in enumerate(good) for b in good[k + 1 :])
+    return objectives_agree(good, rtol)
 
 
 def _describe_start(speed_guess: float, result: TrackingResult | None, chosen: bool) -> dict[str, Any]:
