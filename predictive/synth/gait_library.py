@@ -84,6 +84,14 @@ def _continuation_order(speeds: Sequence[float]) -> list[tuple[float, float | No
     return order
 
 
+def template_families(speeds: Sequence[float]) -> list[list[float]]:
+    """``speeds`` split into gait families (walking below :data:`RUN_SPEED`, running at or above),
+    the empty ones left out. :func:`template_library` solves each family by a continuation of its
+    own, so the families can be solved apart, in parallel, to the same solutions and cache keys."""
+    families = ([v for v in speeds if v < RUN_SPEED], [v for v in speeds if v >= RUN_SPEED])
+    return [family for family in families if family]
+
+
 def template_library(
     speeds: Sequence[float], stride: StrideSettings, cache: SynthCache
 ) -> dict[float, tuple[GaitSolution, str]]:

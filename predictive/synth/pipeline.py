@@ -3,7 +3,8 @@
 :func:`generate_dataset` makes virtual subjects walk and run, continuously and with
 stride-to-stride variability and speed changes, and writes recordings whose labels satisfy the
 equations of motion of the sspinn model at every 100 Hz sample. This module runs the pipeline
-(subjects, as joblib tasks when ``workers > 1``, then the dataset and its ``dataset.json``);
+(the nominal body's template gaits, walking and running as two joblib tasks when ``workers > 1``;
+the subjects, one joblib task each; then the dataset and its ``dataset.json``);
 each step lives in its own module of :mod:`predictive.synth`.
 
 Method
@@ -74,7 +75,7 @@ from predictive.ocp.stride_nlp import StrideSettings, StrideSolverCache
 from predictive.synth.cache import CODE_VERSION, GENERATOR_NAME, CacheStats, SynthCache, jsonable
 from predictive.synth.chain import ChainError, StrideRecord
 from predictive.synth.config import SynthConfig, imu_model
-from predictive.synth.gait_library import periodic_library, template_library
+from predictive.synth.gait_library import periodic_library, template_families, template_library
 from predictive.synth.joblib_backend import LOCAL_BACKENDS, ProgressRelay, backend_context, check_backend
 from predictive.synth.recording import cached_recording, fallback_counts, recording_chain, residual_stats
 from predictive.synth.subjects import VirtualSubject, body_deviation, sample_subjects
@@ -227,12 +228,13 @@ def generate_dataset(
         with backend:  # checked before any work
             # the nominal-body templates first (shared by all subjects and workers)
             on_progress("template gaits", 0.0)
-            template_library(config.all_speeds(), config.stride, cache)
             if config.workers == 1:
+                template_library(config.all_speeds(), config.stride, cache)
                 solvers = StrideSolverCache(config.stride)
                 outputs = [generate_subject(config, subject, cache, solvers, on_progress) for subject in subjects]
                 build_time = solvers.build_time
             else:
+                _templates_parallel(config, cache)
                 outputs = _generate_parallel(config, subjects, on_progress)
                 build_time = sum(o.build_time_s for o in outputs)
     finally:
@@ -313,6 +315,26 @@ def generate_dataset(
         non_finite="null",
     )
     return Dataset.open(out)
+
+
+def _template_job(speeds: Sequence[float], stride: StrideSettings, cache_dir: str) -> CacheStats:
+    """One gait family's template gaits into the cache at ``cache_dir``; the cache's counts."""
+    cache = SynthCache(cache_dir)
+    template_library(speeds, stride, cache)
+    return cache.stats
+
+
+def _templates_parallel(config: SynthConfig, cache: SynthCache) -> None:
+    """The template gaits of walking and of running as two ``joblib`` tasks (on the backend
+    entered by the caller), their cache counts added to ``cache``'s: each family's continuation
+    holds one core for most of a minute, during which the other core would wait."""
+    import joblib
+
+    root = str(Path(config.cache_dir).resolve())
+    families = template_families(config.all_speeds())
+    parallel = joblib.Parallel(n_jobs=min(config.workers, len(families)), batch_size=1)
+    for stats in parallel(joblib.delayed(_template_job)(family, config.stride, root) for family in families):
+        cache.stats.add(stats)
 
 
 def _generate_parallel(
