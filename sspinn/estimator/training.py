@@ -22,6 +22,7 @@ import os
 import random
 import time
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Final
@@ -505,19 +506,31 @@ class PhysicsTerms:
         return losses.weigh(physics_terms(losses, raw, batch), weights)
 
 
-def flush_denormals() -> bool:
-    """Treat subnormal floats as zero on the CPU (x86 FTZ/DAZ; ``torch.set_flush_denormal``);
-    returns whether the CPU supports it.
+@contextlib.contextmanager
+def denormals_flushed() -> Iterator[None]:
+    """Inside, subnormal floats count as zero on the CPU (x86 FTZ/DAZ, ``torch.set_flush_denormal``);
+    the calling thread's earlier setting is restored on the way out.
 
     Why: as training converges, Adam's second moments and the LSTM's small gradients fall below
-    1.2e-38 (float32's smallest normal number), where x86 arithmetic takes a slow path. A demo
+    1.2e-38 (float32's smallest normal number), where x86 arithmetic takes a slow path: a demo
     model's steps ran at 18–21 steps/s after 12,000 steps against 26–28 with the flush, the losses
-    equal to three digits (2-CPU Intel Xeon; ``docs/estimator_results.md``). The flag belongs to a
-    thread: set in the main thread before torch's worker threads start, they inherit it
-    (``pthread_create`` copies the floating-point environment); otherwise the main thread's share
-    of the work still gains. The cost: values below 1.2e-38 become 0, far below float32's
-    resolution of anything a loss or an estimate holds."""
-    return bool(torch.set_flush_denormal(True))
+    equal to three digits (2-CPU Intel Xeon; ``docs/estimator_results.md``). Values that small are
+    far below the resolution of anything a loss or an estimate holds. The flag belongs to a
+    thread: torch's worker threads started inside inherit it (``pthread_create`` copies the
+    floating-point environment) and keep it; the calling thread's is restored, so NumPy code run
+    after training sees the setting it had before."""
+    was_on = _denormals_flushed_now()
+    torch.set_flush_denormal(True)
+    try:
+        yield
+    finally:
+        if not was_on:
+            torch.set_flush_denormal(False)
+
+
+def _denormals_flushed_now() -> bool:
+    """Whether this thread flushes subnormals now: 1e-39 (a float32 subnormal) becomes 0."""
+    return float(torch.tensor([1e-39], dtype=torch.float64).to(torch.float32)[0] * 2.0) == 0.0
 
 
 class NonFiniteLossError(RuntimeError):
@@ -551,7 +564,6 @@ class Trainer:
     # -------------------------------------------------------------- setup
     def _setup(self, train: list[Recording]) -> None:
         cfg = self.config
-        flush_denormals()
         self.rank, self.world = init_distributed(self.device)
         random.seed(cfg.seed)
         np.random.seed(cfg.seed)
@@ -692,10 +704,11 @@ class Trainer:
         into the same folder stops with an error naming this one. Ctrl-C finishes the current
         step, saves ``checkpoint.pt`` and raises :class:`KeyboardInterrupt`; ``resume`` then
         continues exactly as if uninterrupted."""
-        if int(os.environ.get("RANK", "0")) != 0:  # under torchrun only rank 0 owns the folder
-            return self._fit(train, resume, init_from)
-        with RunLock(self.out):
-            return self._fit(train, resume, init_from)
+        with denormals_flushed():
+            if int(os.environ.get("RANK", "0")) != 0:  # under torchrun only rank 0 owns the folder
+                return self._fit(train, resume, init_from)
+            with RunLock(self.out):
+                return self._fit(train, resume, init_from)
 
     def _fit(self, train: list[Recording], resume: bool, init_from: str | Path | StoredModel | None) -> SSPINNposeNet:
         from tqdm.auto import tqdm
