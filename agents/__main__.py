@@ -60,7 +60,7 @@ def build_parser() -> argparse.ArgumentParser:
                            help=f"episodes (seeds seed, seed+1, ...), 1–{MAX_EPISODES}")
             p.add_argument("--out", required=True, help="output folder (metrics.json, traces.png, episode.gif)")
             p.add_argument("--no-video", action="store_true", help="skip the animation")
-            p.add_argument("--data-dir", help="shared data folder with winter_walking (default ../shared/data)")
+            p.add_argument("--data-dir", help="folder holding winter_walking/ for the angle RMSD (default: $SSPINN_SHARED_DATA)")
         else:
             p.add_argument("--out", required=True, help="output file, .gif or .mp4")
         p.add_argument("--fps", type=bounded(int, 1, ENV_RATE_HZ), default=25,

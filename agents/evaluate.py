@@ -51,7 +51,7 @@ def evaluate(
     """Run ``episodes`` deterministic episodes (seeds ``seed``, ``seed + 1``, ...) at
     ``target_speed`` m/s (default: the run's evaluation target), write the report, plot and
     animation into ``out`` and return the report. ``data_dir``: the shared data folder holding
-    ``winter_walking`` (default ``../shared/data`` beside the repository; absent: no angle RMSD)."""
+    ``winter_walking`` (default ``$SSPINN_SHARED_DATA``, :mod:`sspinn.data.shared_data`; absent: no angle RMSD)."""
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
     agent = load_agent(checkpoint)

@@ -144,7 +144,7 @@ class WalkerEvalCallback(BaseCallback):
     """Every ``eval_freq`` timesteps: deterministic episodes on fixed seeds at the evaluation
     target speed; logs distance, speed, speed error, cost of transport, falls and the gait metrics
     (:func:`sspinn.data.gait_metrics.gait_metrics`: asymmetries, foot sliding, impact peak, angle RMSD to
-    Winter's walking when ``../shared/data`` exists and the target is a walking speed) to
+    Winter's walking when ``$SSPINN_SHARED_DATA`` holds it and the target is a walking speed) to
     TensorBoard ``eval/*`` and ``evaluations.csv``, and saves the best model (mean return) with
     its VecNormalize statistics."""
 

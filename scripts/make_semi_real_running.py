@@ -27,7 +27,6 @@ from sspinn.data.dataset import Dataset  # noqa: E402
 from sspinn.data.sensor_noise import IMUErrorModel  # noqa: E402
 from sspinn.validation.semi_real_running import (  # noqa: E402
     DEFAULT_RUN_CUTOFF_HZ,
-    default_hamner_dir,
     hamner_running,
 )
 
@@ -86,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, required=True, help="dataset folder to write (created)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the IMU error model (default 0)")
-    ap.add_argument("--data", type=Path, default=None, help=f"the opensim_hamner_run folder (default {default_hamner_dir()})")
+    ap.add_argument("--data", type=Path, default=None, help="the opensim_hamner_run folder (default: in $SSPINN_SHARED_DATA)")
     ap.add_argument("--cutoff", type=float, default=DEFAULT_RUN_CUTOFF_HZ, help="low-pass cutoff, Hz")
     ap.add_argument("--no-imu-errors", action="store_true", help="ideal virtual IMUs (IMUErrorModel.none())")
     args = ap.parse_args(argv)

@@ -16,6 +16,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from sspinn.data.shared_data import shared_data_dir
 from sspinn.model.drawing import save_figure
 from sspinn.validation.inverse_dynamics import (
     CONTACT_THRESHOLD_N,
@@ -23,7 +24,6 @@ from sspinn.validation.inverse_dynamics import (
     Comparison,
     csu_inverse_dynamics,
     csu_reference_replica,
-    default_data_dir,
     opensim_inverse_dynamics,
 )
 
@@ -66,17 +66,21 @@ def plot(comparisons: list[Comparison], out: Path) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=default_data_dir(), help="folder holding the shared data sets")
+    parser.add_argument("--data", type=Path, default=shared_data_dir(),
+                        help="folder holding csu_2d_inverse_dynamics/ and opensim_subject01_walk/ (default: $SSPINN_SHARED_DATA)")
     parser.add_argument("--out", type=Path, default=Path("results/validation/inverse_dynamics.png"), help="PNG path")
     parser.add_argument("--cutoff", type=float, default=DEFAULT_CUTOFF_HZ, help="low-pass cutoff, Hz")
     parser.add_argument("--threshold", type=float, default=CONTACT_THRESHOLD_N, help="contact threshold, N")
     args = parser.parse_args(argv)
 
+    if args.data is None:
+        print("no data folder: pass --data or set SSPINN_SHARED_DATA", file=sys.stderr)
+        return 1
     csu_dir = args.data / "csu_2d_inverse_dynamics"
     osim_dir = args.data / "opensim_subject01_walk"
     missing = [str(d) for d in (csu_dir, osim_dir) if not d.is_dir()]
     if missing:
-        print(f"data not found: {', '.join(missing)} (see ../shared/data/README.md)", file=sys.stderr)
+        print(f"data not found: {', '.join(missing)} (optional public data, not shipped)", file=sys.stderr)
         return 1
     comparisons = [
         csu_inverse_dynamics(csu_dir, cutoff=args.cutoff, threshold=args.threshold),

@@ -13,6 +13,8 @@ from sspinn.model.contact import ContactParameters
 
 #: ../shared/data beside the repository; ``SSPINN_SHARED_DATA`` points elsewhere (a worktree in another folder).
 SHARED_DATA = Path(os.environ.get("SSPINN_SHARED_DATA") or Path(__file__).resolve().parents[1].parent / "shared" / "data")
+# the library finds the optional public data only where it is told (sspinn.data.shared_data): tell it
+os.environ.setdefault("SSPINN_SHARED_DATA", str(SHARED_DATA))
 
 
 @pytest.fixture(scope="session")

@@ -177,10 +177,20 @@ def test_too_short_a_trajectory_gives_undefined_metrics() -> None:
     assert m.steps_r == 0 and m.heel_strikes_l == 0 and math.isnan(m.peak_impact_bw) and m.as_dict()["foot_slide_m"] is None
 
 
-def test_the_default_data_folder_is_the_one_beside_the_repository() -> None:
-    """``DEFAULT_DATA_DIR`` is ``../shared/data`` seen from the repository root (where the tests
-    look too), so that evaluations find Winter's walking without being told."""
-    from sspinn.data.gait_metrics import DEFAULT_DATA_DIR
+def test_the_optional_data_is_found_only_where_it_is_told(monkeypatch, tmp_path) -> None:
+    """No default location: without ``SSPINN_SHARED_DATA`` or an argument, a one-line error names
+    the variable and the folder; with the variable, its folder is used."""
+    from sspinn.data.gait_metrics import winter_or_none
+    from sspinn.data.shared_data import shared_data_dir, shared_data_folder
 
-    repository = Path(__file__).resolve().parents[1]
-    assert DEFAULT_DATA_DIR == repository.parent / "shared" / "data"
+    monkeypatch.delenv("SSPINN_SHARED_DATA", raising=False)
+    assert shared_data_dir() is None and winter_or_none() is None
+    with pytest.raises(FileNotFoundError, match=r"^winter_walking: no data folder given; .*SSPINN_SHARED_DATA"):
+        load_winter()
+    (tmp_path / "winter_walking").mkdir()
+    monkeypatch.setenv("SSPINN_SHARED_DATA", str(tmp_path))
+    assert shared_data_folder("winter_walking") == tmp_path / "winter_walking"
+    with pytest.raises(FileNotFoundError, match=r"signals.csv: not found"):
+        load_winter()
+    with pytest.raises(FileNotFoundError, match=r"opensim_hamner_run: not found"):
+        shared_data_folder("opensim_hamner_run")

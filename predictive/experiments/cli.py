@@ -1,6 +1,6 @@
 """The experiment sub-commands of ``python -m predictive``: ``track-imu``, ``compare`` and ``robustness``.
 
-``python -m predictive track-imu --data ../shared/data/dorschky_P03_walking --out results/ocp/imu_tracking``:
+``python -m predictive track-imu --data $SSPINN_SHARED_DATA/dorschky_P03_walking --out results/ocp/imu_tracking``:
 IMU tracking of an averaged stride, compared with its labels. Reads the averaged stride
 (:func:`sspinn.data.csv_readers.read_averaged_stride`; body height and mass are not recorded there, so
 1.75 m / 70 kg are assumed unless given), solves

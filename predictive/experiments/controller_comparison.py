@@ -33,7 +33,7 @@ central differences of the 100 Hz states, the GRF of the environment's contact m
 plus passive torques — it measures how far the 100 Hz samples are from satisfying the continuous
 equations, i.e. mostly the sampling of impacts; the same computation for every method), joint
 angle RMSD to Winter's walking (deg; right hip/knee/ankle, the mean normalised cycle from right
-heel strikes after the first 2 s; speeds < 2 m/s and when ``../shared/data`` exists), jitter
+heel strikes after the first 2 s; speeds < 2 m/s and when Winter's data is at hand: ``data_dir`` or ``$SSPINN_SHARED_DATA``), jitter
 (mean |d³θ/dt³|, rad/s³), and the wall-clock **time to obtain the controller** (one-off training)
 and **time per new speed** (what a new target speed costs: a forward pass + LQR; an OCP solve +
 LQR; retraining the agent).
@@ -68,9 +68,9 @@ from predictive.controller import LegLengthCalibrated, start_options
 from predictive.generator.closed_loop import TrackerSettings
 from predictive.generator.controllers import GeneratorControllers, OCPControllers
 from predictive.ocp.collocation import OCPError
-from predictive.ocp.gait_analysis import load_winter
 from predictive.synth.cache import jsonable, stable_hash
 from sspinn.data.gait_events import contact_onsets
+from sspinn.data.gait_metrics import winter_or_none
 from sspinn.estimator.calibration_files import file_sha256
 from sspinn.estimator.evaluation import angle_jitter
 from sspinn.model.body import BodyParameters
@@ -473,7 +473,7 @@ def _run_comparison(config: ComparisonConfig, out: Path) -> list[CellResult]:
     if missing:  # before hours of other methods, not when the method's turn comes
         raise FileNotFoundError(f"{', '.join(missing)}: no gait generator here (train one with `python -m predictive "
                                 "train-generator`, or remove its methods from the configuration)")
-    reference = _winter(config.data_dir)
+    reference = winter_or_none(config.data_dir)
     cells: list[CellResult] = []
     for speed in config.speeds:
         env = None
@@ -507,13 +507,6 @@ def _run_comparison(config: ComparisonConfig, out: Path) -> list[CellResult]:
             env.close()
     write_report(config, cells, out, reference)
     return cells
-
-
-def _winter(data_dir: str | None) -> Any:
-    try:
-        return load_winter(data_dir)
-    except FileNotFoundError:
-        return None
 
 
 # ------------------------------------------------------------------------------------------ report

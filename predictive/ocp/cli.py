@@ -4,7 +4,7 @@
 
 Solves the predictive gait problem (:func:`predictive.ocp.collocation.solve_predictive`), prints
 IPOPT's status, iterations, solve time, the Kane residual at the nodes, stance fractions and —
-when ``../shared/data/winter_walking`` exists — the RMSD against Winter's normal walking, and
+when Winter's walking is at hand (``--data-dir`` or ``$SSPINN_SHARED_DATA``) — the RMSD against Winter's normal walking, and
 writes ``<out>.npz``/``<out>.json`` (the solution), ``<out>_summary.json`` and ``<out>.png``
 (angles and GRF versus % gait cycle). When ``--out`` already holds a solution, it writes to the
 first free ``<out>_2``, ``<out>_3``, … and says so, unless ``--overwrite``.
@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from predictive.ocp.collocation import OCPError, solve_predictive
-from predictive.ocp.gait_analysis import DEFAULT_DATA_DIR, compare_with_reference, load_winter, plot_gait
+from predictive.ocp.gait_analysis import compare_with_reference, load_winter, plot_gait
 from predictive.ocp.limits import (
     DURATION_RANGE_S,
     NODES_RANGE,
@@ -61,7 +61,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     solve.add_argument("--guess", type=Path, default=None, help="previous solution (.npz/.json) as initial guess")
     solve.add_argument("--height", type=float, default=1.75, help="body height, m")
     solve.add_argument("--mass", type=float, default=70.0, help="body mass, kg")
-    solve.add_argument("--data-dir", type=Path, default=DEFAULT_DATA_DIR, help="folder holding winter_walking/")
+    solve.add_argument("--data-dir", type=Path, default=None,
+                       help="folder holding winter_walking/ (default: $SSPINN_SHARED_DATA; without it no comparison)")
     solve.add_argument("--verbose", action="store_true", help="print IPOPT's iteration log")
     solve.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     return solve

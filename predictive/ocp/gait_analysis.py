@@ -1,6 +1,6 @@
 """Plausibility checks of predicted gaits: comparison with Winter's averaged walking data, plots.
 
-Winter's data (``../shared/data/winter_walking``: 50 samples per stride from right heel strike,
+Winter's data (the ``winter_walking`` folder of the optional public data, :mod:`sspinn.data.shared_data`: 50 samples per stride from right heel strike,
 angles in rad with the sspinn signs, GRF in body weights) is optional: functions that need it
 take its folder and raise :class:`FileNotFoundError` with a clear message if it is absent. The
 reference type and its loader are :class:`sspinn.data.gait_metrics.ReferenceGait` and
@@ -16,7 +16,7 @@ import numpy as np
 from predictive.ocp.solution import CONTACT_THRESHOLD_BW, GaitSolution
 
 # the reference gait and its loader live with the gait metrics (usable by envs and agents too)
-from sspinn.data.gait_metrics import DEFAULT_DATA_DIR, ReferenceGait, load_winter  # noqa: F401 (re-exported)
+from sspinn.data.gait_metrics import ReferenceGait, load_winter  # noqa: F401 (re-exported)
 from sspinn.model.drawing import save_figure
 
 #: Compared signals: name → (sspinn column in q (rad) or grf (BW), Winter column).

@@ -81,7 +81,7 @@ def averaged_stride_scales(
     folder: str | Path, names: Sequence[str], n_nodes: int, mass: float | None = None
 ) -> dict[str, np.ndarray]:
     """Across-trial standard deviations of an averaged stride (``variance.csv`` next to
-    ``signals.csv``, as in ``../shared/data/dorschky_P03_walking``) at the node times, floored at
+    ``signals.csv``, as in ``$SSPINN_SHARED_DATA/dorschky_P03_walking``) at the node times, floored at
     :data:`MIN_SCALES`: the normalisation of Dorschky et al. (2019), who divided the tracking
     errors by the intertrial variance.
 

@@ -1,7 +1,7 @@
 """Readers that turn other recording formats into :class:`sspinn.data.dataset.Recording` (100 Hz).
 
 * :func:`read_averaged_stride` — a folder with ``signals.csv`` + ``meta.json`` holding one
-  ensemble-averaged stride (as in ``../shared/data/dorschky_P03_walking``), resampled to 100 Hz
+  ensemble-averaged stride (as in ``$SSPINN_SHARED_DATA/dorschky_P03_walking``), resampled to 100 Hz
   with the stride duration and, for SSPINNpose's "averaged" protocol, repeated periodically.
 * :func:`read_csv_recording` — a plain CSV of IMU signals with a column map, any sample rate.
 
@@ -24,7 +24,7 @@ from sspinn.data.signal_checks import check_recording
 from sspinn.model.body import IMUPlacement
 from sspinn.model.conventions import GRAVITY, GRF, IMU_CHANNELS, JOINTS, SEGMENTS
 
-#: OpenSim coordinate names of our joints (as used in ../shared/data): hip_r → hip_flexion_r.
+#: OpenSim coordinate names of our joints (as used in $SSPINN_SHARED_DATA): hip_r → hip_flexion_r.
 OPENSIM_NAMES = {j: j.replace("hip", "hip_flexion").replace("knee", "knee_angle").replace("ankle", "ankle_angle") for j in JOINTS}
 #: Column names of the averaged-stride label files → sspinn label columns.
 _AVERAGED_LABELS = {

@@ -48,14 +48,13 @@ from typing import Any, Final
 import numpy as np
 
 from sspinn.data.gait_events import CONTACT_THRESHOLD_BW, MIN_PHASE_S, detect_events, normalise_cycles, strides
+from sspinn.data.shared_data import shared_data_folder
 from sspinn.model import kinematics
 from sspinn.model.body import BodyParameters
 from sspinn.model.trajectory import Trajectory
 
 #: Window after a heel strike in which the impact peak is taken, s.
 IMPACT_WINDOW_S: Final = 0.1
-#: Default location of the shared real data (``../shared/data`` beside the repository).
-DEFAULT_DATA_DIR: Final = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 _HEEL = (kinematics.point_index("heel_r"), kinematics.point_index("heel_l"))
 _CONTACT = (kinematics.point_index("contact_r"), kinematics.point_index("contact_l"))
 
@@ -77,12 +76,13 @@ class ReferenceGait:
 def load_winter(data_dir: str | Path | None = None) -> ReferenceGait:
     """Winter's averaged normal walking, right leg (D.A. Winter, *Biomechanics and Motor Control of
     Human Gait*; 1.325 m/s, 50 samples per stride from right heel strike, sspinn signs), from
-    ``<data_dir>/winter_walking`` (default :data:`DEFAULT_DATA_DIR`); :class:`FileNotFoundError`
-    with a clear message when that optional data is absent."""
-    folder = Path(data_dir if data_dir is not None else DEFAULT_DATA_DIR) / "winter_walking"
+    ``<data_dir>/winter_walking`` (``data_dir`` defaults to ``$SSPINN_SHARED_DATA``,
+    :mod:`sspinn.data.shared_data`); :class:`FileNotFoundError` with a one-line message when that
+    optional data is absent."""
+    folder = shared_data_folder("winter_walking", data_dir)
     csv, meta_path = folder / "signals.csv", folder / "meta.json"
     if not csv.exists():
-        raise FileNotFoundError(f"Winter walking data not found at {csv} (../shared/data is optional)")
+        raise FileNotFoundError(f"{csv}: not found (Winter's walking, optional public data)")
     data = np.genfromtxt(csv, delimiter=",", names=True)
     meta = json.loads(meta_path.read_text())
     n = len(data)
@@ -294,5 +294,5 @@ def gait_metrics(
     )
 
 
-__all__ = ["DEFAULT_DATA_DIR", "IMPACT_WINDOW_S", "GaitMetrics", "ReferenceGait", "gait_metrics", "load_winter",
+__all__ = ["IMPACT_WINDOW_S", "GaitMetrics", "ReferenceGait", "gait_metrics", "load_winter",
            "symmetry_index", "winter_or_none"]

@@ -258,7 +258,7 @@ def _plain(obj: Any) -> Any:
 # IMU placement
 # --------------------------------------------------------------------------------------------
 #: Typical sensor positions in the segment frames (m), for a 1.75 m person; taken from the IMU
-#: positions of the Dorschky et al. (2019) recordings (``../shared/data/dorschky_P03_walking``).
+#: positions of the Dorschky et al. (2019) recordings (``$SSPINN_SHARED_DATA/dorschky_P03_walking``).
 DEFAULT_IMU_POSITIONS: Final[dict[str, tuple[float, float]]] = {
     "pelvis": (-0.085, 0.095),
     "femur_r": (0.0, -0.285),
@@ -342,7 +342,7 @@ class JointLimits:
         −140°…+0.1 rad (flexion −; the paper's small hyperextension allowance), ankle −50°…+40°
         (dorsiflexion +). From the AAOS normal values (hip flexion 120°, knee flexion 135–140°,
         ankle plantarflexion 50°), with the hip's extension widened from 30° to 40° because
-        running reaches it (the Hamner running trial of ``../shared/data``: −31°), and the
+        running reaches it (the Hamner running trial of ``$SSPINN_SHARED_DATA``: −31°), and the
         ankle's dorsiflexion from the weight-bearing lunge test (≈ 40° of shank inclination;
         Bennell et al., Aust J Physiother 44:175, 1998), since a loaded ankle exceeds the 20° of
         passive dorsiflexion. The paper's bounds (the default) stop the knee at 60° of flexion,

@@ -9,7 +9,7 @@ Frames and units
 * Global frame N: x forward (walking direction), y up, z = x × y pointing to the subject's right.
   The ground is the line y = 0.
 * Every angle is a rotation about z, positive counter-clockwise when seen from the subject's right
-  side (the OpenSim / BioMAC convention of ``../shared/data/README.md``). Hence hip flexion is
+  side (the OpenSim / BioMAC convention of ``$SSPINN_SHARED_DATA/README.md``). Hence hip flexion is
   positive, **knee flexion is negative**, ankle dorsiflexion is positive and a positive pelvis tilt
   lifts the front of the pelvis (the trunk leans back).
 * Segment frames: origin at the proximal joint (the hip for the HAT segment), y axis along the
@@ -102,7 +102,7 @@ GRAVITY: Final[float] = 9.81
 
 
 def imu_columns(segments: tuple[str, ...] = SEGMENTS) -> list[str]:
-    """Column names ``<segment>_<channel>`` of the IMU signals, as in ``../shared/data``."""
+    """Column names ``<segment>_<channel>`` of the IMU signals, as in ``$SSPINN_SHARED_DATA``."""
     return [f"{seg}_{ch}" for seg in segments for ch in IMU_CHANNELS]
 
 

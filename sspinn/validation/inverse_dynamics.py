@@ -1,7 +1,7 @@
 """Inverse dynamics of real walking recordings with the Kane model, checked against references
 computed by others.
 
-Two references (see ``../shared/data/README.md``):
+Two references (see ``$SSPINN_SHARED_DATA/README.md``):
 
 * **CSU 2D inverse dynamics** (GaitAnalysisToolKit ``leg2d.m``, Winter's method): markers and a
   force plate at 100 Hz, results in ``refresults.mat`` (301×15: angles, angular velocities,
@@ -67,6 +67,7 @@ from sspinn.data.opensim_files import (
     read_osim_model,
     sagittal_leg_from_osim,
 )
+from sspinn.data.shared_data import shared_data_folder
 from sspinn.model.body import WINTER, BodyParameters, Foot, Segment
 from sspinn.model.conventions import N_Q, SIDES, index
 from sspinn.model.dynamics import inverse_dynamics
@@ -102,11 +103,6 @@ OPENSIM_JOINTS: Final[dict[str, str]] = {
 }
 #: OpenSim coordinates that are translations (m); every other coordinate is an angle.
 _OPENSIM_TRANSLATIONS: Final[frozenset[str]] = frozenset({"pelvis_tx", "pelvis_ty", "pelvis_tz"})
-
-
-def default_data_dir() -> Path:
-    """``../shared/data`` relative to the repository root (the real recordings; may be absent)."""
-    return Path(__file__).resolve().parents[2].parent / "shared" / "data"
 
 
 # --------------------------------------------------------------------------------------------
@@ -428,7 +424,7 @@ def csu_inverse_dynamics(
     foot) with the same signs, so reference angles = (hip, −knee, −ankle − π/2): leg2d's foot
     line is sspinn's foot x axis while its shank line is sspinn's tibia −y axis.
     """
-    directory = Path(directory) if directory is not None else default_data_dir() / "csu_2d_inverse_dynamics"
+    directory = Path(directory) if directory is not None else shared_data_folder("csu_2d_inverse_dynamics")
     rec = load_csu(directory)
     t = rec.time
     dt = float(np.mean(np.diff(t)))
@@ -533,7 +529,7 @@ def opensim_inverse_dynamics(
     Reference: ``<prefix>_ID.sto`` (N·m, same signs as sspinn), interpolated to the IK times
     (its time stamps differ by < 1 µs). Both divided by the model mass.
     """
-    directory = Path(directory) if directory is not None else default_data_dir() / "opensim_subject01_walk"
+    directory = Path(directory) if directory is not None else shared_data_folder("opensim_subject01_walk")
     ik_path = directory / f"{prefix}_IK.mot"
     grf_path = directory / f"{prefix}_grf.mot"
     xml_path = directory / f"{prefix}_grf.xml"

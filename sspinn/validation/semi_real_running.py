@@ -7,9 +7,9 @@ OpenSim inverse kinematics of treadmill running (Hamner et al. 2010, opensim-mod
 sspinn :class:`~sspinn.data.dataset.Recording` whose IMU signals are the project's virtual IMUs plus
 its IMU error model. It is **semi-real**: the kinematics and forces are measured, the IMUs are not.
 
-Data: ``../shared/data/opensim_hamner_run`` (``subject02_running_ik.mot``,
+Data: ``$SSPINN_SHARED_DATA/opensim_hamner_run`` (``subject02_running_ik.mot``,
 ``subject02_running_grf.mot`` + ``External_Loads.xml``, ``subject02_scaled.osim``; see
-``../shared/data/README.md``). The recording is built by :func:`hamner_running` as follows.
+``$SSPINN_SHARED_DATA/README.md``). The recording is built by :func:`hamner_running` as follows.
 
 1. **Kinematics → sspinn coordinates.** The IK's sagittal coordinates (degrees → rad; OpenSim's
    signs are sspinn's: hip flexion +, knee flexion −, ankle dorsiflexion +, see
@@ -90,6 +90,7 @@ from sspinn.data.opensim_files import (
     sagittal_leg_from_osim,
 )
 from sspinn.data.sensor_noise import IMUErrorModel, measure_imu
+from sspinn.data.shared_data import shared_data_folder
 from sspinn.model.body import BodyParameters, IMUPlacement
 from sspinn.model.conventions import SEGMENTS, SIDES, index
 from sspinn.model.dynamics import inverse_dynamics
@@ -98,20 +99,19 @@ from sspinn.model.trajectory import Trajectory
 from sspinn.validation.inverse_dynamics import (
     CONTACT_THRESHOLD_N,
     OPENSIM_JOINTS,
-    default_data_dir,
     differentiate,
     grf_inputs,
     lowpass,
     sagittal_coordinates,
 )
 
-#: Folder of the recording under ``../shared/data``.
+#: Folder of the recording under ``$SSPINN_SHARED_DATA``.
 DATA_FOLDER: Final = "opensim_hamner_run"
 IK_FILE: Final = "subject02_running_ik.mot"
 GRF_FILE: Final = "subject02_running_grf.mot"
 LOADS_FILE: Final = "External_Loads.xml"
 MODEL_FILE: Final = "subject02_scaled.osim"
-#: Subject height, m (``../shared/data/README.md``; the .osim file has no height). The mass is
+#: Subject height, m (``$SSPINN_SHARED_DATA/README.md``; the .osim file has no height). The mass is
 #: the scaled model's total (65.9 kg).
 HAMNER_HEIGHT_M: Final = 1.83
 #: Low-pass cutoff of the kinematics and the loads, Hz (running: faster than walking's 6 Hz).
@@ -127,8 +127,9 @@ _IK_COORDINATES: Final = ("pelvis_tx", "pelvis_ty", "pelvis_tilt", *OPENSIM_JOIN
 
 
 def default_hamner_dir() -> Path:
-    """``../shared/data/opensim_hamner_run`` (may be absent)."""
-    return default_data_dir() / DATA_FOLDER
+    """``opensim_hamner_run`` in the optional public data (``$SSPINN_SHARED_DATA``,
+    :func:`~sspinn.data.shared_data.shared_data_folder`); :class:`FileNotFoundError` when absent."""
+    return shared_data_folder(DATA_FOLDER)
 
 
 # --------------------------------------------------------------------------------------------
@@ -164,7 +165,7 @@ def read_hamner_files(directory: str | Path | None = None) -> HamnerFiles:
     """Read the IK, GRF, external-loads and model files of the Hamner run (see the module docs)."""
     directory = Path(directory) if directory is not None else default_hamner_dir()
     if not directory.is_dir():
-        raise FileNotFoundError(f"Hamner running data not found: {directory} (see ../shared/data/README.md)")
+        raise FileNotFoundError(f"Hamner running data not found: {directory} (the opensim_hamner_run folder)")
     ik_path, grf_path = directory / IK_FILE, directory / GRF_FILE
     model = read_osim_model(directory / MODEL_FILE)
     if np.any(model.joint("ground_pelvis").parent_offset != 0) or np.any(model.joint("ground_pelvis").child_offset != 0):
@@ -396,7 +397,7 @@ def hamner_running(
     """The semi-real running recording of the Hamner run and its diagnostics (module docs).
 
     Args:
-        data_dir: the ``opensim_hamner_run`` folder (default: ``../shared/data/opensim_hamner_run``).
+        data_dir: the ``opensim_hamner_run`` folder (default: :func:`default_hamner_dir`).
         seed: seed of the IMU error model's random draws (same seed → identical recording).
         error_model: IMU error model (default :class:`~sspinn.data.sensor_noise.IMUErrorModel`;
             :meth:`~sspinn.data.sensor_noise.IMUErrorModel.none` gives the ideal virtual IMUs).
@@ -480,7 +481,7 @@ def hamner_running(
         "source": {
             "folder": str(files.directory),
             "files": [IK_FILE, GRF_FILE, LOADS_FILE, MODEL_FILE],
-            "origin": "opensim-org/opensim-models, Hamner running pipeline, subject02 (see ../shared/data/README.md)",
+            "origin": "opensim-org/opensim-models, Hamner running pipeline, subject02 (see the data folder's README.md)",
             "original_rate_hz": fs_ik,
             "start_s": float(t0),
         },

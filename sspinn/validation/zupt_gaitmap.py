@@ -5,7 +5,7 @@ the validation against motion capture on gaitmap's example recording.
   the foot's sagittal plane in sspinn's conventions (gravity and heading alignment, as gaitmap's
   preprocessing), ready for :class:`~sspinn.estimator.zupt.SagittalZuptKalman`.
 * :func:`load_gaitmap_example` reads gaitmap's example walking recording
-  (``../shared/data/gaitmap_foot_imu``: two foot IMUs at 204.8 Hz, foot markers at 100 Hz,
+  (``$SSPINN_SHARED_DATA/gaitmap_foot_imu``: two foot IMUs at 204.8 Hz, foot markers at 100 Hz,
   57 strides from mid-stance to mid-stance), and :func:`gaitmap_stride_speeds` compares the
   per-stride forward speed of the 2D filter with the motion-capture markers
   (:class:`StrideSpeeds`). ``scripts/validate_zupt.py`` prints and plots the comparison;
@@ -125,7 +125,7 @@ def sagittal_from_gaitmap_frame(
 
 
 # --------------------------------------------------------------------------------------------
-# Validation on gaitmap's example recording (../shared/data/gaitmap_foot_imu)
+# Validation on gaitmap's example recording ($SSPINN_SHARED_DATA/gaitmap_foot_imu)
 # --------------------------------------------------------------------------------------------
 FEET: tuple[str, ...] = ("left", "right")
 _IMU_AXES = ("acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z")
