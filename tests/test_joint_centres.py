@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sspinn.imu.joint_centres import foot_flat_up, joint_centre, plane_signals, segment_axis
+from sspinn.imu.joint_centres import foot_flat_up, joint_centre, plane_signals, segment_axis, sensor_placement
 from sspinn.model.body import WINTER, BodyParameters, IMUPlacement
 from sspinn.model.conventions import SEGMENTS
 from sspinn.validation.sensor_mounting import mounting_trials, read_gait_csv, synthetic_walk
@@ -74,3 +74,19 @@ def test_walking_only_calibration_recovers_thigh_and_shank_angles(gait) -> None:
     assert np.abs(res["angle"][legs]).max() < 2.5
     typical = mounting_trials(gait.q, gait.u, gait.qdd, trials=3, seed=4, standing_s=0.0, strides=30, walking_angles="typical")
     assert np.abs(typical["angle"][legs]).min() > 5.0  # the typical orientations miss this gait's
+
+
+@pytest.mark.parametrize("angle_deg", [0.0, 12.0])
+def test_a_sensors_placement_follows_from_its_two_joint_centres(planes, angle_deg) -> None:
+    """The shank sensor (typical place) mounted turned by θ: the knee and ankle centres fitted in
+    its plane give back its position in the shank frame and θ."""
+    theta = np.radians(angle_deg)
+    c, s = np.cos(theta), np.sin(theta)
+    f, omega, domega = planes["tibia_r"]
+    turned = (f @ np.array([[c, -s], [s, c]]), omega, domega)  # f_sensor = R(θ)ᵀ f_segment, row-wise
+    r_knee = joint_centre(planes["femur_r"], turned, np.array([0.0, -0.1]), np.array([0.0, 0.2])).r_b
+    r_ankle = joint_centre(turned, planes["foot_r"], np.array([0.0, -0.2]), np.array([-0.1, 0.0])).r_a
+    position, angle = sensor_placement(r_knee, r_ankle)
+    place = IMUPlacement.default(1.75).positions["tibia_r"]
+    np.testing.assert_allclose(position, place, atol=0.02)
+    assert abs(np.degrees(angle) - angle_deg) < 1.5

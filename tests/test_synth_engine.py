@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import joblib
+import numpy as np
 import pytest
 
 from predictive.__main__ import main as cli_main
@@ -107,6 +108,21 @@ def test_a_backend_registered_by_the_user_gives_the_same_files(serial, tmp_path:
     assert _files(again) == _files(reference)
     assert bars[0].n == pytest.approx(bars[0].total)
     assert sum(s.endswith(": done") for s in bars[0].stages) == 2
+
+
+@pytest.mark.slow
+def test_the_placement_benchmark_scores_the_fits_against_the_stored_truth(serial, tmp_path: Path, capsys) -> None:
+    """``benchmarks/placement_joint_centres.py`` on generated data: every thigh and shank sensor
+    scored, finite errors, and the nominal error is the stored truth's distance from the nominal."""
+    import runpy
+
+    root, _ = serial
+    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "placement_joint_centres.py"), run_name="bench")
+    result = bench["main"](["--data", str(root / "out"), "--json", str(tmp_path / "p.json")])
+    assert {r["sensor"] for r in result["rows"]} == {"femur_r", "femur_l", "tibia_r", "tibia_l"}
+    assert all(np.isfinite([r["nominal_cm"], r["fitted_cm"], r["fitted_angle_deg"]]).all() for r in result["rows"])
+    assert any(r["nominal_cm"] > 0 for r in result["rows"])  # the error model moved the sensors
+    assert "| femur |" in capsys.readouterr().out
 
 
 # ------------------------------------------------------------------------------ fast

@@ -120,6 +120,19 @@ def segment_axis(proximal: JointFit | None, distal: JointFit | None, proximal_si
     return d / length if low <= length <= high else None
 
 
+def sensor_placement(r_proximal: np.ndarray, r_distal: np.ndarray) -> tuple[np.ndarray, float]:
+    """A sensor's position (x, y; m) and angle θ (rad) in its segment's frame from the segment's
+    proximal and distal joint centres seen from the sensor (each (2,) m, e.g. a :class:`JointFit`'s
+    ``r_a`` or ``r_b``). In a segment frame the proximal joint is the origin and the distal joint
+    lies on the −y axis (:mod:`sspinn.model.body`), so θ is the rotation that takes the
+    distal→proximal direction to +y and the position is −R(θ)·r_proximal (the
+    :class:`~sspinn.model.body.IMUPlacement` convention: segment point = position + R(θ)·sensor point)."""
+    up = np.asarray(r_proximal, dtype=float) - np.asarray(r_distal, dtype=float)
+    theta = float(np.arctan2(up[0], up[1]))
+    c, s = math.cos(theta), math.sin(theta)
+    return -np.array([[c, -s], [s, c]]) @ np.asarray(r_proximal, dtype=float), theta
+
+
 def foot_flat_up(f: np.ndarray, omega: np.ndarray, rate_hz: float, mask: np.ndarray) -> np.ndarray | None:
     """Unit (2,) direction of gravity (the foot's y axis) in a foot sensor's plane: the mean
     specific force over its mid-stance rests within ``mask`` — runs of at least
