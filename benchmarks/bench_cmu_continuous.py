@@ -491,7 +491,7 @@ def main(argv: list[str] | None = None) -> dict:
         models[arm] = train_arm(arm, test if arm == "adapted" else train, args.out, args.config, steps, args.threads, args.pretrained)
         summary = json.loads((args.out / arm / "training_summary.json").read_text())
         training[arm] = {"steps": summary["steps"], "stopped_by": summary["stopped_by"],
-                         "wall_s_last_session": summary["wall_s_this_run"], "threads": args.threads,
+                         "wall_s_last_run": summary["wall_s_this_run"], "threads": args.threads,
                          "from": str(args.pretrained) if arm != "scratch" else "random initialisation",
                          "config": {"finetune": args.config.name + " (fine-tuning weights)",
                                     "adapted": "the pretrained model's own (sspinn adapt), on the TEST subjects' unlabeled IMU"}.get(arm, args.config.name)}

@@ -10,7 +10,7 @@ No training, no labels: the truth is only read to score.
 
 Printed per gait (walking, running) and segment: the median over the recordings of the position
 error √(Δx² + Δy²) (cm) of the nominal placement and of the fitted one, their ratio, and the
-median angle error (°); the paper-claims issue's target is a median below half the nominal error
+median angle error (°); the target set for the learned placement is a median below half the nominal error
 for the thighs.
 
 Usage: ``python benchmarks/placement_joint_centres.py --data data/synth_default [--json PATH]``
