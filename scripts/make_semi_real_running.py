@@ -91,7 +91,11 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
 
     model = IMUErrorModel.none() if args.no_imu_errors else IMUErrorModel()
-    result = hamner_running(args.data, seed=args.seed, error_model=model, cutoff=args.cutoff)
+    try:
+        result = hamner_running(args.data, seed=args.seed, error_model=model, cutoff=args.cutoff)
+    except FileNotFoundError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     rec = result.recording
     Dataset.write(
         args.out,

@@ -32,7 +32,7 @@ def shared_data_folder(name: str, data_dir: str | Path | None = None) -> Path:
     root = Path(data_dir) if data_dir is not None else shared_data_dir()
     if root is None:
         raise FileNotFoundError(
-            f"{name}: no data folder given; pass the folder holding {name}/ (--data-dir) or set {ENV_VAR} to it"
+            f"{name}: no data folder given; pass the folder that holds {name}/ or set {ENV_VAR} to it"
         )
     folder = root / name
     if not folder.is_dir():
