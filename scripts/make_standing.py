@@ -1,0 +1,81 @@
+"""Quiet-standing recordings, with exact labels, of a synthetic configuration's subjects.
+
+``python scripts/make_standing.py --config configs/synth/default.yaml --split test --out data/standing``
+writes a dataset (split ``test``) with one ``<subject>_stand`` recording per subject of
+``--split``: the same virtual subjects as the walking and running data (the same true bodies and
+IMU error model), standing still with postural sway (:mod:`predictive.synth.standing`). Then, e.g.,
+``sspinn evaluate --model results/demo/run/model.pt --data data/standing --split test --out
+results/standing`` tells what a model estimates for a person who stands (the speed label is 0).
+
+``--with data/synth_default`` (a dataset of the same configuration) writes that dataset's
+recordings too, with every subject's standing recording in the subject's own split: training data
+that stands as well as walks and runs (``--duration`` sets the standing share).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from predictive.synth.config import SynthConfig, imu_model
+from predictive.synth.standing import standing_recording
+from predictive.synth.subjects import sample_subjects
+from sspinn.data.dataset import SPLITS, Dataset
+from sspinn.run_folder import OVERWRITE_HELP, output_target
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--config", type=Path, default=Path("configs/synth/default.yaml"), help="synthetic data configuration")
+    ap.add_argument("--split", choices=SPLITS, default="test", help="whose subjects stand (default test)")
+    ap.add_argument("--duration", type=float, default=10.0, help="seconds of standing per subject (default 10)")
+    ap.add_argument("--with", dest="base", type=Path, help="a dataset of the same configuration whose recordings to write too "
+                    "(each subject's standing recording then goes to the subject's split; --split is ignored)")
+    ap.add_argument("--out", type=Path, required=True, help="dataset folder to write")
+    ap.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
+    args = ap.parse_args(argv)
+    if not args.duration > 0:
+        print(f"error: --duration must be > 0 s, got {args.duration}", file=sys.stderr)
+        return 2
+    try:
+        config = SynthConfig.from_yaml(args.config)
+    except (OSError, ValueError) as exc:
+        print(f"error: {args.config}: {exc}", file=sys.stderr)
+        return 2
+    info = {"kind": "synthetic quiet standing", "generator": "scripts/make_standing.py", "config": str(args.config),
+            "duration_s": args.duration}
+    if args.base is not None:
+        try:
+            base = Dataset.open(args.base)
+        except (OSError, ValueError) as exc:
+            print(f"error: --with {args.base}: {exc}", file=sys.stderr)
+            return 2
+        if base.info.get("config_key") != config.key():
+            print(f"error: --with {args.base} was not generated from {args.config} (another config_key in its dataset.json)",
+                  file=sys.stderr)
+            return 2
+        splits = {split: base.load(split) for split in base.splits}
+        subjects = [s for s in sample_subjects(config) if s.split in splits]
+        info.update({"with": str(args.base), "config_key": config.key()})
+    else:
+        splits = {"test": []}
+        subjects = [s for s in sample_subjects(config) if s.split == args.split]
+        info["split_of_subjects"] = args.split
+    if not subjects:
+        print(f"error: {args.config} has no subject in split {args.split!r}", file=sys.stderr)
+        return 2
+    out = output_target(args.out, lambda p: (p / "dataset.json").exists(), args.overwrite, "a dataset")
+    recordings = [standing_recording(s, args.duration, config.seed, imu_model(config)) for s in subjects]
+    for subject, rec in zip(subjects, recordings):
+        splits[subject.split if args.base is not None else "test"].append(rec)
+    Dataset.write(out, splits, info=info)
+    for rec in recordings:
+        res = rec.provenance["kane_residual"]
+        print(f"{rec.name}: {rec.n_samples} samples, Kane residual max {res['max_trans_bw']:.1e} BW, {res['max_rot_bwh']:.1e} BW·H")
+    print(f"→ {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
