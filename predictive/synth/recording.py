@@ -177,12 +177,7 @@ def cached_recording(
                 "state_before_first_sample": {"q": chain.q_prev.tolist(), "u": chain.u_prev.tolist()},
                 "ground_truth": {
                     "body": jsonable(subject.body.to_dict()),
-                    "imu_placement": jsonable(
-                        {
-                            s: {"position_m": true_placement.positions[s], "angle_rad": true_placement.angles[s]}
-                            for s in SEGMENTS
-                        }
-                    ),
+                    "imu_placement": true_placement.to_dict(),
                 },
                 "imu_error_model": jsonable(model.to_dict()),
             },

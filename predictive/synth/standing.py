@@ -37,7 +37,7 @@ from predictive.synth.subjects import VirtualSubject
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Labels, Recording
 from sspinn.data.sensor_noise import IMUErrorModel, measure_imu
 from sspinn.model.body import BodyParameters, IMUPlacement
-from sspinn.model.conventions import N_Q, SEGMENTS, index
+from sspinn.model.conventions import GRAVITY, N_Q, SEGMENTS, index
 from sspinn.model.dynamics import inverse_dynamics
 from sspinn.model.kinematics import point_index, point_kinematics
 from sspinn.model.trajectory import Trajectory
@@ -108,7 +108,8 @@ def standing_trajectory(body: BodyParameters, duration_s: float, rng: np.random.
 
     # the total load (F_x, F_y, M_O) on the feet that zeroes the pelvis rows (affine in the load)
     x_heel = heel_fixed[0]
-    base = np.column_stack((np.zeros(n), np.full(n, body.mass * 9.81), np.full(n, (x_heel + 0.1) * body.mass * 9.81)))
+    weight = body.mass * GRAVITY
+    base = np.column_stack((np.zeros(n), np.full(n, weight), np.full(n, (x_heel + 0.1) * weight)))
 
     def pelvis_residual(load: np.ndarray) -> np.ndarray:
         grf, w = grf_inputs(q, body, {"r": load / 2, "l": load / 2})
@@ -150,8 +151,7 @@ def standing_recording(subject: VirtualSubject, duration_s: float, seed: int,
             "sway": {"frequencies_hz": list(SWAY_HZ), "scale_rad": SWAY_RAD, "seed": [seed, 6, subject.index]},
             "ground_truth": {
                 "body": jsonable(subject.body.to_dict()),
-                "imu_placement": jsonable({s: {"position_m": true_placement.positions[s], "angle_rad": true_placement.angles[s]}
-                                           for s in SEGMENTS}),
+                "imu_placement": true_placement.to_dict(),
             },
             "imu_error_model": jsonable(model.to_dict()),
         },

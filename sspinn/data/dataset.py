@@ -247,10 +247,7 @@ class Recording:
             "subject": {"id": self.subject, "height_m": self.height, "mass_kg": self.mass},
             "imu": {
                 "segments": list(self.segments),
-                "placement": {
-                    s: {"position_m": list(self.placement.positions[s]), "angle_rad": self.placement.angles[s]}
-                    for s in SEGMENTS
-                },
+                "placement": self.placement.to_dict(),
             },
             "labels": self.labels.columns() if self.labels is not None else [],
             "units": UNITS,

@@ -299,6 +299,11 @@ class IMUPlacement:
     def vector(self) -> np.ndarray:
         return np.array([v for seg in SEGMENTS for v in (*self.positions[seg], self.angles[seg])], dtype=np.float64)
 
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        """``{segment: {"position_m": [x, y], "angle_rad": a}}`` for every segment (the form of a
+        recording's sidecar and of the synthetic data's true placement)."""
+        return {s: {"position_m": [float(v) for v in self.positions[s]], "angle_rad": float(self.angles[s])} for s in SEGMENTS}
+
     @classmethod
     def from_vector(cls, vec: np.ndarray) -> IMUPlacement:
         vec = np.asarray(vec, dtype=float).reshape(len(SEGMENTS), 3)

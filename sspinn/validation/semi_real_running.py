@@ -512,9 +512,7 @@ def hamner_running(
         "imu_error_model": _jsonable(model.to_dict()),
         "ground_truth": {
             "body": _jsonable(body.to_dict()),
-            "imu_placement": _jsonable(
-                {s: {"position_m": true_placement.positions[s], "angle_rad": true_placement.angles[s]} for s in SEGMENTS}
-            ),
+            "imu_placement": true_placement.to_dict(),
         },
     }
     recording = Recording(
