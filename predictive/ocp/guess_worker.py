@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import ctypes
 import multiprocessing
-import os
 import pickle
 from multiprocessing.pool import AsyncResult, Pool
 from pathlib import Path
@@ -41,6 +40,7 @@ from predictive.ocp.collocation import (
     solve_predictive,
 )
 from predictive.ocp.solution import GaitSolution
+from sspinn.estimator.cpu_share import usable_cpus
 from sspinn.model.body import BodyParameters
 
 
@@ -57,11 +57,6 @@ def continued_gait(problem: PredictiveGaitProblem, prev: GaitSolution, speed: fl
 
 #: Whether a worker can be forked on this platform (not on Windows; macOS forks but its default is spawn).
 FORK: bool = "fork" in multiprocessing.get_all_start_methods()
-
-
-def usable_cores() -> int:
-    """The CPU cores this process may run on."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
 def casadi_blas_threads(n: int | None) -> int | None:
@@ -85,7 +80,7 @@ def casadi_blas_threads(n: int | None) -> int | None:
 
 def default_workers() -> int:
     """2 where a worker can be forked and this process may use two or more cores, else 1."""
-    return 2 if FORK and usable_cores() >= 2 else 1
+    return 2 if FORK and usable_cpus() >= 2 else 1
 
 
 class GuessWorker:

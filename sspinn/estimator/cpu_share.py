@@ -17,8 +17,6 @@ from __future__ import annotations
 import os
 import time
 
-import torch
-
 
 def usable_cpus() -> int:
     """CPUs this process may run on (its affinity mask; ``os.cpu_count()`` where that is unknown)."""
@@ -72,6 +70,8 @@ class ThreadShare:
         self.fixed = threads
         self.every = every
         self.current = threads if threads > 0 else free_cpus()
+        import torch  # here, so that usable_cpus and free_cpus serve code without torch (predictive.ocp)
+
         torch.set_num_threads(self.current)
 
     def update(self, step: int) -> None:
@@ -81,5 +81,7 @@ class ThreadShare:
             return
         wanted = free_cpus(interval_s=0.05)
         if wanted != self.current:
+            import torch
+
             self.current = wanted
             torch.set_num_threads(wanted)
