@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Mapping, Sequence
-from typing import Final
+from typing import Any, Final
 
 import numpy as np
 
@@ -41,6 +41,7 @@ from sspinn.data.sensor_noise import IMUErrorModel, measure_imu
 from sspinn.errors import DataFormatError
 from sspinn.model.body import BodyParameters, IMUPlacement
 from sspinn.model.conventions import SEGMENTS
+from sspinn.model.trajectory import Trajectory
 
 #: Stride plans tried per recording before giving up.
 CHAIN_ATTEMPTS: Final = 3
@@ -143,49 +144,50 @@ def cached_recording(
     )
 
     def make() -> Recording:
-        imu, info = measure_imu(
-            chain.q, chain.u, chain.qdd, subject.body, nominal_placement, model, np.random.default_rng(imu_seed)
-        )
-        true_placement: IMUPlacement = info["true_placement"]
-        rec = Recording(
-            name=name,
-            imu=imu,
-            segments=SEGMENTS,
-            height=subject.height,
-            mass=subject.mass,
-            subject=subject.id,
-            placement=nominal_placement,
-            labels=Labels.from_trajectory(chain, speed=chain.speed),
-            provenance={
-                "generator": GENERATOR_NAME,
-                "code_version": CODE_VERSION,
-                "config_key": config.key(),
-                # the text of the recordings already cached (CODE_VERSION 3); the chain is now
-                # predictive.synth.chain with the stride NLP of predictive.ocp.stride_nlp
-                "method": "chain of single-stride backward-Euler OCPs at h = 0.01 s (predictive.stride_chain)",
-                "program": {"name": config.program_names[j], "speeds_mps": speeds, "pace": config.pace(subject.index)},
-                "plan_attempt": attempt,
-                "strides": {
-                    "speed_mps": [r.speed for r in chain.strides],
-                    "planned_speed_mps": [r.planned_speed for r in chain.strides],
-                    "n_samples": [r.n_nodes for r in chain.strides],
-                    "fallback": [r.fallback for r in chain.strides],
-                },
-                "fallbacks": fallback_counts(chain.strides),
-                "ended_early": chain.ended_early,
-                "gait": gait_stats(chain, subject.body),
-                "state_before_first_sample": {"q": chain.q_prev.tolist(), "u": chain.u_prev.tolist()},
-                "ground_truth": {
-                    "body": jsonable(subject.body.to_dict()),
-                    "imu_placement": true_placement.to_dict(),
-                },
-                "imu_error_model": jsonable(model.to_dict()),
+        return synthetic_recording(name, subject, chain, chain.speed, model, np.random.default_rng(imu_seed), {
+            "generator": GENERATOR_NAME,
+            "code_version": CODE_VERSION,
+            "config_key": config.key(),
+            # the text of the recordings already cached (CODE_VERSION 3); the chain is now
+            # predictive.synth.chain with the stride NLP of predictive.ocp.stride_nlp
+            "method": "chain of single-stride backward-Euler OCPs at h = 0.01 s (predictive.stride_chain)",
+            "program": {"name": config.program_names[j], "speeds_mps": speeds, "pace": config.pace(subject.index)},
+            "plan_attempt": attempt,
+            "strides": {
+                "speed_mps": [r.speed for r in chain.strides],
+                "planned_speed_mps": [r.planned_speed for r in chain.strides],
+                "n_samples": [r.n_nodes for r in chain.strides],
+                "fallback": [r.fallback for r in chain.strides],
             },
-        )
-        rec.provenance["kane_residual"] = residual_stats(rec, subject.body)
-        return rec
+            "fallbacks": fallback_counts(chain.strides),
+            "ended_early": chain.ended_early,
+            "gait": gait_stats(chain, subject.body),
+            "state_before_first_sample": {"q": chain.q_prev.tolist(), "u": chain.u_prev.tolist()},
+        })
 
     return cache.recording(rec_key, name, make)
+
+
+def synthetic_recording(name: str, subject: VirtualSubject, trajectory: Trajectory, speed: np.ndarray,
+                        model: IMUErrorModel, rng: np.random.Generator, provenance: dict[str, Any]) -> Recording:
+    """``subject``'s recording ``name`` of ``trajectory``: IMU signals measured on it with the true
+    body and IMU error ``model`` (draws from ``rng``; the estimator is told the nominal placement),
+    its labels with the per-sample ``speed`` (m/s), and ``provenance`` followed by the ground truth
+    (body, IMU placement), the error model and the labels' Kane residual (:func:`residual_stats`)."""
+    nominal = IMUPlacement.default(subject.height)
+    imu, info = measure_imu(trajectory.q, trajectory.u, trajectory.qdd, subject.body, nominal, model, rng)
+    true_placement: IMUPlacement = info["true_placement"]
+    rec = Recording(
+        name=name, imu=imu, segments=SEGMENTS, height=subject.height, mass=subject.mass, subject=subject.id,
+        placement=nominal, labels=Labels.from_trajectory(trajectory, speed=speed),
+        provenance={
+            **provenance,
+            "ground_truth": {"body": jsonable(subject.body.to_dict()), "imu_placement": true_placement.to_dict()},
+            "imu_error_model": jsonable(model.to_dict()),
+        },
+    )
+    rec.provenance["kane_residual"] = residual_stats(rec, subject.body)
+    return rec
 
 
 def fallback_counts(strides: Sequence[StrideRecord]) -> dict[str, int]:

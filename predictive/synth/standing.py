@@ -31,13 +31,13 @@ from typing import Final
 
 import numpy as np
 
-from predictive.synth.cache import GENERATOR_NAME, jsonable
-from predictive.synth.recording import residual_stats
+from predictive.synth.cache import GENERATOR_NAME
+from predictive.synth.recording import synthetic_recording
 from predictive.synth.subjects import VirtualSubject
-from sspinn.data.dataset import SAMPLE_RATE_HZ, Labels, Recording
-from sspinn.data.sensor_noise import IMUErrorModel, measure_imu
-from sspinn.model.body import BodyParameters, IMUPlacement
-from sspinn.model.conventions import GRAVITY, N_Q, SEGMENTS, index
+from sspinn.data.dataset import SAMPLE_RATE_HZ, Recording
+from sspinn.data.sensor_noise import IMUErrorModel
+from sspinn.model.body import BodyParameters
+from sspinn.model.conventions import GRAVITY, N_Q, index
 from sspinn.model.dynamics import inverse_dynamics
 from sspinn.model.kinematics import point_index, point_kinematics
 from sspinn.model.trajectory import Trajectory
@@ -137,24 +137,9 @@ def standing_recording(subject: VirtualSubject, duration_s: float, seed: int,
     trajectory = standing_trajectory(subject.body, duration_s, rng)
     if not np.all((trajectory.w > 0.0) & (trajectory.w < 1.0)):
         raise ValueError(f"{subject.id}: the centre of pressure left the feet while standing (w outside 0…1)")
-    nominal = IMUPlacement.default(subject.height)
-    imu, info = measure_imu(trajectory.q, trajectory.u, trajectory.qdd, subject.body, nominal, model, rng)
-    true_placement: IMUPlacement = info["true_placement"]
-    rec = Recording(
-        name=f"{subject.id}_stand", imu=imu, segments=SEGMENTS, height=subject.height, mass=subject.mass,
-        subject=subject.id, placement=nominal,
-        labels=Labels.from_trajectory(trajectory, speed=np.zeros(trajectory.q.shape[0])),
-        provenance={
-            "generator": GENERATOR_NAME,
-            "method": "quiet standing with sway (predictive.synth.standing)",
-            "program": {"name": "stand", "speeds_mps": [0.0]},
-            "sway": {"frequencies_hz": list(SWAY_HZ), "scale_rad": SWAY_RAD, "seed": [seed, 6, subject.index]},
-            "ground_truth": {
-                "body": jsonable(subject.body.to_dict()),
-                "imu_placement": true_placement.to_dict(),
-            },
-            "imu_error_model": jsonable(model.to_dict()),
-        },
-    )
-    rec.provenance["kane_residual"] = residual_stats(rec, subject.body)
-    return rec
+    return synthetic_recording(f"{subject.id}_stand", subject, trajectory, np.zeros(trajectory.q.shape[0]), model, rng, {
+        "generator": GENERATOR_NAME,
+        "method": "quiet standing with sway (predictive.synth.standing)",
+        "program": {"name": "stand", "speeds_mps": [0.0]},
+        "sway": {"frequencies_hz": list(SWAY_HZ), "scale_rad": SWAY_RAD, "seed": [seed, 6, subject.index]},
+    })
