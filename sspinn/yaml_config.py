@@ -21,6 +21,8 @@ what the project needs on top of it:
 * **Overrides**: ``overrides`` (``{"steps": 5, "env.n_envs": 2}``) and ``--set a.b=value`` strings
   (:func:`apply_setting`) change the loaded data before construction; ``base`` (an existing
   instance) fills what the data leaves out (partial sections are merged field by field).
+* **Variants**: a file whose top level has ``extends: other.yaml`` is that file with its own keys
+  merged in (:func:`read_config_file`), so a variant names only what it changes.
 
 Errors are :class:`ConfigError` (a :class:`sspinn.errors.UserError`, hence a ``ValueError``); a
 loader with its own error type passes ``error=``. A missing file raises
@@ -109,9 +111,47 @@ def read_yaml(path: str | Path, section: str | None = None) -> Any:
     return data
 
 
+#: Top-level key of a configuration file naming the file it changes (see :func:`read_config_file`).
+EXTENDS_KEY = "extends"
+
+
+def read_config_file(path: str | Path, error: type[Exception] = ConfigError, _chain: tuple[Path, ...] = ()) -> Any:
+    """The parsed YAML file with its ``extends:`` chain resolved: a file whose top level has
+    ``extends: other.yaml`` (a path relative to the file's folder) is ``other.yaml`` with this
+    file's keys merged in, mappings key by key and every other value (lists included) replaced.
+    A variant of a configuration thus names only what it changes."""
+    path = Path(path)
+    data = read_yaml(path)
+    if not isinstance(data, Mapping) or EXTENDS_KEY not in data:
+        return data
+    parent = data[EXTENDS_KEY]
+    if not isinstance(parent, str) or not parent:
+        raise error(f"{path}: {EXTENDS_KEY} must be the path of another configuration file, got {parent!r}")
+    parent_path = (path.parent / parent).resolve()
+    chain = (*_chain, path.resolve())
+    if parent_path in chain:
+        raise error(f"{path}: {EXTENDS_KEY}: {parent} closes a loop ({' → '.join(p.name for p in (*chain, parent_path))})")
+    base = read_config_file(parent_path, error, chain)
+    if not isinstance(base, Mapping):
+        raise error(f"{path}: {EXTENDS_KEY}: {parent_path} is not a mapping of options")
+    return _merged(base, {k: v for k, v in data.items() if k != EXTENDS_KEY})
+
+
+def _merged(base: Mapping[str, Any], changes: Mapping[str, Any]) -> dict[str, Any]:
+    """``base`` with ``changes`` merged in: mappings key by key, anything else replaced."""
+    out = dict(base)
+    for key, value in changes.items():
+        old = out.get(key)
+        out[key] = _merged(old, value) if isinstance(old, Mapping) and isinstance(value, Mapping) else value
+    return out
+
+
 def _read_mapping(path: str | Path, section: str | None, error: type[Exception] = ConfigError) -> dict[str, Any]:
-    """:func:`read_yaml`, which must be a mapping (an empty file or section: ``{}``)."""
-    data = read_yaml(path, section)
+    """:func:`read_config_file` (its ``section`` when the file has that top-level key), which
+    must be a mapping (an empty file or section: ``{}``)."""
+    data = read_config_file(path, error)
+    if section is not None and isinstance(data, Mapping) and section in data:
+        data = data[section]
     data = {} if data is None else data
     if not isinstance(data, Mapping):
         raise error(f"{path}: expected a mapping of options, got {type(data).__name__}")

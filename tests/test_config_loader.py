@@ -5,6 +5,7 @@ dataclasses."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import typing
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -120,6 +121,29 @@ def test_unknown_keys_are_named_with_their_dotted_path_at_every_level(tmp_path: 
 def test_bad_values_are_one_line_errors_naming_file_option_and_value(tmp_path: Path, text: str, message: str) -> None:
     error = _error(tmp_path, text)
     assert message in error and error.startswith(str(tmp_path / "run.yaml")), error
+
+
+def test_a_variant_extends_a_file_and_names_only_what_it_changes(tmp_path: Path) -> None:
+    (tmp_path / "parent").mkdir()
+    (tmp_path / "parent" / "base.yaml").write_text("kind: a\nsteps: 5\nnames: [x, y]\ninner: {size: 8, rate: 0.5}\n")
+    path = _yaml(tmp_path, "extends: parent/base.yaml\nsteps: 7\nnames: [z]\ninner: {rate: 0.25}\n")
+    config = load_config(Outer, path)
+    assert (config.kind, config.steps, config.names) == ("a", 7, ("z",))  # lists are replaced, not appended
+    assert config.inner == Inner(size=8, rate=0.25)  # sections merge key by key
+    (tmp_path / "grand.yaml").write_text("extends: run.yaml\nlr: 0.5\n")  # a chain of two
+    assert load_config(Outer, tmp_path / "grand.yaml") == dataclasses.replace(config, lr=0.5)
+    assert load_config(Outer, path, overrides={"steps": 9}).steps == 9  # overrides apply after the merge
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("extends: run.yaml\nkind: a\n", "closes a loop (run.yaml → run.yaml)"),
+    ("extends: 3\nkind: a\n", "extends must be the path of another configuration file, got 3"),
+    ("extends: missing.yaml\nkind: a\n", "missing.yaml: no such configuration file"),
+    ("extends: list.yaml\nkind: a\n", "list.yaml is not a mapping of options"),
+])
+def test_a_bad_extends_is_a_one_line_error(tmp_path: Path, text: str, message: str) -> None:
+    (tmp_path / "list.yaml").write_text("[1, 2]\n")
+    assert message in _error(tmp_path, text)
 
 
 def test_a_missing_file_is_both_a_config_error_and_file_not_found(tmp_path: Path) -> None:
