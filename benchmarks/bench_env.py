@@ -24,11 +24,15 @@ What is measured:
    wrapper's overhead); and the **roofline**: the compiled physics alone of 512 walkers in one
    ``prange`` call on all cores (:func:`envs.kernels.physics_parallel`) — model evaluations/s, and
    that rate ÷ substeps, the most environment steps/s the vector environment could reach.
-3. **PPO end-to-end** (``--ppo-steps``, default 16,384): ``stable_baselines3.PPO`` with the
-   network and hyperparameters of ``configs/agents/ppo.yaml`` (8 environments, VecNormalize,
-   1 torch thread) learning a fixed number of steps through the native vector environment and
-   through ``DummyVecEnv``: environment steps/s of the whole loop (stepping, policy, updates).
-   Target: native ≥ 2× DummyVecEnv.
+3. **PPO end-to-end** (``--ppo-updates``, default 8 rollouts): ``stable_baselines3.PPO`` with the
+   network and hyperparameters of two recipes, ``configs/agents/ppo.yaml`` (8 environments,
+   [256, 256] networks, 10 epochs of minibatches of 256) and ``ppo_clock_walk_256envs.yaml`` (256
+   environments, 32 steps each per rollout, [64, 64] networks, 5 epochs of minibatches of 2,048,
+   the gait-clock prior), VecNormalize, 1 torch thread, learning a fixed number of steps through
+   the native vector environment and through ``DummyVecEnv``: environment steps/s of the whole
+   loop (stepping, policy, updates), and the same environments' steps/s alone. Target: native ≥ 2×
+   DummyVecEnv. How much the environment can matter is set by the recipe: with 8 environments and
+   large networks the updates take most of the time.
 4. **Batched torch environment** (:class:`envs.batched.BatchedSagittalWalker`) at batch 4,096,
    float32, random actions, CPU (CUDA too when available): environment steps/s = batch × steps / time,
    and the ratio to the single environment. Target: ≥ 100× the single environment.
@@ -81,6 +85,9 @@ TARGET_BATCH_RATIO = 100.0
 TARGET_VECTOR_RATIO = 2.5  # at N >= 64
 TARGET_PPO_RATIO = 2.0
 VECTOR_SIZES = (1, 8, 64, 512)
+#: PPO recipes timed end to end (configs/agents/): the 8-environment one and the 256-environment one.
+PPO_CONFIGS = ("ppo.yaml", "ppo_clock_walk_256envs.yaml")
+ROOT = Path(__file__).resolve().parents[1]
 SINGLE = "SagittalWalker-v0 (unwrapped)"
 
 
@@ -216,27 +223,59 @@ def bench_roofline(n: int, repeats: int) -> dict[str, float]:
     return {"walkers": n, "evaluations_per_s": evals, "env_steps_per_s": evals / env.substeps, "threads": numba.get_num_threads()}
 
 
-def bench_ppo(total_steps: int, env_only: dict[str, float]) -> dict[str, Any]:
-    """Environment steps/s of PPO learning ``total_steps`` through the native vector env and
-    DummyVecEnv, and the share of each run spent stepping environments, estimated from the
-    env-only rates ``env_only`` ({"native": steps/s, "dummy": steps/s} at the same number of
-    environments): the ratio native/Dummy cannot exceed T_dummy / (T_dummy − t_env,dummy) — what
-    is left if stepping cost nothing (Amdahl)."""
+def _env_only_rates(config: Any, n_steps: int) -> dict[str, float]:
+    """Environment steps/s of ``config``'s environments alone (random actions, training wrappers
+    included: the prior, VecNormalize), through the native vector env and DummyVecEnv."""
+    import tempfile
+
+    from agents.gait_prior import load_prior
+    from agents.train import make_training_envs
+
+    rates = {}
+    for kind in ("native", "dummy"):
+        kind_config = config.with_overrides(env={**config.to_dict()["env"], "vec_env": kind})
+        with tempfile.TemporaryDirectory() as tmp:
+            env = make_training_envs(kind_config, Path(tmp), 0, load_prior(kind_config))
+            runner = _Vector(env, config.env.n_envs, n_steps, sb3=True)
+            runner()  # warm-up
+            t0 = time.perf_counter()
+            done = runner()
+            rates[kind] = done / (time.perf_counter() - t0)
+            env.close()
+    return rates
+
+
+def bench_ppo(config_path: Path, updates: int) -> dict[str, Any]:
+    """Environment steps/s of PPO learning ``updates`` rollouts of ``config_path``'s recipe
+    (n_steps × n_envs steps each) through the native vector env and through DummyVecEnv, and the
+    share of each run spent stepping environments, estimated from the env-only rates of the same
+    environments (:func:`_env_only_rates`): the ratio native/Dummy cannot exceed
+    T_dummy / (T_dummy − t_env,dummy) — what is left if stepping cost nothing (Amdahl)."""
     import tempfile
 
     from agents.config import load_config
     from agents.train import train
 
-    base = load_config(Path(__file__).resolve().parents[1] / "configs" / "agents" / "ppo.yaml")
-    out: dict[str, Any] = {"total_steps": total_steps, "n_envs": base.env.n_envs}
+    base = load_config(config_path)
+    data = base.to_dict()
+    if data.get("prior") and data["prior"].get("gait") and not Path(data["prior"]["gait"]).is_absolute():
+        data["prior"]["gait"] = str(Path(__file__).resolve().parents[1] / data["prior"]["gait"])  # from any folder
+    base = base.with_overrides(prior=data.get("prior"))
+    per_update = base.env.n_envs * base.hyperparameters["n_steps"]
+    total_steps = updates * per_update
+    out: dict[str, Any] = {"config": config_path.name, "total_steps": total_steps, "n_envs": base.env.n_envs,
+                           "net_arch": list(base.policy.net_arch)}
 
     def config(kind: str, steps: int) -> Any:
         return base.with_overrides(
             total_timesteps=steps,
-            env={**base.to_dict()["env"], "vec_env": kind},
-            logging={**base.to_dict()["logging"], "eval_freq": 0, "tensorboard": False, "checkpoint_freq": 10**9},
+            env={**data["env"], "vec_env": kind},
+            logging={**data["logging"], "eval_freq": 0, "tensorboard": False, "checkpoint_freq": 10**9},
         )
 
+    threads = numba.get_num_threads()  # a recipe's env.threads applies to its own runs only
+    numba.set_num_threads(base.env.threads or threads)
+    env_only = _env_only_rates(config("native", 1), max(min(updates, 4) * per_update, 4096))
     with tempfile.TemporaryDirectory() as tmp:  # warm-up: one short run of each (imports, torch, numba cache)
         for kind in ("native", "dummy"):
             train(config(kind, 1), Path(tmp) / kind)
@@ -247,7 +286,8 @@ def bench_ppo(total_steps: int, env_only: dict[str, float]) -> dict[str, Any]:
             seconds = time.perf_counter() - t0
         env_seconds = model.num_timesteps / env_only[kind]
         out[kind] = {"env_steps_per_s": model.num_timesteps / seconds, "seconds": seconds, "steps": model.num_timesteps,
-                     "env_share": min(env_seconds / seconds, 1.0)}
+                     "env_only_steps_per_s": env_only[kind], "env_share": min(env_seconds / seconds, 1.0)}
+    numba.set_num_threads(threads)
     out["ratio"] = out["native"]["env_steps_per_s"] / out["dummy"]["env_steps_per_s"]
     rest = out["dummy"]["seconds"] * (1.0 - out["dummy"]["env_share"])
     out["ratio_bound"] = out["dummy"]["seconds"] / rest if rest > 0 else float("inf")
@@ -433,13 +473,13 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--batched-only", type=int, nargs="+", metavar="N",
                         help="only the batched torch environment at these batch sizes (GPU when present, eager and "
                              "compiled) beside the single environment on the CPU")
-    parser.add_argument("--ppo-steps", type=int, help="PPO steps per environment kind (0: skip; default 16,384, "
-                        "--quick 1,024)")
+    parser.add_argument("--ppo-updates", type=int, help="PPO rollouts (n_steps × n_envs steps each) per recipe and "
+                        "environment kind (0: skip; default 8, --quick 1)")
     args = parser.parse_args(argv)
     if args.threads is not None:
         numba.set_num_threads(args.threads)
-    if args.ppo_steps is None:
-        args.ppo_steps = 1024 if args.quick else 16_384
+    if args.ppo_updates is None:
+        args.ppo_updates = 1 if args.quick else 8
     torch_threads = torch.get_num_threads()
     if args.batched_only:
         print(f"# bench_env --batched-only — {os.cpu_count()} CPUs, Python {platform.python_version()}, "
@@ -484,19 +524,21 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
           f"{roofline['env_steps_per_s']:,.0f} env steps/s at {SagittalWalkerEnv().substeps} substeps; the best vector "
           f"env rate above is {best_vector / roofline['env_steps_per_s']:.0%} of it")
 
-    ppo = None
-    if args.ppo_steps > 0:
-        env_only = {"native": rates["vector env, N = 8"], "dummy": rates["SB3 DummyVecEnv, 8 single envs"]}
-        ppo = bench_ppo(args.ppo_steps, env_only)
-        verdict = "met" if ppo["ratio"] >= TARGET_PPO_RATIO else "NOT met"
-        print(f"\n## PPO end-to-end, configs/agents/ppo.yaml ({ppo['n_envs']} envs), {ppo['native']['steps']:,} steps "
-              "(whole rollouts of n_steps × n_envs), after a warm-up run of each\n")
-        print("| environments | env steps/s | s | share stepping envs (est.) |\n|---|---:|---:|---:|")
+    ppo = []
+    for name in (PPO_CONFIGS if args.ppo_updates > 0 else ()):
+        res = bench_ppo(ROOT / "configs" / "agents" / name, args.ppo_updates)
+        ppo.append(res)
+        verdict = "met" if res["ratio"] >= TARGET_PPO_RATIO else "NOT met"
+        print(f"\n## PPO end-to-end, configs/agents/{name} ({res['n_envs']} envs, net {res['net_arch']}), "
+              f"{res['native']['steps']:,} steps ({args.ppo_updates} rollouts of n_steps × n_envs), after a warm-up run of each\n")
+        print("| environments | env steps/s learning | s | env steps/s alone | share stepping envs (est.) |\n"
+              "|---|---:|---:|---:|---:|")
         for kind in ("native", "dummy"):
-            print(f"| {kind} | {ppo[kind]['env_steps_per_s']:,.0f} | {ppo[kind]['seconds']:.1f} | "
-                  f"{ppo[kind]['env_share']:.0%} |")
-        print(f"\nnative / DummyVecEnv: {ppo['ratio']:.2f}× (target ≥ {TARGET_PPO_RATIO:.0f}×: {verdict}); "
-              f"bound if stepping cost nothing: {ppo['ratio_bound']:.2f}×")
+            r = res[kind]
+            print(f"| {kind} | {r['env_steps_per_s']:,.0f} | {r['seconds']:.1f} | {r['env_only_steps_per_s']:,.0f} | "
+                  f"{r['env_share']:.0%} |")
+        print(f"\nnative / DummyVecEnv: {res['ratio']:.2f}× (target ≥ {TARGET_PPO_RATIO:.0f}×: {verdict}); "
+              f"bound if stepping cost nothing: {res['ratio_bound']:.2f}×")
 
     batch, steps = (256, 2) if args.quick else (4096, 3)
     devices = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])

@@ -50,6 +50,14 @@ def test_shipped_configs_load(name: str) -> None:
     assert isinstance(config.hyperparameters["learning_rate"], float)
 
 
+def test_the_256_environment_variant_is_the_clock_walker_with_its_own_batch() -> None:
+    walker, wide = load_config(CONFIGS / "ppo_clock_walk.yaml"), load_config(CONFIGS / "ppo_clock_walk_256envs.yaml")
+    assert wide.env.n_envs == 256 and tuple(wide.policy.net_arch) == (64, 64)
+    assert wide.hyperparameters["n_steps"] * wide.env.n_envs % wide.hyperparameters["batch_size"] == 0
+    assert wide.prior == walker.prior and wide.env.kwargs == walker.env.kwargs and wide.normalize == walker.normalize
+    assert wide.hyperparameters["learning_rate"] == walker.hyperparameters["learning_rate"]
+
+
 def test_config_round_trip_and_scientific_notation(tmp_path: Path) -> None:
     config = tiny(hyperparameters={"n_steps": 64, "batch_size": 32, "learning_rate": 3.0e-4})
     save_config(config, tmp_path / "c.yaml")

@@ -71,7 +71,10 @@ def test_bench_env(tmp_path: Path, capsys: pytest.CaptureFixture[str], torch_thr
         assert text in out
     assert results["single"]["rates"]["SagittalWalker-v0 (gymnasium.make)"] > 0
     assert results["single"]["rates"]["vector env, N = 64"] > 0 and results["roofline"]["evaluations_per_s"] > 0
-    assert results["ppo"]["native"]["steps"] == results["ppo"]["dummy"]["steps"] > 0
+    assert [r["config"] for r in results["ppo"]] == ["ppo.yaml", "ppo_clock_walk_256envs.yaml"]
+    for ppo in results["ppo"]:  # one rollout of each recipe, the same steps through both kinds of environment
+        assert ppo["native"]["steps"] == ppo["dummy"]["steps"] == ppo["total_steps"] > 0
+        assert 0 < ppo["dummy"]["env_share"] <= 1 and ppo["native"]["env_only_steps_per_s"] > 0
     assert all(r["env_steps_per_s"] > 0 for r in results["batched"].values())
     assert json.loads((tmp_path / "bench.json").read_text())["batch"] == results["batch"]
 
