@@ -60,7 +60,8 @@ def hyperparameter(config: AgentConfig, name: str) -> Any:
 
 
 def policy_kwargs(config: AgentConfig) -> dict[str, Any]:
-    """SB3 ``policy_kwargs``: separate actor and critic networks of ``net_arch``, activation, init."""
+    """SB3 ``policy_kwargs``: separate actor and critic networks of ``net_arch``, activation, init,
+    the optimiser's keyword arguments."""
     import torch
 
     p = config.policy
@@ -73,6 +74,10 @@ def policy_kwargs(config: AgentConfig) -> dict[str, Any]:
         kwargs["log_std_init"] = p.log_std_init
     if p.ortho_init is not None:
         kwargs["ortho_init"] = p.ortho_init
+    if p.optimizer_kwargs:
+        # SB3's PPO policy gives Adam eps = 1e-5 only when it is handed no optimizer_kwargs: kept
+        defaults = {"eps": 1e-5} if config.algo == "ppo" else {}
+        kwargs["optimizer_kwargs"] = {**defaults, **p.optimizer_kwargs}
     return kwargs
 
 

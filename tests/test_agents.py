@@ -58,6 +58,18 @@ def test_the_256_environment_variant_is_the_clock_walker_with_its_own_batch() ->
     assert wide.hyperparameters["learning_rate"] == walker.hyperparameters["learning_rate"]
 
 
+def test_optimizer_kwargs_reach_adam_and_ppo_keeps_sb3s_eps(tmp_path: Path) -> None:
+    from agents.train import train
+
+    fused = train(tiny(policy={**TINY["policy"], "optimizer_kwargs": {"fused": True}}), tmp_path / "fused")
+    group = fused.policy.optimizer.param_groups[0]
+    assert group["fused"] is True and group["eps"] == 1e-5  # SB3's PPO eps, which it sets only without kwargs
+    plain = train(tiny(), tmp_path / "plain").policy.optimizer.param_groups[0]
+    assert plain["eps"] == 1e-5 and not plain["fused"]
+    with pytest.raises(ConfigError, match=r"policy.optimizer_kwargs must be keyword arguments of torch.optim.Adam"):
+        tiny(policy={**TINY["policy"], "optimizer_kwargs": {"lr": 0.1}})
+
+
 def test_config_round_trip_and_scientific_notation(tmp_path: Path) -> None:
     config = tiny(hyperparameters={"n_steps": 64, "batch_size": 32, "learning_rate": 3.0e-4})
     save_config(config, tmp_path / "c.yaml")
