@@ -132,7 +132,7 @@ def start_stop_trajectory(
     solvers = solvers if solvers is not None else StrideSolverCache(stride)
     rest_solvers = rest_solvers if rest_solvers is not None else settle_solvers(stride)
     before = standing_trajectory(subject.body, stand_s, rng)
-    after = standing_trajectory(subject.body, stand_s + h, rng)
+    after = standing_trajectory(subject.body, stand_s, rng)
     templates = template_library([speed], stride, cache)
     library = periodic_library(subject.body, [speed], stride, cache, templates)
     rest = ReferenceStride(before.q[-1:], before.u[-1:], before.tau[-1:], before.grf[-1:], before.q[-1], before.u[-1])
