@@ -62,6 +62,9 @@ from predictive.synth.recording import fallback_counts, synthetic_recording
 from predictive.synth.standing import SWAY_HZ, SWAY_RAD, standing_trajectory
 from predictive.synth.subjects import VirtualSubject
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Recording
+from sspinn.model.body import BodyParameters
+from sspinn.model.contact import ContactParameters
+from sspinn.model.dynamics import contact_forces
 from sspinn.model.trajectory import Trajectory
 
 #: Speeds of the strides of gait initiation, fractions of the walking speed (termination: reversed).
@@ -133,6 +136,8 @@ def start_stop_trajectory(
     rest_solvers = rest_solvers if rest_solvers is not None else settle_solvers(stride)
     before = standing_trajectory(subject.body, stand_s, rng)
     after = standing_trajectory(subject.body, stand_s, rng)
+    for part, k in ((before, -1), (after, 0)):  # where the contact model carries the body at the junction
+        part.q[:, 1] += contact_height(part.q[k], subject.body, solvers.contact)
     templates = template_library([speed], stride, cache)
     library = periodic_library(subject.body, [speed], stride, cache, templates)
     rest = ReferenceStride(before.q[-1:], before.u[-1:], before.tau[-1:], before.grf[-1:], before.q[-1], before.u[-1])
@@ -160,6 +165,34 @@ def start_stop_trajectory(
     speed_label = np.concatenate([np.zeros(n[0]), chain.speed, np.zeros(n[2])])
     phase = np.repeat(np.arange(3), n)
     return StartStopTrajectory(trajectory, speed_label, phase, chain, junction, elapsed)
+
+
+def contact_height(q: np.ndarray, body: BodyParameters, contact: ContactParameters) -> float:
+    """Vertical shift (m, negative: down) of the posture ``q`` (at rest) at which the contact
+    model's vertical forces add up to the body weight (bisection to 1e-7 m within ±5 cm).
+
+    The standing trajectories put the right sole on y = 0, where the contact model (a softplus
+    penetration 3.3 mm wide) carries a fraction of the weight, and a leg that is shorter or longer
+    than the other (the subjects' asymmetry) puts the left sole millimetres above or below it:
+    a chain started there first fell into the floor (the 1.2 m/s smoke subject S02, left sole
+    11.9 mm up: 0.24 BW carried at the start, a flight and a 5.0 BW landing in the first stride).
+    Shifting a standing trajectory vertically leaves its labels exact (the forces do not depend on
+    the height)."""
+    q = np.asarray(q, dtype=float)
+
+    def excess(dy: float) -> float:
+        shifted = q.copy()
+        shifted[1] += dy
+        grf, _ = contact_forces(shifted, np.zeros_like(q), body, contact)
+        return float(np.asarray(grf)[[1, 3]].sum()) - body.body_weight
+
+    lo, hi = -0.05, 0.05  # excess(lo) > 0 (deep in the floor) > excess(hi) (in the air)
+    if not excess(lo) > 0 > excess(hi):
+        raise ValueError(f"the contact model does not carry the body weight within ±5 cm of the standing posture {q.tolist()}")
+    while hi - lo > 1e-7:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if excess(mid) > 0 else (lo, mid)
+    return 0.5 * (lo + hi)
 
 
 def _tail(tr: Trajectory) -> Trajectory:
