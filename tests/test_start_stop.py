@@ -18,9 +18,12 @@ from predictive.ocp.stride_nlp import StridePlan, StrideSettings, StrideSolverCa
 from predictive.synth.cache import SynthCache
 from predictive.synth.chain import simulate_chain
 from predictive.synth.config import SynthConfig
-from predictive.synth.start_stop import RAMP, SETTLE_NODES, start_stop_recording
+from predictive.synth.standing import standing_trajectory
+from predictive.synth.start_stop import RAMP, SETTLE_NODES, contact_height, start_stop_recording
 from predictive.synth.subjects import sample_subjects
 from sspinn.data.dataset import Dataset
+from sspinn.model.contact import ContactParameters
+from sspinn.model.dynamics import contact_forces
 
 REPO = Path(__file__).resolve().parents[1]
 SMOKE = REPO / "configs" / "synth" / "smoke.yaml"
@@ -140,3 +143,28 @@ def test_the_same_seed_gives_the_same_file(made, tmp_path: Path) -> None:
         paths.append(tmp_path / name / f"{r.name}.csv")
     assert paths[0].read_bytes() == paths[1].read_bytes()
     assert (tmp_path / "a" / f"{rec.name}.json").read_bytes() == (tmp_path / "b" / f"{rec.name}.json").read_bytes()
+
+
+
+@pytest.mark.parametrize("index", [0, 1])
+def test_the_standing_posture_is_lowered_to_where_the_contact_model_carries_the_weight(index: int) -> None:
+    subject = sample_subjects(SynthConfig.from_yaml(SMOKE))[index]
+    body, contact = subject.body, ContactParameters()
+    q = standing_trajectory(body, 0.5, np.random.default_rng(index)).q[-1]
+    dy = contact_height(q, body, contact)
+    assert -0.05 < dy < 0.0
+    for shift, above in ((dy, None), (dy + 1e-3, False), (dy - 1e-3, True)):
+        lowered = q.copy()
+        lowered[1] += shift
+        grf, _ = contact_forces(lowered, np.zeros(9), body, contact)
+        load = float(np.asarray(grf)[[1, 3]].sum()) / body.body_weight
+        if above is None:
+            assert load == pytest.approx(1.0, abs=1e-4)
+        else:
+            assert (load > 1.0) is above
+    # a shifted standing trajectory keeps its exact labels
+    tr = standing_trajectory(body, 0.5, np.random.default_rng(index))
+    tr.q[:, 1] += dy
+    assert np.abs(tr.kane_residual(body)).max() < 1e-9
+    with pytest.raises(ValueError, match="does not carry the body weight within ±5 cm"):
+        contact_height(q + np.eye(9)[1] * 1.0, body, contact)  # a metre above the floor

@@ -6,7 +6,8 @@ recordings of :mod:`predictive.synth.standing` never walk; real recordings usual
 recording of :func:`start_stop_recording` is, at 100 Hz:
 
 1. **Standing** for ``stand_s`` seconds: :func:`~predictive.synth.standing.standing_trajectory`
-   (sway, feet flat, the load the equations of motion require shared between the feet).
+   (sway, feet flat, the load the equations of motion require shared between the feet), lowered
+   to where the contact model carries the body weight (:func:`contact_height`).
 2. **Initiation, steady walking, termination**: one stride chain
    (:func:`~predictive.synth.chain.simulate_chain`) that *starts from the last standing sample*
    (backward Euler from that state: the junction is as exact as any other sample of a chain),
@@ -19,8 +20,8 @@ recording of :func:`start_stop_recording` is, at 100 Hz:
    of the ramps take short steps, and the strides from and to rest have guesses of their own
    (see :func:`~predictive.synth.chain.simulate_chain`). Every stride must solve (on any rung of
    the fallback ladder), else :class:`~predictive.synth.chain.ChainError`.
-3. **Standing** again for ``stand_s`` seconds: a second standing trajectory (its own sway), moved
-   forward to where the chain stopped; its first sample is the settle stretch's target and is
+3. **Standing** again for ``stand_s`` seconds: a second standing trajectory (its own sway),
+   lowered as in 1 and moved forward to where the chain stopped; its first sample is the settle stretch's target and is
    left out, the recording goes on with its second.
 
 **Labels.** Every sample satisfies the equations of motion (the Kane residual of the standing
@@ -29,10 +30,11 @@ samples is at rounding level, that of the chain at IPOPT's tolerance; both are i
 *near* the standing state (the settle stretch's terminal term is a penalty, not a constraint), so
 its kinematic mismatch ``(q_s − q_N)/h − u_s`` (the backward difference the chain's samples obey
 exactly) is measured and written to the provenance (``junction``). At both junctions the ground
-reaction forces change model: the standing parts share the required load between the feet, the
-chain's samples carry the contact model's forces (for a subject whose legs differ in length the
-standing posture has one sole on the ground and the other a few millimetres off it, where the
-contact model loads one foot more than the other).
+reaction forces change model: the standing parts share the required load equally between the
+feet, the chain's samples carry the contact model's forces. For a subject whose legs differ in
+length the standing posture (the same joint angles on both sides) has one sole deeper in the floor
+than the other, and the contact model loads that foot more (smoke subject S02 at the junction:
+0.89 and 0.11 BW against the standing labels' 0.5 and 0.5).
 
 **Speed label**: 0 while standing (the settle stretch too, a plan of speed 0), the stride's average
 pelvis speed during the strides (as in every chain), so it steps from 0 to ``RAMP[0]`` × the speed
