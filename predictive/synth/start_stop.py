@@ -229,7 +229,8 @@ def start_stop_recording(
     """``<subject>_startstop``: ``subject`` stands, walks at ``speed`` (m/s) and stands again
     (:func:`start_stop_trajectory`); the sway, the steady strides' variability and the IMU errors
     are drawn from ``[config.seed, 7, subject.index]``, the IMU error model is the configuration's
-    (:func:`~predictive.synth.recording.synthetic_recording`)."""
+    (:func:`~predictive.synth.recording.synthetic_recording`). The periodic gaits are cached in
+    ``cache``, the chain is not (about half a minute per recording on one core)."""
     _check(speed, stand_s, walk_s)
     cache = cache if cache is not None else SynthCache(config.cache_dir)
     seed = [config.seed, 7, subject.index]
