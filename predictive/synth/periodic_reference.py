@@ -56,6 +56,15 @@ class CycleShape:
             sol.speed, sol.duration, phase[order], q[order], u[order] * sol.duration, sol.tau[order], sol.grf[order]
         )
 
+    @classmethod
+    def at_rest(cls, rest: ReferenceStride, duration: float) -> CycleShape:
+        """Standing still as a "cycle" at 0 m/s of ``duration`` (s): the q (pelvis_tx 0), τ and
+        GRF of ``rest``'s first node at every phase, no motion."""
+        phase = np.array([0.0, 0.5])
+        q = np.tile(rest.q[0], (2, 1))
+        q[:, 0] = 0.0
+        return cls(0.0, duration, phase, q, np.zeros_like(q), np.tile(rest.tau[0], (2, 1)), np.tile(rest.grf[0], (2, 1)))
+
     def at(self, phase: np.ndarray) -> tuple[np.ndarray, ...]:
         """(q, u_phase, τ, GRF) at the phases (periodic linear interpolation)."""
         phase = np.asarray(phase, dtype=float)
@@ -70,17 +79,27 @@ class PeriodicReference:
     """Periodic gaits of one body at a few nominal speeds, blended linearly in speed.
 
     :meth:`stride` gives the guess and the terminal target of a stride of any speed and node
-    count (speeds outside the nominal range use the nearest nominal gait). Every cycle is
+    count (speeds outside the nominal range use the nearest nominal gait). With ``rest`` (a
+    standing state: its q, τ and GRF at one node, :class:`ReferenceStride`) standing still is the
+    gait at 0 m/s (:meth:`CycleShape.at_rest`), so strides slower than the slowest gait blend
+    towards standing: shorter steps at the stride duration of the slowest gait, the targets of
+    the strides that start and end walking (:mod:`predictive.synth.start_stop`; without it the
+    first stride from rest had to end in the posture of the slowest gait, with its full step
+    length, and stepped backwards first). Every cycle is
     rotated so that its phase 0 (the stride boundary) lies ``boundary`` (fraction of the cycle)
     after the right foot's contact onset: the default, 0.12 before it, is in the flight phase when
     running and in the left single support when walking, where the state changes smoothly
     (a boundary at an impact makes the terminal target of the velocities very sensitive to timing).
     """
 
-    def __init__(self, solutions: Sequence[GaitSolution], boundary: float = DEFAULT_BOUNDARY) -> None:
+    def __init__(
+        self, solutions: Sequence[GaitSolution], boundary: float = DEFAULT_BOUNDARY, rest: ReferenceStride | None = None
+    ) -> None:
         if not solutions:
             raise ValueError("PeriodicReference needs at least one periodic solution")
-        shapes = (CycleShape.from_solution(s, boundary) for s in solutions)
+        shapes = [CycleShape.from_solution(s, boundary) for s in solutions]
+        if rest is not None:
+            shapes.append(CycleShape.at_rest(rest, min(shapes, key=lambda c: c.speed).duration))
         self.shapes = sorted(shapes, key=lambda c: c.speed)
         self.speeds = np.array([c.speed for c in self.shapes])
 
@@ -98,22 +117,29 @@ class PeriodicReference:
         lam = (speed - a.speed) / (b.speed - a.speed)
         return tuple((1 - lam) * xa + lam * xb for xa, xb in zip(a.at(phase), b.at(phase)))
 
-    def stride(self, speed: float, n_nodes: int, h: float, x_prev: float = 0.0) -> ReferenceStride:
+    def stride(
+        self, speed: float, n_nodes: int, h: float, x_prev: float = 0.0, phases: tuple[float, float] = (0.0, 1.0)
+    ) -> ReferenceStride:
         """Reference stride of ``n_nodes`` nodes at ``speed`` (m/s), step ``h`` (s), after a
         previous state at pelvis_tx = ``x_prev`` (m).
 
         The reference cycle is stretched to the stride: node k lies at phase k/n, so the last
-        node is the state just before the next stride's boundary.
+        node is the state just before the next stride's boundary. With ``phases`` = (φ0, φ1)
+        only that part of the cycle is stretched to the stride (node k at φ0 + (φ1 − φ0)·k/n;
+        the guesses of the strides that start or end at rest, :mod:`predictive.synth.chain`).
 
         Returns:
             The nodes' q, u, τ and GRF and the state before the first node on the same reference
             (pelvis_tx = x_prev).
         """
         T = n_nodes * h
-        phase = np.arange(-1, n_nodes) * h / T
+        phase0, phase1 = phases
+        if not 0.0 <= phase0 < phase1 <= 1.0:
+            raise ValueError(f"phases must satisfy 0 <= phase0 < phase1 <= 1, got {phases}")
+        phase = phase0 + np.arange(-1, n_nodes) * h / T * (phase1 - phase0)
         q, u_phase, tau, grf = self._blend(speed, phase)
         q[:, 0] += x_prev - q[0, 0] + speed * h * np.arange(n_nodes + 1)
-        u = u_phase / T
+        u = u_phase * (phase1 - phase0) / T
         u[:, 0] += speed
         return ReferenceStride(q[1:], u[1:], tau[1:], grf[1:], q[0], u[0])
 
