@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from predictive.synth.config import SynthConfig
-from predictive.synth.standing import standing_recording, standing_trajectory
+from predictive.synth.standing import STANDING_ANGLES, leg_angles, standing_recording, standing_trajectory
 from predictive.synth.subjects import sample_subjects
 from sspinn.data.dataset import Dataset
 from sspinn.model.body import BodyParameters
@@ -36,6 +36,23 @@ def test_the_body_sways_on_feet_that_stay_flat_and_put_and_the_labels_are_exact(
     # u and q̈ are the derivatives of q and u (central differences agree to their truncation error)
     np.testing.assert_allclose(np.gradient(tr.q, 0.01, axis=0)[2:-2], tr.u[2:-2], atol=1e-4)
     np.testing.assert_allclose(np.gradient(tr.u, 0.01, axis=0)[2:-2], tr.qdd[2:-2], atol=1e-3)
+
+
+@pytest.mark.parametrize("index", [0, 1])  # smoke S01 (left leg longer) and S02 (right leg longer)
+def test_legs_of_unequal_length_both_stand_on_the_floor(index: int) -> None:
+    body = sample_subjects(SynthConfig.from_yaml(SMOKE))[index].body
+    assert body.femur_l.length + body.tibia_l.length != pytest.approx(body.femur_r.length + body.tibia_r.length, abs=1e-3)
+    legs = leg_angles(body)
+    standing = (STANDING_ANGLES["hip"], STANDING_ANGLES["knee"], STANDING_ANGLES["ankle"])
+    bent = [side for side in ("r", "l") if legs[side] != standing]
+    assert len(bent) == 1 and legs[bent[0]][1] < STANDING_ANGLES["knee"]  # the longer leg flexes its knee more
+    tr = standing_trajectory(body, 4.0, np.random.default_rng(1))
+    assert np.abs(tr.kane_residual(body)).max() < 1e-9
+    points = point_kinematics(tr.q, tr.u, tr.qdd, tr.w, body)
+    for name in ("heel_r", "toe_r", "heel_l", "toe_l"):
+        p = points[:, point_index(name), :2]
+        assert np.abs(p[:, 1]).max() < 5e-5  # both soles on the floor (the right exactly), within 0.05 mm
+        assert np.ptp(p[:, 0]) < 5e-5  # and put
 
 
 def test_a_standing_recording_is_labelled_like_the_walking_ones() -> None:

@@ -5,7 +5,8 @@ recordings often begin and end standing. This module makes standing recordings o
 virtual subjects, labelled like the others:
 
 1. **Posture and sway.** Both feet flat on the ground, side by side (one point in the sagittal
-   plane), hips and knees at fixed standing angles; the body above the ankles leans as one
+   plane), hips and knees at fixed standing angles (the longer leg bent so that both soles are
+   on the floor, :func:`leg_angles`: the legs of a subject differ in length); the body above the ankles leans as one
    inverted pendulum by φ(t), a sum of slow sinusoids (:data:`SWAY_HZ`, random phases and
    amplitudes of about :data:`SWAY_RAD` in all, i.e. about 1 cm of travel at the hip: quiet-standing
    posturography). The pelvis tilts by φ and the ankles by −φ, so the feet keep their angle; the
@@ -54,22 +55,62 @@ STANDING_ANGLES: Final = {"hip": math.radians(2.0), "knee": math.radians(-4.0), 
 _DPHI: Final = 1e-4
 
 
-def _posture(phi: np.ndarray) -> np.ndarray:
-    """(n, 9) coordinates of the leaning body with the pelvis origin at (0, 0)."""
+Angles = tuple[float, float, float]
+#: The standing leg's (hip, knee, ankle) angles, rad.
+_STANDING_LEG: Final = (STANDING_ANGLES["hip"], STANDING_ANGLES["knee"], STANDING_ANGLES["ankle"])
+
+
+def _posture(phi: np.ndarray, legs: dict[str, Angles] | None = None) -> np.ndarray:
+    """(n, 9) coordinates of the leaning body with the pelvis origin at (0, 0); ``legs``: each
+    side's (hip, knee, ankle) angles at φ = 0 (default: :data:`STANDING_ANGLES` on both)."""
     q = np.zeros((phi.size, N_Q))
     q[:, index("pelvis_tilt")] = phi
     for side in ("r", "l"):
-        q[:, index(f"hip_{side}")] = STANDING_ANGLES["hip"]
-        q[:, index(f"knee_{side}")] = STANDING_ANGLES["knee"]
-        q[:, index(f"ankle_{side}")] = STANDING_ANGLES["ankle"] - phi
+        hip, knee, ankle = (legs or {}).get(side, _STANDING_LEG)
+        q[:, index(f"hip_{side}")] = hip
+        q[:, index(f"knee_{side}")] = knee
+        q[:, index(f"ankle_{side}")] = ankle - phi
     return q
 
 
-def _heel(phi: np.ndarray, body: BodyParameters) -> np.ndarray:
-    """(n, 2) position of the right heel (the left one is the same point) with the pelvis origin at (0, 0), m."""
-    q = _posture(phi)
+def _points(q: np.ndarray, body: BodyParameters, *names: str) -> np.ndarray:
+    """(n, len(names), 2) positions of the named points of :func:`point_kinematics` at rest, m."""
     zeros = np.zeros_like(q)
-    return point_kinematics(q, zeros, zeros, np.full((phi.size, 2), 0.5), body)[:, point_index("heel_r"), :2]
+    xy = point_kinematics(q, zeros, zeros, np.full((q.shape[0], 2), 0.5), body)[..., :2]
+    return xy[:, [point_index(name) for name in names]]
+
+
+def leg_angles(body: BodyParameters) -> dict[str, Angles]:
+    """Each leg's (hip, knee, ankle) angles, rad, that stand both soles side by side on the floor.
+
+    The two legs of a virtual subject differ in length by up to about a centimetre (its drawn
+    asymmetry); :data:`STANDING_ANGLES` on both would leave one sole that far above or in the floor
+    while it carries half the weight. The shorter leg keeps them; the longer one bends so that its
+    heel is where the other heel is (x and height), its foot at the other foot's angle (hip + knee
+    + ankle equal), by Newton's method on the two heel coordinates (hip, knee; central
+    differences). The sway turns the body about the right ankle; the ankles are within a
+    millimetre of each other (the feet's heel offsets differ that little), so the left heel moves
+    by micrometres."""
+    standing = {"r": _STANDING_LEG, "l": _STANDING_LEG}
+    gap0 = _points(_posture(np.zeros(1)), body, "heel_l", "heel_r")[0]
+    bent, other = ("l", "r") if gap0[0, 1] < gap0[1, 1] else ("r", "l")  # the lower heel: the longer leg
+    foot_angle = sum(_STANDING_LEG)
+
+    def legs(x: np.ndarray) -> dict[str, Angles]:
+        return {**standing, bent: (float(x[0]), float(x[1]), float(foot_angle - x[0] - x[1]))}
+
+    def gap(x: np.ndarray) -> np.ndarray:
+        heels = _points(_posture(np.zeros(1), legs(x)), body, f"heel_{bent}", f"heel_{other}")[0]
+        return heels[0] - heels[1]
+
+    x = np.array(_STANDING_LEG[:2])
+    for _ in range(20):
+        r = gap(x)
+        if np.abs(r).max() < 1e-10:
+            return legs(x)
+        jac = np.column_stack([(gap(x + d) - gap(x - d)) / 2e-6 for d in np.eye(2) * 1e-6])
+        x = x - np.linalg.solve(jac, r)
+    raise ValueError(f"no standing posture puts both heels on the floor for this body (heel gap {gap(x).tolist()} m)")
 
 
 def standing_trajectory(body: BodyParameters, duration_s: float, rng: np.random.Generator) -> Trajectory:
@@ -85,15 +126,14 @@ def standing_trajectory(body: BodyParameters, duration_s: float, rng: np.random.
     dphi = np.cos(arg) @ (amplitude * omega)
     ddphi = -np.sin(arg) @ (amplitude * omega**2)
 
-    # the heel stays where it is: pelvis position = heel position − heel(φ) relative to the pelvis
-    h0, hp, hm = _heel(phi, body), _heel(phi + _DPHI, body), _heel(phi - _DPHI, body)
+    # the right heel stays where it is: pelvis position = heel position − heel(φ) relative to the pelvis
+    legs = leg_angles(body)
+    h0, hp, hm = (_points(_posture(p, legs), body, "heel_r")[:, 0] for p in (phi, phi + _DPHI, phi - _DPHI))
     dh = (hp - hm) / (2 * _DPHI)
     d2h = (hp - 2 * h0 + hm) / _DPHI**2
-    zeros = np.zeros((n, N_Q))
-    flat = point_kinematics(_posture(np.zeros(1)), zeros[:1], zeros[:1], np.full((1, 2), 0.5), body)
-    sole = min(flat[0, point_index("heel_r"), 1], flat[0, point_index("toe_r"), 1])
-    heel_fixed = np.array([0.0, flat[0, point_index("heel_r"), 1] - sole])  # the sole on y = 0
-    q = _posture(phi)
+    heel, toe = _points(_posture(np.zeros(1), legs), body, "heel_r", "toe_r")[0]
+    heel_fixed = np.array([0.0, heel[1] - min(heel[1], toe[1])])  # the sole on y = 0
+    q = _posture(phi, legs)
     q[:, 0:2] = heel_fixed - h0
     u = np.zeros_like(q)
     u[:, 0:2] = -dh * dphi[:, None]
