@@ -24,10 +24,10 @@ What is measured:
    wrapper's overhead); and the **roofline**: the compiled physics alone of 512 walkers in one
    ``prange`` call on all cores (:func:`envs.kernels.physics_parallel`) — model evaluations/s, and
    that rate ÷ substeps, the most environment steps/s the vector environment could reach.
-3. **PPO end-to-end** (``--ppo-updates``, default 8 rollouts): ``stable_baselines3.PPO`` with the
+3. **PPO end-to-end** (``--ppo-updates``, default 24 rollouts): ``stable_baselines3.PPO`` with the
    network and hyperparameters of two recipes, ``configs/agents/ppo.yaml`` (8 environments,
    [256, 256] networks, 10 epochs of minibatches of 256) and ``ppo_clock_walk_256envs.yaml`` (256
-   environments, 32 steps each per rollout, [64, 64] networks, 5 epochs of minibatches of 2,048,
+   environments, 32 steps each per rollout, [64, 64] networks, 10 epochs of minibatches of 2,048,
    the gait-clock prior), VecNormalize, 1 torch thread, learning a fixed number of steps through
    the native vector environment and through ``DummyVecEnv``: environment steps/s of the whole
    loop (stepping, policy, updates), and the same environments' steps/s alone. Target: native ≥ 2×
@@ -474,12 +474,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                         help="only the batched torch environment at these batch sizes (GPU when present, eager and "
                              "compiled) beside the single environment on the CPU")
     parser.add_argument("--ppo-updates", type=int, help="PPO rollouts (n_steps × n_envs steps each) per recipe and "
-                        "environment kind (0: skip; default 8, --quick 1)")
+                        "environment kind (0: skip; default 24, --quick 1)")
     args = parser.parse_args(argv)
     if args.threads is not None:
         numba.set_num_threads(args.threads)
     if args.ppo_updates is None:
-        args.ppo_updates = 1 if args.quick else 8
+        args.ppo_updates = 1 if args.quick else 24
     torch_threads = torch.get_num_threads()
     if args.batched_only:
         print(f"# bench_env --batched-only — {os.cpu_count()} CPUs, Python {platform.python_version()}, "
