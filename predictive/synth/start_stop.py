@@ -31,10 +31,8 @@ samples is at rounding level, that of the chain at IPOPT's tolerance; both are i
 its kinematic mismatch ``(q_s − q_N)/h − u_s`` (the backward difference the chain's samples obey
 exactly) is measured and written to the provenance (``junction``). At both junctions the ground
 reaction forces change model: the standing parts share the required load equally between the
-feet, the chain's samples carry the contact model's forces. For a subject whose legs differ in
-length the standing posture (the same joint angles on both sides) has one sole deeper in the floor
-than the other, and the contact model loads that foot more (smoke subject S02 at the junction:
-0.89 and 0.11 BW against the standing labels' 0.5 and 0.5).
+feet, the chain's samples carry the contact model's forces (smoke subjects S01 and S02 at the
+first junction: 0.47–0.48 BW per foot against the standing labels' 0.5 and 0.5).
 
 **Speed label**: 0 while standing (the settle stretch too, a plan of speed 0), the stride's average
 pelvis speed during the strides (as in every chain), so it steps from 0 to ``RAMP[0]`` × the speed
@@ -173,11 +171,11 @@ def contact_height(q: np.ndarray, body: BodyParameters, contact: ContactParamete
     """Vertical shift (m, negative: down) of the posture ``q`` (at rest) at which the contact
     model's vertical forces add up to the body weight (bisection to 1e-7 m within ±5 cm).
 
-    The standing trajectories put the right sole on y = 0, where the contact model (a softplus
-    penetration 3.3 mm wide) carries a fraction of the weight, and a leg that is shorter or longer
-    than the other (the subjects' asymmetry) puts the left sole millimetres above or below it:
-    a chain started there first fell into the floor (the 1.2 m/s smoke subject S02, left sole
-    11.9 mm up: 0.24 BW carried at the start, a flight and a 5.0 BW landing in the first stride).
+    The standing trajectories put both soles on y = 0, where the contact model (a softplus
+    penetration 3.3 mm wide) carries a fraction of the weight: a chain started there first fell
+    into the floor (with the left sole of the 1.2 m/s smoke subject S02 also 11.9 mm up, before
+    the standing posture bent the longer leg: 0.24 BW carried at the start, a flight and a 5.0 BW
+    landing in the first stride).
     Shifting a standing trajectory vertically leaves its labels exact (the forces do not depend on
     the height)."""
     q = np.asarray(q, dtype=float)
