@@ -153,12 +153,7 @@ def cached_recording(
             "method": "chain of single-stride backward-Euler OCPs at h = 0.01 s (predictive.stride_chain)",
             "program": {"name": config.program_names[j], "speeds_mps": speeds, "pace": config.pace(subject.index)},
             "plan_attempt": attempt,
-            "strides": {
-                "speed_mps": [r.speed for r in chain.strides],
-                "planned_speed_mps": [r.planned_speed for r in chain.strides],
-                "n_samples": [r.n_nodes for r in chain.strides],
-                "fallback": [r.fallback for r in chain.strides],
-            },
+            "strides": stride_summary(chain.strides),
             "fallbacks": fallback_counts(chain.strides),
             "ended_early": chain.ended_early,
             "gait": gait_stats(chain, subject.body),
@@ -188,6 +183,17 @@ def synthetic_recording(name: str, subject: VirtualSubject, trajectory: Trajecto
     )
     rec.provenance["kane_residual"] = residual_stats(rec, subject.body)
     return rec
+
+
+def stride_summary(strides: Sequence[StrideRecord]) -> dict[str, list]:
+    """The provenance's ``strides``: each kept stride's speed and planned speed (m/s), samples and
+    fallback rung."""
+    return {
+        "speed_mps": [r.speed for r in strides],
+        "planned_speed_mps": [r.planned_speed for r in strides],
+        "n_samples": [r.n_nodes for r in strides],
+        "fallback": [r.fallback for r in strides],
+    }
 
 
 def fallback_counts(strides: Sequence[StrideRecord]) -> dict[str, int]:

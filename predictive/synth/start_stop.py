@@ -58,7 +58,7 @@ from predictive.synth.config import SynthConfig, imu_model
 from predictive.synth.gait_library import periodic_library, template_library
 from predictive.synth.periodic_reference import PeriodicReference, ReferenceStride
 from predictive.synth.planning import plan_strides
-from predictive.synth.recording import fallback_counts, synthetic_recording
+from predictive.synth.recording import fallback_counts, stride_summary, synthetic_recording
 from predictive.synth.standing import SWAY_HZ, SWAY_RAD, standing_trajectory
 from predictive.synth.subjects import VirtualSubject
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Recording
@@ -243,13 +243,7 @@ def start_stop_recording(
         "method": "standing with sway, stride chain from and to rest, standing with sway (predictive.synth.start_stop)",
         "program": {"name": "start_stop", "speeds_mps": [0.0, speed, 0.0], "stand_s": stand_s, "walk_s": walk_s},
         "phases": {"walk_start_sample": int(bounds[0]), "stand_start_sample": int(bounds[1])},
-        "strides": {
-            "speed_mps": [r.speed for r in chain.strides],
-            "planned_speed_mps": [r.planned_speed for r in chain.strides],
-            "n_samples": [r.n_nodes for r in chain.strides],
-            "fallback": [r.fallback for r in chain.strides],
-            "iterations": [r.iterations for r in chain.strides],
-        },
+        "strides": {**stride_summary(chain.strides), "iterations": [r.iterations for r in chain.strides]},
         "fallbacks": fallback_counts(chain.strides),
         "junction": made.junction,
         "sway": {"frequencies_hz": list(SWAY_HZ), "scale_rad": SWAY_RAD, "seed": seed},
