@@ -8,7 +8,7 @@ semi-real running) and with one mistake applied to 20 s excerpts (a rate Ã— 0.4â
 
 Usage::
 
-    python scripts/joint_check_margins.py --synth /work/fresh2/data/synth_default /work/demo_run/data/synth_default
+    python scripts/joint_check_margins.py --synth CLONE1/data/synth_default CLONE2/data/synth_default
 """
 
 from __future__ import annotations
