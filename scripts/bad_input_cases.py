@@ -558,6 +558,12 @@ def main() -> None:
              "refusing to load posix.system", lambda: raises(lambda: _load_statistics(tmp, RunsCode()))),
         Case("all", "agents: missing config", "python -m agents train --config missing.yaml", "exit 2", "missing.yaml",
              lambda: cli(agents_main, ["train", "--config", str(tmp / "missing.yaml"), "--out", str(tmp / "ag")])),
+        *[Case("7", f"agents: a config that {what}", f"python -m agents train --config {name}.yaml ({'; '.join(text.split(chr(10))[:-1])})", "exit 2", m,
+               lambda name=name, text=text: cli(agents_main, ["train", "--config", str(_written(tmp / f"{name}.yaml", text)),
+                                                              "--out", str(tmp / "ag")]))
+          for what, name, text, m in (("extends itself", "loop", "extends: loop.yaml\nalgo: ppo\n", "closes a loop"),
+                                      ("extends a missing file", "orphan", "extends: gone.yaml\nalgo: ppo\n",
+                                       "orphan.yaml: extends:"))],
         Case("2", "agents: --resume with crafted VecNormalize statistics", "python -m agents train --resume "
              "(checkpoints/model_vecnormalize_64_steps.pkl crafted)", "exit 2", "refusing to load posix.system",
              lambda: agents.resume("ppo", lambda run: (run / "checkpoints" / "model_vecnormalize_64_steps.pkl").write_bytes(
@@ -820,6 +826,12 @@ def disk_full(model: Path, tmp: Path) -> Outcome:
                           env={**os.environ, "PYTHONPATH": str(ROOT)})
     lines = [line for line in proc.stderr.splitlines() if line.strip()]
     return Outcome(f"exit {proc.returncode}" + ("" if len(lines) == 1 else f" ({len(lines)} lines)"), lines[-1] if lines else "")
+
+
+def _written(path: Path, text: str) -> Path:
+    """``path`` with ``text`` written to it."""
+    path.write_text(text)
+    return path
 
 
 def _load_statistics(tmp: Path, payload: object) -> object:

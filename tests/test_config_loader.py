@@ -138,7 +138,7 @@ def test_a_variant_extends_a_file_and_names_only_what_it_changes(tmp_path: Path)
 @pytest.mark.parametrize(("text", "message"), [
     ("extends: run.yaml\nkind: a\n", "closes a loop (run.yaml → run.yaml)"),
     ("extends: 3\nkind: a\n", "extends must be the path of another configuration file, got 3"),
-    ("extends: missing.yaml\nkind: a\n", "missing.yaml: no such configuration file"),
+    ("extends: missing.yaml\nkind: a\n", "run.yaml: extends: "),
     ("extends: list.yaml\nkind: a\n", "list.yaml is not a mapping of options"),
 ])
 def test_a_bad_extends_is_a_one_line_error(tmp_path: Path, text: str, message: str) -> None:
