@@ -131,9 +131,10 @@ def read_config_file(path: str | Path, error: type[Exception] = ConfigError, _ch
     chain = (*_chain, path.resolve())
     if parent_path in chain:
         raise error(f"{path}: {EXTENDS_KEY}: {parent} closes a loop ({' → '.join(p.name for p in (*chain, parent_path))})")
-    if not parent_path.is_file():
-        raise MissingConfigFileError(f"{path}: {EXTENDS_KEY}: {parent_path}: no such configuration file")
-    base = read_config_file(parent_path, error, chain)
+    try:
+        base = read_config_file(parent_path, error, chain)
+    except MissingConfigFileError as exc:  # name the file that extends the missing one
+        raise MissingConfigFileError(f"{path}: {EXTENDS_KEY}: {exc}") from None
     if not isinstance(base, Mapping):
         raise error(f"{path}: {EXTENDS_KEY}: {parent_path} is not a mapping of options")
     return _merged(base, {k: v for k, v in data.items() if k != EXTENDS_KEY})

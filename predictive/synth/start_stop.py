@@ -65,7 +65,7 @@ from sspinn.data.dataset import SAMPLE_RATE_HZ, Recording
 from sspinn.model.body import BodyParameters
 from sspinn.model.contact import ContactParameters
 from sspinn.model.dynamics import contact_forces
-from sspinn.model.trajectory import Trajectory
+from sspinn.model.trajectory import COLUMNS, Trajectory
 
 #: Speeds of the strides of gait initiation, fractions of the walking speed (termination: reversed).
 RAMP: Final[tuple[float, ...]] = (0.25, 0.6, 0.9)
@@ -158,9 +158,9 @@ def start_stop_trajectory(
         "q": float(np.abs(q_n - after.q[0]).max()),
         "u": float(np.abs(u_n - after.u[0]).max()),
     }
-    parts = (before, chain, _tail(after))
+    parts = (before, chain, after[1:])
     n = [len(p.q) for p in parts]
-    arrays = {k: np.concatenate([getattr(p, k) for p in parts]) for k in ("q", "u", "qdd", "tau", "grf", "w")}
+    arrays = {k: np.concatenate([getattr(p, k) for p in parts]) for k in COLUMNS}
     trajectory = Trajectory(time=np.arange(sum(n)) * h, **arrays)
     speed_label = np.concatenate([np.zeros(n[0]), chain.speed, np.zeros(n[2])])
     phase = np.repeat(np.arange(3), n)
@@ -193,11 +193,6 @@ def contact_height(q: np.ndarray, body: BodyParameters, contact: ContactParamete
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if excess(mid) > 0 else (lo, mid)
     return 0.5 * (lo + hi)
-
-
-def _tail(tr: Trajectory) -> Trajectory:
-    """``tr`` without its first sample."""
-    return Trajectory(time=tr.time[1:], q=tr.q[1:], u=tr.u[1:], qdd=tr.qdd[1:], tau=tr.tau[1:], grf=tr.grf[1:], w=tr.w[1:])
 
 
 def settle_solvers(stride: StrideSettings) -> StrideSolverCache:
