@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import torch
 
-from tests.conftest import shared_data
+from tests.conftest import SHARED_DATA, shared_data
 
 #: every test here runs a benchmark end to end (training, compilation, real data): the quick loop skips them
 pytestmark = pytest.mark.slow
@@ -174,3 +174,17 @@ def test_bench_cmu_continuous_finds_trials_by_pattern(tmp_path: Path, capsys: py
     (data / "dataset.json").write_text(json.dumps({"info": {"imported": {n: {"split": sp} for n, sp in splits.items()}}}))
     with pytest.raises(SystemExit, match="P3_slow was imported into the 'train' split, this run puts it into 'test'"):
         bench["import_trials"](protocol, data, ("P1", "P2"), ("P3",))
+
+
+def test_standing_signals(capsys: pytest.CaptureFixture[str]) -> None:
+    """Synthetic standing with the artefact off at rest is found still, with it left on never; the
+    real Xsens static trial is read when the shared data are there."""
+    bench = runpy.run_path(str(BENCHMARKS / "standing_signals.py"), run_name="standing_signals")
+    config = Path(__file__).resolve().parents[1] / "configs" / "synth" / "smoke.yaml"
+    assert bench["main"](["--config", str(config), "--seconds", "2"]) == 0
+    out = capsys.readouterr().out
+    off = next(line for line in out.splitlines() if "artefact off at rest" in line)
+    on = next(line for line in out.splitlines() if "left on" in line)
+    assert off.endswith("| 100%–100% |") and on.endswith("| 0%–0% |")
+    if (SHARED_DATA / "xsens_mt_static_S01").is_dir():
+        assert "11 sensors" in out

@@ -11,7 +11,9 @@ import pytest
 import yaml
 
 from sspinn.data.sensor_noise import (
+    STA_RAMP_S,
     IMUErrorModel,
+    activity_envelope,
     band_limited_process,
     bias_drift,
     imu_with_relative_motion,
@@ -363,3 +365,45 @@ def test_bad_call_arguments_raise(gait, p, nominal):
         band_limited_process(np.random.default_rng(0), 10, (1,), 1.0, 1.0, 1.0 + 1e-9, 100.0)
     with pytest.raises(ValueError, match="IMUErrorModel"):
         measure_imu(q, u, qdd, p, nominal, {"acc_bias": 0.1}, 0)
+
+
+# ------------------------------------------------------------------------------------ rests
+def test_the_activity_envelope_is_zero_at_rest_one_away_from_it_and_twice_differentiable():
+    fs = 100.0
+    rest = np.zeros(1000, dtype=bool)
+    rest[:100] = True  # standing, then walking,
+    rest[500:540] = True  # a short stop,
+    rest[-80:] = True  # and standing again
+    e, de, dde = activity_envelope(rest, fs)
+    assert np.all(e[rest] == 0.0) and np.all((e >= 0) & (e <= 1))
+    ramp = int(STA_RAMP_S * fs)
+    far = np.ones(1000, dtype=bool)
+    for a, b in ((0, 100), (500, 540), (920, 1000)):
+        far[max(0, a - ramp) : b + ramp + 1] = False
+    assert far.sum() > 300 and np.all(e[far] == 1.0) and np.all(de[far] == 0.0)
+    # the analytic derivatives are those of e (central differences, to their truncation error)
+    np.testing.assert_allclose(np.gradient(e, 1 / fs)[1:-1], de[1:-1], atol=0.05)
+    np.testing.assert_allclose(np.gradient(de, 1 / fs)[1:-1], dde[1:-1], atol=0.1 * np.abs(dde).max())
+    assert np.abs(np.diff(dde)).max() < 0.5 * np.abs(dde).max()  # no jump in ë: C²
+    e0, de0, dde0 = activity_envelope(np.zeros(50, dtype=bool), fs)
+    assert np.all(e0 == 1.0) and not de0.any() and not dde0.any()
+    with pytest.raises(ParameterError, match="rest must be"):
+        activity_envelope(np.zeros((3, 2), dtype=bool), fs)
+
+
+def test_no_soft_tissue_artefact_while_the_body_rests_and_the_same_draws_elsewhere(gait, p, nominal):
+    q, u, qdd = gait
+    model = IMUErrorModel()
+    free, info_free = measure_imu(q, u, qdd, p, nominal, model, rng=7)
+    none_rest, _ = measure_imu(q, u, qdd, p, nominal, model, rng=7, rest=np.zeros(len(q), dtype=bool))
+    np.testing.assert_array_equal(free, none_rest)  # no rest: the measurement is unchanged
+    rest = np.zeros(len(q), dtype=bool)
+    rest[:300] = True
+    imu, info = measure_imu(q, u, qdd, p, nominal, model, rng=7, rest=rest)
+    for key in ("sta_displacement", "sta_velocity", "sta_acceleration", "sta_rotation", "sta_rotation_rate"):
+        assert not info[key][:300].any()
+    after = 300 + int(STA_RAMP_S * 100) + 1
+    np.testing.assert_array_equal(imu[after:], free[after:])  # the same draws once the ramp is over
+    np.testing.assert_array_equal(info["kinematic"][:300], info["rigid"][:300])  # the sensor moves with its bone
+    with pytest.raises(ParameterError, match="rest: expected shape"):
+        measure_imu(q, u, qdd, p, nominal, model, rng=7, rest=rest[:10])

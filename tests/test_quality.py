@@ -60,6 +60,18 @@ def test_quality_terms_are_finite_and_per_window(model):
     assert len(np.unique(q.terms["imu"])) == 3
 
 
+def test_the_quality_speed_is_the_estimates_also_where_the_body_rests(model):
+    est = SSPINNpose.load(model)
+    rec = walking_recording(650)
+    quiet = rec.imu.copy()
+    quiet[:, :, :] = [0.0, 9.81, 0.0]  # every sensor still (specific force = gravity), the first 4 s
+    rec = dataclasses.replace(rec, imu=np.where(np.arange(650)[:, None, None] < 400, quiet, rec.imu))
+    q, estimate = est.quality(rec), est.predict(rec)
+    assert np.all(estimate.u[:400, 0] == 0.0)
+    np.testing.assert_allclose(q.speed, [estimate.u[a:b, 0].mean() for a, b in zip(q.start, q.stop)], atol=1e-3)
+    assert q.speed[0] == 0.0
+
+
 def test_a_corrupted_recording_scores_worse_than_the_clean_one(model, tiny_run):
     est = SSPINNpose.load(model)
     train = tiny_run[3]

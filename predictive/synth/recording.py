@@ -164,13 +164,15 @@ def cached_recording(
 
 
 def synthetic_recording(name: str, subject: VirtualSubject, trajectory: Trajectory, speed: np.ndarray,
-                        model: IMUErrorModel, rng: np.random.Generator, provenance: dict[str, Any]) -> Recording:
+                        model: IMUErrorModel, rng: np.random.Generator, provenance: dict[str, Any],
+                        rest: np.ndarray | None = None) -> Recording:
     """``subject``'s recording ``name`` of ``trajectory``: IMU signals measured on it with the true
-    body and IMU error ``model`` (draws from ``rng``; the estimator is told the nominal placement),
+    body and IMU error ``model`` (draws from ``rng``; the estimator is told the nominal placement;
+    no soft-tissue artefact on the samples of ``rest``, (T,) bool, where the body stands still),
     its labels with the per-sample ``speed`` (m/s), and ``provenance`` followed by the ground truth
     (body, IMU placement), the error model and the labels' Kane residual (:func:`residual_stats`)."""
     nominal = IMUPlacement.default(subject.height)
-    imu, info = measure_imu(trajectory.q, trajectory.u, trajectory.qdd, subject.body, nominal, model, rng)
+    imu, info = measure_imu(trajectory.q, trajectory.u, trajectory.qdd, subject.body, nominal, model, rng, rest=rest)
     true_placement: IMUPlacement = info["true_placement"]
     rec = Recording(
         name=name, imu=imu, segments=SEGMENTS, height=subject.height, mass=subject.mass, subject=subject.id,

@@ -19,7 +19,8 @@ virtual subjects, labelled like the others:
 3. **Joint torques** by inverse dynamics; the labels then satisfy the equations of motion at every
    sample, as the walking and running labels do (the residual is reported in the provenance).
 4. **IMU signals** from :func:`sspinn.data.sensor_noise.measure_imu` with the subject's true body
-   and the IMU error model, the estimator told the nominal placement; the speed label is 0.
+   and the IMU error model, the estimator told the nominal placement, and no soft-tissue artefact
+   (movement drives it; the body rests); the speed label is 0.
 
 Usage: ``python scripts/make_standing.py --config configs/synth/default.yaml --split test --out
 data/standing``.
@@ -182,4 +183,4 @@ def standing_recording(subject: VirtualSubject, duration_s: float, seed: int,
         "method": "quiet standing with sway (predictive.synth.standing)",
         "program": {"name": "stand", "speeds_mps": [0.0]},
         "sway": {"frequencies_hz": list(SWAY_HZ), "scale_rad": SWAY_RAD, "seed": [seed, 6, subject.index]},
-    })
+    }, rest=np.ones(trajectory.q.shape[0], dtype=bool))

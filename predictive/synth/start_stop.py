@@ -222,7 +222,9 @@ def start_stop_recording(
     """``<subject>_startstop``: ``subject`` stands, walks at ``speed`` (m/s) and stands again
     (:func:`start_stop_trajectory`); the sway, the steady strides' variability and the IMU errors
     are drawn from ``[config.seed, 7, subject.index]``, the IMU error model is the configuration's
-    (:func:`~predictive.synth.recording.synthetic_recording`). The periodic gaits are cached in
+    (:func:`~predictive.synth.recording.synthetic_recording`; no soft-tissue artefact while
+    standing, fading in and out over :data:`~sspinn.data.sensor_noise.STA_RAMP_S` of the
+    walk). The periodic gaits are cached in
     ``cache``, the chain is not (about half a minute per recording on one core)."""
     _check(speed, stand_s, walk_s)
     cache = cache if cache is not None else SynthCache(config.cache_dir)
@@ -242,4 +244,4 @@ def start_stop_recording(
         "fallbacks": fallback_counts(chain.strides),
         "junction": made.junction,
         "sway": {"frequencies_hz": list(SWAY_HZ), "scale_rad": SWAY_RAD, "seed": seed},
-    })
+    }, rest=made.phase != 1)

@@ -54,6 +54,7 @@ from sspinn.estimator import calibration_files
 from sspinn.estimator.inference import GaitEstimate, network_inputs
 from sspinn.estimator.losses import Batch, LossWeights, PhysicsLosses
 from sspinn.estimator.network import SSPINNposeNet, decode, output_affine
+from sspinn.estimator.zupt import speed_at_rest, whole_body_still
 from sspinn.model.body import BodyParameters, JointLimits
 from sspinn.model.conventions import COORDINATES, GRAVITY
 from sspinn.run_folder import atomic_write_text
@@ -105,7 +106,8 @@ class WindowQuality:
         name: the recording.
         start, stop: (n,) sample indices of each window ([start, stop)).
         terms: unweighted loss term → (n,) value per window (dimensionless, see the module docstring).
-        speed: (n,) mean estimated forward speed per window, m/s.
+        speed: (n,) mean estimated forward speed per window, m/s (0 where the whole body rests,
+            as in the estimate: :func:`~sspinn.estimator.inference.estimate_recording`).
         score: (n,) combined score (None without a calibration).
         flagged: (n,) bool, score above the calibrated threshold (None without a calibration).
     """
@@ -179,7 +181,7 @@ def window_quality(
     names = QUALITY_TERMS[grf]
     start, stop = windows(rec.n_samples, window_s)
     terms = {k: np.empty(len(start)) for k in names}
-    speed = np.empty(len(start))
+    vx = np.empty(rec.n_samples)
 
     def t(a: Any) -> torch.Tensor:
         return torch.as_tensor(np.asarray(a), dtype=torch.float64)
@@ -191,7 +193,11 @@ def window_quality(
         values = losses.terms(est, batch)
         for k in names:
             terms[k][w] = float(values[k])
-        speed[w] = float(est.u[0, :, 0].mean())
+        vx[a:b] = est.u[0, :, 0].numpy()
+    still = whole_body_still(rec.imu, SAMPLE_RATE_HZ)
+    if still.any():  # the speed the estimate reports (estimate_recording's whole-body rests)
+        vx = speed_at_rest(vx, still, SAMPLE_RATE_HZ)
+    speed = np.array([vx[a:b].mean() for a, b in zip(start, stop)])
     return WindowQuality(rec.name, start, stop, terms, speed)
 
 
