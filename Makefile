@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo demo-smoke showcase test generate bench lint clean clean-numba robustness
+.PHONY: demo demo-smoke intervals showcase test generate bench lint clean clean-numba robustness
 
 # The main job on the embedded default: generate (or reuse) the synthetic dataset, train the
 # CPU-sized SSPINNpose configuration (five 500-step starts, then the chosen one to 12,000 steps;
@@ -36,6 +36,19 @@ demo: $(STAMP)
 	$(BIN)/python -m sspinn evaluate --model $(DEMO)/run/model.pt --data $(SYNTH) --split test --out $(DEMO)/test --overwrite
 	$(BIN)/python -m sspinn adapt --model $(DEMO)/run/model.pt --data $(SYNTH) --split test --out $(DEMO)/adapted --auto-resume $(ADAPT_FLAGS)
 	$(BIN)/python -m sspinn evaluate --model $(DEMO)/adapted/model.pt --data $(SYNTH) --split test --out $(DEMO)/test_adapted --overwrite
+
+# After `make demo`: the demo model's 90 % intervals calibrated on 16 calibration subjects of
+# their own (configs/synth/calibration.yaml) instead of the 2 validation subjects, written beside
+# the model as model.calibration_subjects.uncertainty.json, and the test split evaluated with them
+# (test_intervals/). Use the file with `sspinn infer/evaluate --uncertainty FILE`.
+CALIBRATION_CONFIG ?= configs/synth/calibration.yaml
+CALIBRATION        ?= data/synth_calibration
+intervals: $(STAMP)
+	$(BIN)/python -m predictive synth --config $(CALIBRATION_CONFIG) --out $(CALIBRATION) $(if $(CACHE),--cache-dir $(CACHE))
+	$(BIN)/python -m sspinn calibrate-uncertainty --model $(DEMO)/run/model.pt --data $(CALIBRATION) --split val \
+		--out $(DEMO)/run/model.calibration_subjects.uncertainty.json
+	$(BIN)/python -m sspinn evaluate --model $(DEMO)/run/model.pt --data $(SYNTH) --split test --out $(DEMO)/test_intervals \
+		--uncertainty $(DEMO)/run/model.calibration_subjects.uncertainty.json --overwrite
 
 # CI: the main job's path end to end from a cold start (tiny dataset generated into a fresh cache,
 # 20 training steps, evaluation, report), so that a broken `make demo` cannot land.

@@ -119,9 +119,11 @@ def _evaluate(args: argparse.Namespace) -> int:
         recs = open_recordings(args.data, args.split, args.periods, args.height, args.mass)
     from sspinn.estimator import uncertainty
 
-    bands_file = uncertainty.calibration_path(args.model)
     bands = None
-    if bands_file.exists():
+    bands_file = args.uncertainty or uncertainty.calibration_path(args.model)
+    if args.uncertainty is not None:  # named: it must fit this model
+        bands = uncertainty.load_calibration(args.uncertainty, args.model)
+    elif bands_file.exists():
         try:
             bands = uncertainty.load_calibration(bands_file, args.model)
         except uncertainty.UncertaintyError as exc:  # e.g. left from an earlier model: the metrics do not need it
@@ -362,6 +364,8 @@ def _main(argv: list[str]) -> int:
     ev.add_argument("--skip", type=int, default=50, help="samples of LSTM warm-up excluded from the metrics")
     ev.add_argument("--out", type=Path, required=True)
     ev.add_argument("--overwrite", action="store_true", help="replace an evaluation already in --out (else a new folder <out>_2 …)")
+    ev.add_argument("--uncertainty", type=Path, default=None,
+                    help="uncertainty calibration file (default: <model>.uncertainty.json beside the model, if there)")
 
     inf = sub.add_parser("infer", help="estimates of recordings without labels → CSV")
     inf.add_argument("--model", type=Path, required=True)

@@ -394,3 +394,16 @@ def test_periodic_gaits_fall_back_without_aborting(monkeypatch: pytest.MonkeyPat
     monkeypatch.setattr(gait_library, "_solve_periodic", lambda *a, **k: (_ for _ in ()).throw(OCPError("X", "no")))
     with pytest.raises(OCPError, match="anchor"):
         gait_library.template_library([1.3], StrideSettings(), _MemoryCache())
+
+
+def test_the_calibration_subjects_are_new_subjects_of_the_same_population_all_in_val():
+    """configs/synth/calibration.yaml (`make intervals`): 8 walkers and 8 runners, none of them a
+    subject of the default dataset, every one in the val split."""
+    configs = Path(__file__).resolve().parents[1] / "configs" / "synth"
+    default, calibration = SynthConfig.from_yaml(configs / "default.yaml"), SynthConfig.from_yaml(configs / "calibration.yaml")
+    assert (calibration.programs, calibration.paces, calibration.subjects) == (default.programs, default.paces, default.subjects)
+    subjects = sample_subjects(calibration)
+    assert len(subjects) == 16 and {s.split for s in subjects} == {"val"}
+    assert sorted(s.index % len(calibration.programs) for s in subjects) == [0] * 8 + [1] * 8  # first programs: walk, run
+    known = {(round(s.height, 6), round(s.mass, 6)) for s in sample_subjects(default)}
+    assert not known & {(round(s.height, 6), round(s.mass, 6)) for s in subjects}

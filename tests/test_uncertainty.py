@@ -103,4 +103,34 @@ def test_the_cli_calibrates_writes_intervals_and_bands(trained, capsys):
     metrics = json.loads((trained / "ev" / "metrics.json").read_text())
     [groups] = metrics["interval_coverage"]["by_program"].values()
     assert set(groups) == set(U.GROUPS)
-    assert "## Coverage of the 90 % intervals" in (trained / "ev" / "report.md").read_text()
+    [widths] = metrics["interval_coverage"]["median_half_width"].values()
+    assert set(widths) == set(U.GROUPS) and all(v > 0 for v in widths.values())
+    report = (trained / "ev" / "report.md").read_text()
+    assert "## Coverage of the 90 % intervals" in report and "Median half-width of the intervals" in report
+    # another calibration of the same model, named with --uncertainty: its intervals, not the default file's
+    other = trained / "other.uncertainty.json"
+    assert main(["calibrate-uncertainty", "--model", str(model), "--data", str(data), "--passes", "4", "--level", "0.6",
+                 "--out", str(other)]) == 0
+    with contextlib.redirect_stderr(io.StringIO()):
+        assert main(["evaluate", "--model", str(model), "--data", str(data), "--split", "test", "--out", str(trained / "ev6"),
+                     "--uncertainty", str(other)]) == 0
+    assert "## Coverage of the 60 % intervals" in (trained / "ev6" / "report.md").read_text()
+    foreign = trained / "foreign.uncertainty.json"
+    U.save_calibration(U.UncertaintyCalibration("0" * 64, 0.9, 16, 0, {c: 1.0 for c in U.CHANNELS}, [], {}), foreign)
+    assert main(["evaluate", "--model", str(model), "--data", str(data), "--split", "test", "--out", str(trained / "ev7"),
+                 "--uncertainty", str(foreign)]) == 2
+    assert "another model file" in capsys.readouterr().err
+
+
+def test_median_half_widths_are_in_the_reports_units_per_program():
+    rng = np.random.default_rng(3)
+    walk, run = make_recording("w", "w", 160, rng), make_recording("r", "r", 160, rng)
+    ones = np.ones((160, len(U.CHANNELS)))
+    half = U.median_half_widths([walk, run], [ones, 2 * ones], ["walk", "run"], skip=50)
+    assert set(half) == {"walk", "run", "all"} and list(half["walk"]) == list(U.HALF_WIDTH_UNITS)
+    bw = walk.mass * 9.81
+    assert half["walk"]["angles"] == pytest.approx(np.degrees(1.0))
+    assert half["walk"]["torques"] == pytest.approx(100 / (bw * walk.height), rel=1e-3)
+    assert half["walk"]["GRF"] == pytest.approx(100 / bw, rel=1e-3)
+    assert half["run"]["speed"] == 2.0 and half["walk"]["pelvis velocity"] == 1.0
+    assert half["walk"]["speed"] < half["all"]["speed"] <= half["run"]["speed"]

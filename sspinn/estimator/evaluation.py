@@ -297,16 +297,22 @@ def write_report(
     if comparison is not None:
         assert baseline is not None
         lines += baseline_lines(comparison, baseline.source)
-    covered = None
+    covered = half = None
     if intervals is not None:
         from sspinn.estimator.trivial_predictors import program_of
-        from sspinn.estimator.uncertainty import CHANNELS, coverage
+        from sspinn.estimator.uncertainty import CHANNELS, HALF_WIDTH_UNITS, coverage, median_half_widths
 
         channel_names = list(CHANNELS)
-        covered = coverage(estimates, recordings, intervals, [program_of(r) for r in recordings], skip)
+        programs = [program_of(r) for r in recordings]
+        covered = coverage(estimates, recordings, intervals, programs, skip)
+        half = median_half_widths(recordings, intervals, programs, skip)
         lines += ["", f"## Coverage of the {100 * level:.0f} % intervals (fraction of labelled samples inside)", "",
                   "| program | " + " | ".join(next(iter(covered.values()))) + " |", "|---|" + "---|" * len(next(iter(covered.values())))]
         lines += [f"| {p} | " + " | ".join(_cell(100 * v, ".1f") + " %" for v in c.values()) + " |" for p, c in covered.items()]
+        lines += ["", "Median half-width of the intervals:", "",
+                  "| program | " + " | ".join(f"{g} ({HALF_WIDTH_UNITS[g]})" for g in HALF_WIDTH_UNITS) + " |",
+                  "|---|" + "---|" * len(HALF_WIDTH_UNITS)]
+        lines += [f"| {p} | " + " | ".join(_cell(v, ".3g") for v in h.values()) + " |" for p, h in half.items()]
     for index, (est, rec) in enumerate(zip(estimates, recordings)):
         body = BodyParameters.from_anthropometry(rec.height, rec.mass)
         fig, axes = plt.subplots(2, 3, figsize=(14, 7))
@@ -362,7 +368,8 @@ def write_report(
     atomic_write_text(out / "report.md", "\n".join(lines) + "\n")
     result = {"title": title, "mean": mean.as_dict(), "recordings": {k: v.as_dict() for k, v in per.items()}, **(extra or {})}
     if covered is not None:
-        result["interval_coverage"] = {"level": level, "by_program": covered}
+        result["interval_coverage"] = {"level": level, "by_program": covered, "median_half_width": half,
+                                       "half_width_units": HALF_WIDTH_UNITS}
     if comparison is not None:
         assert baseline is not None
         result["baseline_source"] = baseline.source

@@ -43,7 +43,7 @@ from sspinn.estimator import calibration_files
 from sspinn.estimator.inference import GaitEstimate, network_inputs, physical_outputs
 from sspinn.estimator.network import SSPINNposeNet
 from sspinn.model.body import BodyParameters
-from sspinn.model.conventions import COORDINATES, GRF, JOINTS
+from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, JOINTS
 from sspinn.run_folder import atomic_path, atomic_write_text
 
 #: Output channels with an interval: name → (estimate field, column).
@@ -239,6 +239,30 @@ def coverage(estimates: Sequence[GaitEstimate], recordings: Sequence[Recording],
             cols = cols[np.isfinite(cols)]
             out[program][group] = float(cols.mean()) if cols.size else float("nan")
     return out
+
+
+#: Units of :func:`median_half_widths` per channel group, with the scale from the channel's own
+#: units (rad, N·m, N, m/s): body weight (BW) = mass·g, BW·BH = mass·g·height.
+HALF_WIDTH_UNITS: Final[dict[str, str]] = {"angles": "°", "torques": "%BW·BH", "GRF": "%BW", "speed": "m/s",
+                                           "pelvis velocity": "m/s"}
+
+
+def median_half_widths(recordings: Sequence[Recording], half_widths: Sequence[np.ndarray], programs: Sequence[str],
+                       skip: int = SKIP) -> dict[str, dict[str, float]]:
+    """Median interval half-width per program (and "all" with several) and channel group, in
+    :data:`HALF_WIDTH_UNITS` (degrees, %BW·BH, %BW, m/s), over the samples after ``skip``."""
+    names = list(CHANNELS)
+    widths: dict[str, dict[str, list[np.ndarray]]] = {}
+    for rec, hw, program in zip(recordings, half_widths, programs):
+        bw = rec.mass * GRAVITY
+        scale = {"angles": 180.0 / math.pi, "torques": 100.0 / (bw * rec.height), "GRF": 100.0 / bw, "speed": 1.0,
+                 "pelvis velocity": 1.0}
+        for key in {program, "all"} if len(set(programs)) > 1 else {program}:
+            for group, channels in GROUPS.items():
+                cols = hw[skip:, [names.index(c) for c in channels]] * scale[group]
+                widths.setdefault(key, {}).setdefault(group, []).append(cols.ravel())
+    return {key: {group: float(np.median(np.concatenate(parts))) for group, parts in groups.items()}
+            for key, groups in widths.items()}
 
 
 def calibration_path(model_path: str | Path) -> Path:
