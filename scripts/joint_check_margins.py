@@ -30,7 +30,7 @@ sys.path.insert(0, str(ROOT))
 
 from sspinn.data.csv_readers import read_averaged_stride  # noqa: E402
 from sspinn.data.dataset import Recording  # noqa: E402
-from sspinn.data.signal_checks import joint_stats  # noqa: E402
+from sspinn.data.signal_checks import JOINT_RATE_OK, joint_stats  # noqa: E402
 from sspinn.imu import pipeline  # noqa: E402
 from sspinn.model.conventions import SEGMENTS  # noqa: E402
 from sspinn.testing.perturbations import perturb  # noqa: E402
@@ -87,25 +87,31 @@ def main() -> None:
                                for s in range(0, imu.shape[0] - EXCERPT + 1, 1000)}},
             "other": others(args.synth)}
     for label, recs in sets.items():
-        factor, mirror, negated, scale = [], [], [], defaultdict(list)
+        factor, gain, mirror, negated, scale = [], [], [], [], defaultdict(list)
         for imu, segs in recs.values():
             st = joint_stats(imu, segs)
             factor.append(st.factor)
+            gain.append(st.factor_gain)
             mirror += list(st.mirror.values())
             negated += list(st.negated.values())
             for s, v in st.scale.items():
                 if v is not None:
                     scale[s.split("_")[0]].append(v[0])
-        print(f"untouched {label} ({len(recs)} recordings): factor {min(factor):.3f}–{max(factor):.3f}, acc_x-negated gain "
+        lo, hi = JOINT_RATE_OK
+        outside = [g for f, g in zip(factor, gain) if not lo <= f <= hi]
+        print(f"untouched {label} ({len(recs)} recordings): factor {min(factor):.3f}–{max(factor):.3f} (outside "
+              f"{lo:g}–{hi:g}: {len(outside)}, residual gain there ≤ {max(outside, default=float('nan')):.3f}), acc_x-negated gain "
               f"≤ {max(mirror):.2f}, gyr_z-negated gain ≤ {max(negated):.2f}, gyro scale "
               + ", ".join(f"{k} {min(v):.2f}–{max(v):.2f}" for k, v in scale.items()))
     for label, recs in (("CMU", real), ("other", sets["other"])):
-        ratio, mirror, scale = [], defaultdict(list), defaultdict(list)
+        ratio, rate_gain, mirror, scale = [], [], defaultdict(list), defaultdict(list)
         for imu, segs in recs.values():
             start = int(rng.integers(0, max(1, imu.shape[0] - EXCERPT)))
             near, what = perturb(imu, segs, "rate_near", rng)
             f = float(what.description.split("× ")[-1].rstrip(")"))
-            ratio.append(joint_stats(near[:EXCERPT], segs, per_sensor=False).factor / f)
+            st = joint_stats(near[:EXCERPT], segs, per_sensor=False)
+            ratio.append(st.factor / f)
+            rate_gain.append((f, st.factor, st.factor_gain))
             ex = imu[start:start + EXCERPT]
             for j, s in enumerate(segs):
                 half = ex.copy()
@@ -116,6 +122,11 @@ def main() -> None:
                 flipped = ex.copy()
                 flipped[:, j, 0] *= -1
                 mirror[s.split("_")[0]].append(joint_stats(flipped, segs).mirror[s])
+        lo, hi = JOINT_RATE_OK
+        caught = [g for _, est, g in rate_gain if not lo <= est <= hi]
+        print(f"mistakes {label}: rate × {min(f for f, _, _ in rate_gain):.2f}–{max(f for f, _, _ in rate_gain):.2f} outside "
+              f"{lo:g}–{hi:g} in {len(caught)} of {len(rate_gain)}, residual gain there {min(caught, default=float('nan')):.3f}–"
+              f"{max(caught, default=float('nan')):.3f}" + (f" (below 1.05: {sum(g < 1.05 for g in caught)})" if caught else ""))
         print(f"mistakes {label}: rate estimate / true factor {min(ratio):.2f}–{max(ratio):.2f}; gyr_z × 0.5: estimate "
               + ", ".join(f"{k} ≥ {min(v):.2f}" for k, v in scale.items()) + "; acc_x negated: gain "
               + ", ".join(f"{k} ≥ {min(v):.2f}" for k, v in mirror.items()))
