@@ -69,7 +69,18 @@ def test_the_quality_speed_is_the_estimates_also_where_the_body_rests(model):
     q, estimate = est.quality(rec), est.predict(rec)
     assert np.all(estimate.u[:400, 0] == 0.0)
     np.testing.assert_allclose(q.speed, [estimate.u[a:b, 0].mean() for a, b in zip(q.start, q.stop)], atol=1e-3)
-    assert q.speed[0] == 0.0
+    assert q.speed[0] == 0.0 and q.rest[0] == 1.0 and q.rest[-1] == 0.0
+    # the resting windows are named as such, not as a speed outside the training range
+    cal = QualityCalibration(
+        model_sha256="", grf=est.network_.config.grf, window_s=2.0, term_median={k: 1.0 for k in q.terms}, threshold=0.0,
+        error_median={"jae_deg": 1.0, "grfe_pct_bw": 1.0}, error_threshold=1.0,
+        input_ranges={"speed_m_s": [1e-6, 200.0]}, calibrated_on=[], source="x", ranges_from="training",
+    )
+    [line] = input_findings(rec, q, cal, "m.pt")
+    assert "the whole body rests in 2 of 3 windows" in line
+    assert ("estimated speed" in line) == (q.speed[2] < 1e-6)  # only the walking window's speed is judged
+    cal.input_ranges = {"speed_m_s": [0.0, 200.0]}  # a model that saw standing
+    assert input_findings(rec, q, cal, "m.pt") == []
 
 
 def test_a_corrupted_recording_scores_worse_than_the_clean_one(model, tiny_run):

@@ -110,6 +110,8 @@ class WindowQuality:
             as in the estimate: :func:`~sspinn.estimator.inference.estimate_recording`).
         score: (n,) combined score (None without a calibration).
         flagged: (n,) bool, score above the calibrated threshold (None without a calibration).
+        rest: (n,) share of each window's samples at which the whole body rests (0–1;
+            :func:`~sspinn.estimator.zupt.whole_body_still`), or None when not computed.
     """
 
     name: str
@@ -119,6 +121,7 @@ class WindowQuality:
     speed: np.ndarray
     score: np.ndarray | None = None
     flagged: np.ndarray | None = None
+    rest: np.ndarray | None = None
 
     @property
     def n_windows(self) -> int:
@@ -133,6 +136,8 @@ class WindowQuality:
         """Write one row per window (start_s, end_s, the terms, speed, score, flagged), atomically."""
         cols: dict[str, np.ndarray] = {"start_s": self.start / SAMPLE_RATE_HZ, "end_s": self.stop / SAMPLE_RATE_HZ,
                                        **self.terms, "speed_m_s": self.speed}
+        if self.rest is not None:
+            cols["rest_share"] = self.rest
         if self.score is not None and self.flagged is not None:
             cols |= {"score": self.score, "flagged": self.flagged.astype(float)}
         rows = ["window," + ",".join(cols)]
@@ -198,7 +203,8 @@ def window_quality(
     if still.any():  # the speed the estimate reports (estimate_recording's whole-body rests)
         vx = speed_at_rest(vx, still, SAMPLE_RATE_HZ)
     speed = np.array([vx[a:b].mean() for a, b in zip(start, stop)])
-    return WindowQuality(rec.name, start, stop, terms, speed)
+    rest = np.array([still[a:b].mean() for a, b in zip(start, stop)])
+    return WindowQuality(rec.name, start, stop, terms, speed, rest=rest)
 
 
 def window_errors(estimate: GaitEstimate, rec: Recording, start: np.ndarray, stop: np.ndarray) -> dict[str, np.ndarray]:
@@ -428,10 +434,17 @@ def input_findings(rec: Recording, quality: WindowQuality, cal: QualityCalibrati
     (the model's training recordings' or the calibration recordings', ``cal.ranges_from``; none
     if all lie inside); an input the calibration has no range for is not judged."""
     parts = []
+    resting = quality.rest >= 0.5 if quality.rest is not None else np.zeros(quality.n_windows, dtype=bool)
     for name, values in recording_inputs(rec, quality).items():
         if name not in cal.input_ranges:
             continue
         lo, hi = cal.input_ranges[name]
+        if name == "speed_m_s" and resting.any():  # a rest's speed is 0 by the rest, not an extrapolated one
+            values = values[~resting]
+            if lo > 0:
+                parts.append(f"the whole body rests in {int(resting.sum())} of {quality.n_windows} windows (speed 0 there; the "
+                             f"recordings it was {RANGES_FROM[cal.ranges_from]} on never rest, so its angles and forces there "
+                             "are extrapolated)")
         finite = values[np.isfinite(values)]
         outside = (finite < lo) | (finite > hi)
         if not outside.any():
