@@ -99,6 +99,7 @@ import numpy as np
 import scipy.fft
 import scipy.signal
 
+from sspinn.data.gait_events import true_runs
 from sspinn.model.body import IMUPlacement, ParameterError
 from sspinn.model.conventions import N_Q, N_SEGMENTS, SEGMENTS
 from sspinn.model.kinematics import segment_kinematics, virtual_imu
@@ -420,8 +421,7 @@ def activity_envelope(
     n = rest.size
     e, de, dde = np.ones(n), np.zeros(n), np.zeros(n)
     t = np.arange(n) / fs
-    edges = np.diff(np.concatenate([[0], rest.astype(np.int8), [0]]))
-    for start, end in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+    for start, end in true_runs(rest):
         # time from the rest [start, end) (0 inside it), and its sign of change
         x = np.zeros(n)
         dx = np.zeros(n)

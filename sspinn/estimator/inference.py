@@ -25,7 +25,7 @@ from sspinn.estimator.network import (
     input_features,
     output_affine,
 )
-from sspinn.estimator.zupt import speed_at_rest, whole_body_still
+from sspinn.estimator.zupt import speed_with_rests
 from sspinn.model import dynamics
 from sspinn.model._generated import model_numba
 from sspinn.model.body import BodyParameters, IMUPlacement
@@ -188,10 +188,9 @@ def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str
     out = {k: v[0].cpu().numpy() for k, v in physical_outputs(raw.cpu(), body, model.config.grf).items()}
     # the network's own output is checked first: an impossible speed is an error, not a rest
     estimate = GaitEstimate(name=rec.name, time=rec.time, **out).check_finite().check_physical(rec.height, rec.mass)
-    still = whole_body_still(inputs.recording.imu, SAMPLE_RATE_HZ)
+    vx, still = speed_with_rests(estimate.u[:, 0], inputs.recording.imu, SAMPLE_RATE_HZ)
     if still.any():
-        estimate.u[:, 0] = speed_at_rest(estimate.u[:, 0], still, SAMPLE_RATE_HZ)
-        vx = estimate.u[:, 0]
+        estimate.u[:, 0] = vx
         estimate.q[:, 0] = np.concatenate([[0.0], np.cumsum(0.5 * (vx[1:] + vx[:-1]) / SAMPLE_RATE_HZ)])
     return estimate
 

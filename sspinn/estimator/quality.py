@@ -54,7 +54,7 @@ from sspinn.estimator import calibration_files
 from sspinn.estimator.inference import GaitEstimate, network_inputs
 from sspinn.estimator.losses import Batch, LossWeights, PhysicsLosses
 from sspinn.estimator.network import SSPINNposeNet, decode, output_affine
-from sspinn.estimator.zupt import speed_at_rest, whole_body_still
+from sspinn.estimator.zupt import speed_with_rests
 from sspinn.model.body import BodyParameters, JointLimits
 from sspinn.model.conventions import COORDINATES, GRAVITY
 from sspinn.run_folder import atomic_write_text
@@ -199,9 +199,7 @@ def window_quality(
         for k in names:
             terms[k][w] = float(values[k])
         vx[a:b] = est.u[0, :, 0].numpy()
-    still = whole_body_still(rec.imu, SAMPLE_RATE_HZ)
-    if still.any():  # the speed the estimate reports (estimate_recording's whole-body rests)
-        vx = speed_at_rest(vx, still, SAMPLE_RATE_HZ)
+    vx, still = speed_with_rests(vx, rec.imu, SAMPLE_RATE_HZ)  # the speed the estimate reports
     speed = np.array([vx[a:b].mean() for a, b in zip(start, stop)])
     rest = np.array([still[a:b].mean() for a, b in zip(start, stop)])
     return WindowQuality(rec.name, start, stop, terms, speed, rest=rest)

@@ -205,6 +205,14 @@ def speed_at_rest(vx: np.ndarray, still: np.ndarray, sample_rate_hz: float, tau_
     return out
 
 
+def speed_with_rests(vx: np.ndarray, imu: np.ndarray, sample_rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """The forward velocity the estimate reports and the rests: ``(vx', still)``, ``still`` (T,)
+    bool the whole-body rests of ``imu`` (:func:`whole_body_still`) and ``vx'`` the network's
+    ``vx`` (T,) with them applied (:func:`speed_at_rest`; ``vx`` itself where there is none)."""
+    still = whole_body_still(imu, sample_rate_hz)
+    return (speed_at_rest(vx, still, sample_rate_hz) if still.any() else vx), still
+
+
 def stance_phases(stance: np.ndarray) -> np.ndarray:
     """(n, 2) int array of [start, end) sample indices of the True runs of a boolean mask."""
     return np.array(true_runs(stance), dtype=np.int64).reshape(-1, 2)
