@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import json
 import shutil
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,7 @@ from predictive.synth.config import SynthConfig
 from predictive.synth.joblib_backend import BackendError, joblib_backends
 from predictive.synth.pipeline import generate_dataset
 from sspinn.data.dataset import Dataset
+from sspinn.model.conventions import SEGMENTS
 
 SMOKE = Path(__file__).resolve().parents[1] / "configs" / "synth" / "smoke.yaml"
 
@@ -112,17 +114,23 @@ def test_a_backend_registered_by_the_user_gives_the_same_files(serial, tmp_path:
 
 @pytest.mark.slow
 def test_the_placement_benchmark_scores_the_fits_against_the_stored_truth(serial, tmp_path: Path, capsys) -> None:
-    """``benchmarks/placement_joint_centres.py`` on generated data: every thigh and shank sensor
-    scored, finite errors, and the nominal error is the stored truth's distance from the nominal."""
+    """``benchmarks/placement_recovery.py`` on generated data: every sensor scored (the joint-centre
+    fits on thighs and shanks), finite errors, the nominal error is the stored truth's distance
+    from the nominal, and the fit to the true kinematics lands nearer the truth than the nominal."""
     import runpy
 
     root, _ = serial
-    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "placement_joint_centres.py"), run_name="bench")
+    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "placement_recovery.py"), run_name="bench")
     result = bench["main"](["--data", str(root / "out"), "--json", str(tmp_path / "p.json")])
-    assert {r["sensor"] for r in result["rows"]} == {"femur_r", "femur_l", "tibia_r", "tibia_l"}
-    assert all(np.isfinite([r["nominal_cm"], r["fitted_cm"], r["fitted_angle_deg"]]).all() for r in result["rows"])
+    assert {r["sensor"] for r in result["rows"]} == set(SEGMENTS)
+    legs = [r for r in result["rows"] if r["sensor"][:5] in ("femur", "tibia")]
+    assert legs and all(np.isfinite([r["nominal_cm"], r["joint_centres_cm"], r["joint_centres_angle_deg"]]).all() for r in legs)
+    assert all(np.isfinite([r["labels_cm"], r["labels_angle_deg"]]).all() for r in result["rows"])
     assert any(r["nominal_cm"] > 0 for r in result["rows"])  # the error model moved the sensors
-    assert "| femur |" in capsys.readouterr().out
+    assert np.median([r["labels_cm"] for r in result["rows"]]) < np.median([r["nominal_cm"] for r in result["rows"]])
+    out = capsys.readouterr().out
+    assert "| thigh |" in out and "fitted to the true kinematics" in out
+    assert json.loads((tmp_path / "p.json").read_text())["summary"]
 
 
 # ------------------------------------------------------------------------------ fast

@@ -1,0 +1,202 @@
+"""Sensor placement recovered from the IMU signals, against the synthetic data's true placement
+and the nominal placement the estimator is told — three methods, no labels read but to score:
+
+1. **joint-centre fits** (thighs and shanks): for each leg the joint centres are fitted in the
+   plane (:func:`sspinn.imu.joint_centres.joint_centre`, Seel, Raisch & Schauer 2014): the hip
+   from the pelvis and thigh sensors, the knee from the thigh and shank sensors, the ankle from
+   the shank and foot sensors. In a segment's frame the proximal joint is the origin and the
+   distal joint lies on the −y axis, so the two joint centres seen from the segment's sensor give
+   its angle and position (:func:`sspinn.imu.joint_centres.sensor_placement`). No training.
+2. **fitted to the estimate** (every sensor; with ``--model``): the model's estimate of each
+   recording, then each sensor's position, angle and accelerometer bias fitted to the estimated
+   kinematics (:func:`sspinn.estimator.placement_fit.fit_placement`).
+3. **fitted to the true kinematics** (every sensor): the same fit to the recording's labels — not a
+   method (it reads the labels) but the bound: what the signals say about the placement when the
+   kinematics are exact, so what is left is the IMU errors' (soft-tissue artefact, noise).
+
+Printed per gait (walking, running) and segment: the median over the recordings of the position
+error √(Δx² + Δy²) (cm) of the nominal placement and of each method, each method's ratio to the
+nominal, and the median angle errors (°); the target set for the learned placement is a median
+below half the nominal error for the thighs.
+
+On recordings without a true placement (real ones) and with ``--model``: the positions fitted to
+the estimate (angles kept: ``fit_placement(..., angles=False)``) per recording, and per subject
+their spread between its recordings — the same sensors, so the same placement, is all that can be
+checked there.
+
+Usage: ``python benchmarks/placement_recovery.py --data data/synth_default [--model
+results/demo/run/model.pt] [--json PATH]`` (a dataset made by ``python -m predictive synth``,
+whose recordings store their true placement, or any other with ``--model``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+
+#: segment → (proximal joint's sensor pair, distal joint's sensor pair), each pair (proximal
+#: segment, distal segment) of the joint.
+CHAINS = {
+    "femur": (("pelvis", "femur"), ("femur", "tibia")),
+    "tibia": (("femur", "tibia"), ("tibia", "foot")),
+}
+#: Rows of the table, in order: a segment name's prefix and its label.
+GROUPS = {"pelvis": "pelvis", "femur": "thigh", "tibia": "shank", "foot": "foot"}
+#: The methods' keys and column heads.
+METHODS = {"joint_centres": "joint-centre fits", "estimate": "fitted to the estimate", "labels": "fitted to the true kinematics (bound)"}
+
+
+def _name(segment: str, side: str) -> str:
+    return segment if segment == "pelvis" else f"{segment}_{side}"
+
+
+def joint_centre_placement(signals: dict[str, Any], nominal: dict[str, np.ndarray], segment: str, side: str,
+                           length_m: float) -> tuple[np.ndarray, float]:
+    """(x, y) position (m) and angle (rad) of ``segment``'s sensor in its segment frame from the
+    joint centres of its two joints; ``nominal`` (segment → [x, y, θ]) gives the fits' start."""
+    from sspinn.imu.joint_centres import joint_centre, sensor_placement
+
+    def guess(seg: str, joint_y: float) -> np.ndarray:  # a joint at (0, joint_y) of seg's frame, seen from its sensor
+        x, y, _ = nominal[seg]
+        return np.array([-x, joint_y - y])
+
+    (pa, pb), (da, db) = CHAINS[segment]
+    seg, a_prox, b_dist = _name(segment, side), _name(pa, side), _name(db, side)
+    prox_guess_a = np.array([-nominal[a_prox][0], -nominal[a_prox][1]]) if pa == "pelvis" else guess(a_prox, -length_m)
+    proximal = joint_centre(signals[a_prox], signals[seg], prox_guess_a, guess(seg, 0.0))
+    distal = joint_centre(signals[seg], signals[b_dist], guess(seg, -length_m), -np.asarray(nominal[b_dist][:2]))
+    return sensor_placement(proximal.r_b, distal.r_a)
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", type=Path, default=REPO / "data" / "synth_default", help="synthetic dataset folder")
+    parser.add_argument("--model", type=Path, help="a trained model (model.pt): also fit the placement to its estimates")
+    parser.add_argument("--json", type=Path, help="also save the results")
+    args = parser.parse_args(argv)
+
+    from scipy.signal import butter, sosfiltfilt
+
+    from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset
+    from sspinn.estimator.paper_experiments import true_placement
+    from sspinn.estimator.placement_fit import fit_placement
+    from sspinn.imu.joint_centres import CUTOFF_HZ
+    from sspinn.model.body import BodyParameters
+    from sspinn.model.conventions import SEGMENTS
+
+    est = None
+    if args.model is not None:
+        from sspinn.estimator.sspinnpose import SSPINNpose
+
+        est = SSPINNpose.load(args.model)
+    dataset = Dataset.open(args.data)
+    sos = butter(2, CUTOFF_HZ, fs=SAMPLE_RATE_HZ, output="sos")
+    rows: list[dict[str, Any]] = []
+    real: list[dict[str, Any]] = []
+    for split in dataset.splits:
+        for rec in dataset.load(split):
+            truth = true_placement(rec)
+            if truth is None or rec.labels is None:
+                if est is not None:
+                    fitted = fit_placement(rec, est.predict(rec), angles=False).placement
+                    real.append({"recording": rec.name, "subject": rec.subject,
+                                 "nominal_m": {s: list(rec.placement.positions[s]) for s in rec.segments},
+                                 "fitted_m": {s: list(fitted.positions[s]) for s in rec.segments}})
+                continue
+            nominal_vec = rec.placement.vector().reshape(len(SEGMENTS), 3)
+            nominal = dict(zip(SEGMENTS, nominal_vec))
+            body = BodyParameters.from_anthropometry(rec.height, rec.mass)
+            signals = {}
+            for i, s in enumerate(SEGMENTS):
+                omega = sosfiltfilt(sos, rec.imu[:, i, 2])
+                signals[s] = (sosfiltfilt(sos, rec.imu[:, i, :2], axis=0), omega, np.gradient(omega) * SAMPLE_RATE_HZ)
+            fits = {"labels": fit_placement(rec, rec.labels, body, warmup_s=0.0).placement.vector().reshape(len(SEGMENTS), 3)}
+            if est is not None:
+                fits["estimate"] = fit_placement(rec, est.predict(rec), body).placement.vector().reshape(len(SEGMENTS), 3)
+            program = rec.provenance.get("program") if isinstance(rec.provenance, dict) else None
+            gait = str(program.get("name", "?")) if isinstance(program, dict) else "?"
+            for k, name in enumerate(SEGMENTS):
+                found = {key: value[k] for key, value in fits.items()}
+                segment, _, side = name.partition("_")
+                if segment in CHAINS:
+                    position, angle = joint_centre_placement(signals, nominal, segment, side, float(getattr(body, name).length))
+                    found["joint_centres"] = np.array([*position, angle])
+                row = {"recording": rec.name, "split": split, "gait": gait, "sensor": name,
+                       "nominal_cm": float(100 * np.hypot(*(nominal_vec[k, :2] - truth[k, :2]))),
+                       "nominal_angle_deg": float(np.degrees(abs(nominal_vec[k, 2] - truth[k, 2])))}
+                for key, v in found.items():
+                    row[f"{key}_cm"] = float(100 * np.hypot(*(v[:2] - truth[k, :2])))
+                    row[f"{key}_angle_deg"] = float(np.degrees(abs(v[2] - truth[k, 2])))
+                rows.append(row)
+    if real:
+        _print_real(real, args.data, args.model)
+    if not rows:
+        if not real:
+            print(f"{args.data}: no recording stores its true placement (only `python -m predictive synth` data do); "
+                  "with --model the fitted positions are compared between each subject's recordings", file=sys.stderr)
+        out = {"data": str(args.data), "model": str(args.model) if args.model else None, "real": real}
+        if args.json and real:
+            from sspinn.run_folder import atomic_write_text
+
+            atomic_write_text(args.json, json.dumps(out, indent=2))
+        return out if real else {}
+    methods = [m for m in METHODS if any(f"{m}_cm" in r for r in rows)]
+    print(f"# Sensor placement recovered from the IMU signals, {args.data} ({len({r['recording'] for r in rows})} recordings"
+          + (f"; estimates of {args.model}" if args.model else "") + ")\n")
+    print("Median position error (cm), its ratio to the nominal's, and the median angle error (°):\n")
+    print("| gait | segment | sensors | nominal | " + " | ".join(METHODS[m] for m in methods) + " |")
+    print("|---|---|---:|---:|" + "---:|" * len(methods))
+    summary: dict[str, Any] = {}
+    for gait in sorted({r["gait"] for r in rows}):
+        for prefix, label in GROUPS.items():
+            sel = [r for r in rows if r["gait"] == gait and r["sensor"].startswith(prefix)]
+            if not sel:
+                continue
+            nom, nom_angle = float(np.median([r["nominal_cm"] for r in sel])), float(np.median([r["nominal_angle_deg"] for r in sel]))
+            entry: dict[str, Any] = {"n": len(sel), "nominal_cm": nom, "nominal_angle_deg": nom_angle}
+            cells = []
+            for m in methods:
+                have = [r for r in sel if f"{m}_cm" in r]
+                if not have:
+                    cells.append("–")
+                    continue
+                cm, deg = float(np.median([r[f"{m}_cm"] for r in have])), float(np.median([r[f"{m}_angle_deg"] for r in have]))
+                entry[m] = {"cm": cm, "ratio": cm / nom, "angle_deg": deg, "below_half": cm < 0.5 * nom}
+                cells.append(f"{cm:.2f} ({cm / nom:.2f}×), {deg:.1f}°")
+            summary[f"{gait}/{label}"] = entry
+            print(f"| {gait} | {label} | {len(sel)} | {nom:.2f}, {nom_angle:.1f}° | " + " | ".join(cells) + " |")
+    out = {"data": str(args.data), "model": str(args.model) if args.model else None, "summary": summary, "rows": rows, "real": real}
+    if args.json:
+        from sspinn.run_folder import atomic_write_text
+
+        atomic_write_text(args.json, json.dumps(out, indent=2))
+    return out
+
+
+def _print_real(real: list[dict[str, Any]], data: Path, model: Path | None) -> None:
+    """Per subject and sensor: the nominal and fitted positions (cm) of each recording, and the
+    largest distance between two of its recordings' fitted positions."""
+    print(f"# Sensor positions fitted to the estimates of {model} (angles kept), {data} ({len(real)} recordings "
+          "without a true placement)\n")
+    print("| subject | sensor | nominal x, y (cm) | fitted x, y per recording (cm) | spread (cm) |")
+    print("|---|---|---|---|---:|")
+    for subject in sorted({r["subject"] for r in real}):
+        mine = [r for r in real if r["subject"] == subject]
+        for sensor in mine[0]["fitted_m"]:
+            points = np.array([r["fitted_m"][sensor] for r in mine if sensor in r["fitted_m"]])
+            spread = max((float(np.hypot(*(a - b))) for a in points for b in points), default=0.0)
+            nominal = mine[0]["nominal_m"][sensor]
+            fitted = "; ".join(f"{100 * x:.1f}, {100 * y:.1f}" for x, y in points)
+            print(f"| {subject} | {sensor} | {100 * nominal[0]:.1f}, {100 * nominal[1]:.1f} | {fitted} | {100 * spread:.1f} |")
+    print()
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
