@@ -19,13 +19,19 @@ error √(Δx² + Δy²) (cm) of the nominal placement and of each method, each 
 nominal, and the median angle errors (°); the target set for the learned placement is a median
 below half the nominal error for the thighs.
 
+With ``--misplacements`` (and ``--model``): every recording again with each sensor deliberately
+moved along its segment by 2, 5, 10 or 20 cm or turned by 10, 20 or 30° (random signs; the
+misplacement study's :func:`sspinn.estimator.paper_experiments.misplaced`, the moved placement the
+truth), and the fit to the estimate of that recording scored against it: how well a placement
+that is really wrong is found again.
+
 On recordings without a true placement (real ones) and with ``--model``: the positions fitted to
 the estimate (angles kept: ``fit_placement(..., angles=False)``) per recording, and per subject
 their spread between its recordings — the same sensors, so the same placement, is all that can be
 checked there.
 
 Usage: ``python benchmarks/placement_recovery.py --data data/synth_default [--model
-results/demo/run/model.pt] [--json PATH]`` (a dataset made by ``python -m predictive synth``,
+results/demo/run/model.pt [--misplacements]] [--json PATH]`` (a dataset made by ``python -m predictive synth``,
 whose recordings store their true placement, or any other with ``--model``).
 """
 
@@ -79,13 +85,15 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=REPO / "data" / "synth_default", help="synthetic dataset folder")
     parser.add_argument("--model", type=Path, help="a trained model (model.pt): also fit the placement to its estimates")
+    parser.add_argument("--misplacements", action="store_true",
+                        help="with --model: also fit recordings whose sensors were deliberately moved or turned")
     parser.add_argument("--json", type=Path, help="also save the results")
     args = parser.parse_args(argv)
 
     from scipy.signal import butter, sosfiltfilt
 
     from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset
-    from sspinn.estimator.paper_experiments import true_placement
+    from sspinn.estimator.paper_experiments import MISPLACEMENTS, misplaced, misplaced_placement, true_placement
     from sspinn.estimator.placement_fit import fit_placement
     from sspinn.imu.joint_centres import CUTOFF_HZ
     from sspinn.model.body import BodyParameters
@@ -98,10 +106,15 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         est = SSPINNpose.load(args.model)
     dataset = Dataset.open(args.data)
     sos = butter(2, CUTOFF_HZ, fs=SAMPLE_RATE_HZ, output="sos")
+    if args.misplacements and est is None:
+        parser.error("--misplacements needs --model")
     rows: list[dict[str, Any]] = []
+    moved: list[dict[str, Any]] = []
     real: list[dict[str, Any]] = []
+    index = -1
     for split in dataset.splits:
         for rec in dataset.load(split):
+            index += 1
             truth = true_placement(rec)
             if truth is None or rec.labels is None:
                 if est is not None:
@@ -122,6 +135,19 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                 fits["estimate"] = fit_placement(rec, est.predict(rec), body).placement.vector().reshape(len(SEGMENTS), 3)
             program = rec.provenance.get("program") if isinstance(rec.provenance, dict) else None
             gait = str(program.get("name", "?")) if isinstance(program, dict) else "?"
+            if args.misplacements and est is not None:
+                for what, (along, angle) in MISPLACEMENTS.items():
+                    if not (along or angle):
+                        continue
+                    target = misplaced_placement(rec, along, angle, seed=index)
+                    shifted = misplaced(rec, along, angle, seed=index)
+                    fit = fit_placement(shifted, est.predict(shifted), body).placement.vector().reshape(len(SEGMENTS), 3)
+                    for k, name in enumerate(SEGMENTS):
+                        moved.append({"recording": rec.name, "gait": gait, "sensor": name, "misplacement": what,
+                                      "nominal_cm": float(100 * np.hypot(*(nominal_vec[k, :2] - target[k, :2]))),
+                                      "nominal_angle_deg": float(np.degrees(abs(nominal_vec[k, 2] - target[k, 2]))),
+                                      "estimate_cm": float(100 * np.hypot(*(fit[k, :2] - target[k, :2]))),
+                                      "estimate_angle_deg": float(np.degrees(abs(fit[k, 2] - target[k, 2])))})
             for k, name in enumerate(SEGMENTS):
                 found = {key: value[k] for key, value in fits.items()}
                 segment, _, side = name.partition("_")
@@ -172,12 +198,38 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                 cells.append(f"{cm:.2f} ({cm / nom:.2f}×), {deg:.1f}°")
             summary[f"{gait}/{label}"] = entry
             print(f"| {gait} | {label} | {len(sel)} | {nom:.2f}, {nom_angle:.1f}° | " + " | ".join(cells) + " |")
-    out = {"data": str(args.data), "model": str(args.model) if args.model else None, "summary": summary, "rows": rows, "real": real}
+    if moved:
+        summary["misplaced"] = _print_moved(moved)
+    out = {"data": str(args.data), "model": str(args.model) if args.model else None, "summary": summary, "rows": rows,
+           "misplaced": moved, "real": real}
     if args.json:
         from sspinn.run_folder import atomic_write_text
 
         atomic_write_text(args.json, json.dumps(out, indent=2))
     return out
+
+
+def _print_moved(moved: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per gait, misplacement and leg segment: the medians of the nominal placement's and of the
+    fit's position (cm) and angle (°) errors against the moved placement; returns them."""
+    legs = {"femur": "thigh", "tibia": "shank", "foot": "foot"}
+    print("\nSensors deliberately moved or turned (every sensor of every recording), the fit to the estimate of the "
+          "moved recording against the moved placement: nominal → fitted, median cm (ratio) and °:\n")
+    print("| gait | misplacement | " + " | ".join(legs.values()) + " |")
+    print("|---|---|" + "---|" * len(legs))
+    summary: dict[str, Any] = {}
+    for gait in sorted({r["gait"] for r in moved}):
+        for what in dict.fromkeys(r["misplacement"] for r in moved):
+            cells = []
+            for prefix, label in legs.items():
+                sel = [r for r in moved if r["gait"] == gait and r["misplacement"] == what and r["sensor"].startswith(prefix)]
+                med = {key: float(np.median([r[key] for r in sel]))
+                       for key in ("nominal_cm", "estimate_cm", "nominal_angle_deg", "estimate_angle_deg")}
+                summary[f"{gait}/{what}/{label}"] = med
+                cells.append(f"{med['nominal_cm']:.1f} → {med['estimate_cm']:.2f} cm ({med['estimate_cm'] / med['nominal_cm']:.2f}×), "
+                             f"{med['nominal_angle_deg']:.1f} → {med['estimate_angle_deg']:.1f}°")
+            print(f"| {gait} | {what} | " + " | ".join(cells) + " |")
+    return summary
 
 
 def _print_real(real: list[dict[str, Any]], data: Path, model: Path | None) -> None:

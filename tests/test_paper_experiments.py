@@ -157,6 +157,22 @@ def test_misplaced_sensors_change_the_signals_by_the_placement_alone(tiny):
     assert not np.allclose(turned.imu[..., :2], rec.imu[..., :2])
 
 
+def test_the_misplaced_placement_is_the_truth_moved_along_each_segment(tiny):
+    from sspinn.estimator.paper_experiments import misplaced_placement, true_placement
+
+    data, _ = tiny
+    [rec, _] = Dataset.open(data).load("test")
+    start = true_placement(rec)
+    start = rec.placement.vector().reshape(len(SEGMENTS), 3) if start is None else start
+    np.testing.assert_allclose(misplaced_placement(rec, 0.0, 0.0), start)
+    moved = misplaced_placement(rec, 0.05, np.radians(10), seed=3) - start
+    for k, s in enumerate(SEGMENTS):
+        along = 0 if s.startswith("foot") else 1
+        np.testing.assert_allclose(abs(moved[k, along]), 0.05)
+        np.testing.assert_allclose(moved[k, 1 - along], 0.0)
+        np.testing.assert_allclose(abs(moved[k, 2]), np.radians(10))
+
+
 def test_the_misplacement_experiment_scores_every_misplacement(tiny, tmp_path):
     out = tmp_path / "mis"
     assert _run(tiny, out, "misplacement", "nominal", "--steps", "2") == 0
