@@ -72,6 +72,12 @@ def test_a_gait_of_another_length_or_a_short_recording_is_refused(walk) -> None:
     short = type("Gait", (), {"q": q[:-5], "u": u[:-5], "qdd": qdd[:-5]})()
     with pytest.raises(PlacementFitError, match="moved: the gait has"):
         fit_placement(rec, short, body)
+    broken = q.copy()
+    broken[7, 3] = np.nan
+    with pytest.raises(PlacementFitError, match="moved: its q are not all finite"):
+        fit_placement(rec, type("Gait", (), {"q": broken, "u": u, "qdd": qdd})(), body)
+    with pytest.raises(PlacementFitError, match="moved: its qdd are missing"):
+        fit_placement(rec, type("Gait", (), {"q": q, "u": u, "qdd": None})(), body)
     few = _recording((q[:150], u[:150], qdd[:150], body, nominal), nominal, np.zeros((7, 2)))
     with pytest.raises(PlacementFitError, match="too short"):
         fit_placement(few, type("Gait", (), {"q": q[:150], "u": u[:150], "qdd": qdd[:150]})(), body)

@@ -102,6 +102,10 @@ def fit_placement(recording: Recording, gait: Kinematics, body: BodyParameters |
     if gait.q.shape[0] != n:
         raise PlacementFitError(f"{recording.name}: the gait has {gait.q.shape[0]} samples, the recording {n}; "
                                 "fit the placement to an estimate of this recording")
+    for what, values in (("q", gait.q), ("u", gait.u), ("qdd", gait.qdd), ("IMU signals", recording.imu[..., :2])):
+        if values is None or not np.isfinite(values).all():
+            raise PlacementFitError(f"{recording.name}: its {what} {'are missing' if values is None else 'are not all finite'}; "
+                                    "the placement is fitted to finite kinematics and signals only")
     start = int(round(warmup_s * SAMPLE_RATE_HZ))
     if n - start < MIN_FIT_S * SAMPLE_RATE_HZ:
         raise PlacementFitError(f"{recording.name}: {n / SAMPLE_RATE_HZ:.2f} s is too short to fit a placement "
