@@ -30,8 +30,12 @@ the estimate (angles kept: ``fit_placement(..., angles=False)``) per recording, 
 their spread between its recordings — the same sensors, so the same placement, is all that can be
 checked there.
 
+``--pieces SECONDS`` fits consecutive pieces of that length of every recording, each on its own:
+how the recovery depends on the length of the recording (``configs/synth/long_walk.yaml`` makes
+minute-long walking recordings for it).
+
 Usage: ``python benchmarks/placement_recovery.py --data data/synth_default [--model
-results/demo/run/model.pt [--misplacements]] [--json PATH]`` (a dataset made by ``python -m predictive synth``,
+results/demo/run/model.pt [--misplacements]] [--pieces SECONDS] [--json PATH]`` (a dataset made by ``python -m predictive synth``,
 whose recordings store their true placement, or any other with ``--model``).
 """
 
@@ -87,6 +91,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--model", type=Path, help="a trained model (model.pt): also fit the placement to its estimates")
     parser.add_argument("--misplacements", action="store_true",
                         help="with --model: also fit recordings whose sensors were deliberately moved or turned")
+    parser.add_argument("--pieces", type=float, metavar="SECONDS",
+                        help="fit consecutive pieces of this many seconds of each recording, each on its own "
+                             "(how the recovery depends on the recording's length)")
     parser.add_argument("--json", type=Path, help="also save the results")
     args = parser.parse_args(argv)
 
@@ -113,7 +120,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     real: list[dict[str, Any]] = []
     index = -1
     for split in dataset.splits:
-        for rec in dataset.load(split):
+        for rec in (piece for whole in dataset.load(split) for piece in _pieces(whole, args.pieces)):
             index += 1
             truth = true_placement(rec)
             if truth is None or rec.labels is None:
@@ -207,6 +214,21 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
 
         atomic_write_text(args.json, json.dumps(out, indent=2))
     return out
+
+
+def _pieces(rec: Any, seconds: float | None) -> list[Any]:
+    """``rec`` (``seconds`` None), or its consecutive pieces of ``seconds`` (the rest left out),
+    each named after its span."""
+    import dataclasses
+
+    from sspinn.data.dataset import SAMPLE_RATE_HZ
+
+    if seconds is None:
+        return [rec]
+    n = int(round(seconds * SAMPLE_RATE_HZ))
+    return [dataclasses.replace(rec, name=f"{rec.name}[{a / SAMPLE_RATE_HZ:g}-{(a + n) / SAMPLE_RATE_HZ:g} s]",
+                                imu=rec.imu[a:a + n], labels=None if rec.labels is None else rec.labels.slice(slice(a, a + n)))
+            for a in range(0, rec.n_samples - n + 1, n)]
 
 
 def _print_moved(moved: list[dict[str, Any]]) -> dict[str, Any]:

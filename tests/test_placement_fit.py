@@ -131,3 +131,8 @@ def test_the_recovery_benchmark_finds_moved_sensors_with_a_model(walk, tmp_path:
     assert all(np.isfinite([r["estimate_cm"], r["estimate_angle_deg"]]).all() for r in result["misplaced"])
     out = capsys.readouterr().out
     assert "fitted to the estimate" in out and "| walk | 20 cm |" in out
+    # --pieces: each 1.5-s piece fitted on its own (two per 3.3-s recording, the rest left out)
+    pieces = bench["main"](["--data", str(tmp_path / "data"), "--pieces", "1.5"])
+    assert sorted({r["recording"] for r in pieces["rows"]}) == ["a_walk[0-1.5 s]", "a_walk[1.5-3 s]", "b_run[0-1.5 s]",
+                                                                "b_run[1.5-3 s]"]
+    assert all(r["labels_cm"] < 0.05 for r in pieces["rows"])
