@@ -96,6 +96,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                              "(how the recovery depends on the recording's length)")
     parser.add_argument("--json", type=Path, help="also save the results")
     args = parser.parse_args(argv)
+    if args.misplacements and args.model is None:
+        parser.error("--misplacements needs --model")
 
     from scipy.signal import butter, sosfiltfilt
 
@@ -113,8 +115,6 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         est = SSPINNpose.load(args.model)
     dataset = Dataset.open(args.data)
     sos = butter(2, CUTOFF_HZ, fs=SAMPLE_RATE_HZ, output="sos")
-    if args.misplacements and est is None:
-        parser.error("--misplacements needs --model")
     rows: list[dict[str, Any]] = []
     moved: list[dict[str, Any]] = []
     real: list[dict[str, Any]] = []
@@ -151,10 +151,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                     fit = fit_placement(shifted, est.predict(shifted), body).placement.vector().reshape(len(SEGMENTS), 3)
                     for k, name in enumerate(SEGMENTS):
                         moved.append({"recording": rec.name, "gait": gait, "sensor": name, "misplacement": what,
-                                      "nominal_cm": float(100 * np.hypot(*(nominal_vec[k, :2] - target[k, :2]))),
-                                      "nominal_angle_deg": float(np.degrees(abs(nominal_vec[k, 2] - target[k, 2]))),
-                                      "estimate_cm": float(100 * np.hypot(*(fit[k, :2] - target[k, :2]))),
-                                      "estimate_angle_deg": float(np.degrees(abs(fit[k, 2] - target[k, 2])))})
+                                      **_errors("nominal", nominal_vec[k], target[k]), **_errors("estimate", fit[k], target[k])})
             for k, name in enumerate(SEGMENTS):
                 found = {key: value[k] for key, value in fits.items()}
                 segment, _, side = name.partition("_")
@@ -162,27 +159,41 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                     position, angle = joint_centre_placement(signals, nominal, segment, side, float(getattr(body, name).length))
                     found["joint_centres"] = np.array([*position, angle])
                 row = {"recording": rec.name, "split": split, "gait": gait, "sensor": name,
-                       "nominal_cm": float(100 * np.hypot(*(nominal_vec[k, :2] - truth[k, :2]))),
-                       "nominal_angle_deg": float(np.degrees(abs(nominal_vec[k, 2] - truth[k, 2])))}
+                       **_errors("nominal", nominal_vec[k], truth[k])}
                 for key, v in found.items():
-                    row[f"{key}_cm"] = float(100 * np.hypot(*(v[:2] - truth[k, :2])))
-                    row[f"{key}_angle_deg"] = float(np.degrees(abs(v[2] - truth[k, 2])))
+                    row |= _errors(key, v, truth[k])
                 rows.append(row)
+    if not rows and not real:
+        print(f"{args.data}: no recording stores its true placement (only `python -m predictive synth` data do); "
+              "with --model the fitted positions are compared between each subject's recordings", file=sys.stderr)
+        return {}
     if real:
         _print_real(real, args.data, args.model)
-    if not rows:
-        if not real:
-            print(f"{args.data}: no recording stores its true placement (only `python -m predictive synth` data do); "
-                  "with --model the fitted positions are compared between each subject's recordings", file=sys.stderr)
-        out = {"data": str(args.data), "model": str(args.model) if args.model else None, "real": real}
-        if args.json and real:
-            from sspinn.run_folder import atomic_write_text
+    summary = _print_truth(rows, args.data, args.model) if rows else {}
+    if moved:
+        summary["misplaced"] = _print_moved(moved)
+    out = {"data": str(args.data), "model": str(args.model) if args.model else None, "summary": summary, "rows": rows,
+           "misplaced": moved, "real": real}
+    if args.json:
+        from sspinn.run_folder import atomic_write_text
 
-            atomic_write_text(args.json, json.dumps(out, indent=2))
-        return out if real else {}
+        atomic_write_text(args.json, json.dumps(out, indent=2))
+    return out
+
+
+def _errors(key: str, found: np.ndarray, target: np.ndarray) -> dict[str, float]:
+    """``<key>_cm``: the distance between two [x (m), y (m), angle (rad)] placements' positions,
+    cm; ``<key>_angle_deg``: between their angles, °."""
+    return {f"{key}_cm": float(100 * np.hypot(*(found[:2] - target[:2]))),
+            f"{key}_angle_deg": float(np.degrees(abs(found[2] - target[2])))}
+
+
+def _print_truth(rows: list[dict[str, Any]], data: Path, model: Path | None) -> dict[str, Any]:
+    """The table against the stored truth: per gait and segment group, the median position and
+    angle errors of the nominal placement and of each method; returns them."""
     methods = [m for m in METHODS if any(f"{m}_cm" in r for r in rows)]
-    print(f"# Sensor placement recovered from the IMU signals, {args.data} ({len({r['recording'] for r in rows})} recordings"
-          + (f"; estimates of {args.model}" if args.model else "") + ")\n")
+    print(f"# Sensor placement recovered from the IMU signals, {data} ({len({r['recording'] for r in rows})} recordings"
+          + (f"; estimates of {model}" if model else "") + ")\n")
     print("Median position error (cm), its ratio to the nominal's, and the median angle error (°):\n")
     print("| gait | segment | sensors | nominal | " + " | ".join(METHODS[m] for m in methods) + " |")
     print("|---|---|---:|---:|" + "---:|" * len(methods))
@@ -205,15 +216,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                 cells.append(f"{cm:.2f} ({cm / nom:.2f}×), {deg:.1f}°")
             summary[f"{gait}/{label}"] = entry
             print(f"| {gait} | {label} | {len(sel)} | {nom:.2f}, {nom_angle:.1f}° | " + " | ".join(cells) + " |")
-    if moved:
-        summary["misplaced"] = _print_moved(moved)
-    out = {"data": str(args.data), "model": str(args.model) if args.model else None, "summary": summary, "rows": rows,
-           "misplaced": moved, "real": real}
-    if args.json:
-        from sspinn.run_folder import atomic_write_text
-
-        atomic_write_text(args.json, json.dumps(out, indent=2))
-    return out
+    return summary
 
 
 def _pieces(rec: Any, seconds: float | None) -> list[Any]:
