@@ -18,8 +18,16 @@ from predictive.ocp.stride_nlp import StridePlan, StrideSettings, StrideSolverCa
 from predictive.synth.cache import SynthCache
 from predictive.synth.chain import simulate_chain
 from predictive.synth.config import SynthConfig
+from predictive.synth.gait_library import RUN_SPEED
 from predictive.synth.standing import standing_trajectory
-from predictive.synth.start_stop import RAMP, SETTLE_NODES, contact_height, start_stop_recording
+from predictive.synth.start_stop import (
+    RAMP,
+    RUN_UP_STEP_MPS,
+    SETTLE_NODES,
+    contact_height,
+    ramp_speeds,
+    start_stop_recording,
+)
 from predictive.synth.subjects import sample_subjects
 from sspinn.data.dataset import Dataset
 from sspinn.model.contact import ContactParameters
@@ -77,6 +85,17 @@ def test_the_command_refuses_a_bad_speed_or_walking_time(tmp_path: Path, capsys,
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"error: {flag} must be") and value in err and "\n" not in err
     assert not (tmp_path / "x").exists()
+
+
+def test_a_walk_ramps_by_fractions_and_a_run_starts_walking_then_gains_a_step_per_stride() -> None:
+    assert ramp_speeds(1.2) == pytest.approx([f * 1.2 for f in RAMP])
+    assert ramp_speeds(3.0) == pytest.approx([0.3, 0.72, 1.32, 1.92, 2.7])
+    for speed in np.arange(RUN_SPEED, 6.01, 0.1):
+        ramp = np.array(ramp_speeds(float(speed)))
+        assert ramp[:2] == pytest.approx([0.3, 0.72])  # two walking strides first
+        assert ramp[-1] == pytest.approx(RAMP[-1] * speed)
+        steps = np.diff(ramp)
+        assert steps.min() > 0 and steps.max() <= 1.5 * RUN_UP_STEP_MPS + 1e-9, (speed, ramp)
 
 
 # ------------------------------------------------------------------------------ recordings
@@ -168,3 +187,24 @@ def test_the_standing_posture_is_lowered_to_where_the_contact_model_carries_the_
     assert np.abs(tr.kane_residual(body)).max() < 1e-9
     with pytest.raises(ValueError, match="does not carry the body weight within ±5 cm"):
         contact_height(q + np.eye(9)[1] * 1.0, body, contact)  # a metre above the floor
+
+
+@pytest.mark.slow
+def test_a_run_starts_from_standing_walking_forward_then_runs(made) -> None:
+    """At 3.0 m/s the first two strides walk (both feet never off the ground together) and the
+    pelvis does not step back; then the chain runs (flight phases)."""
+    config, subject, cache, solvers, _ = made
+    speed = 3.0
+    rec = start_stop_recording(config, subject, speed, 1.0, 0.8, cache, solvers)
+    res = rec.provenance["kane_residual"]
+    assert max(res["max_trans_bw"], res["max_rot_bwh"]) <= config.stride.residual_tol
+    strides = rec.provenance["strides"]
+    ramp = ramp_speeds(speed)
+    assert strides["speed_mps"][: len(ramp)] == pytest.approx(ramp)
+    tr = rec.labels.trajectory(rec.time)
+    fy = (tr.grf[:, 1] + tr.grf[:, 3]) / subject.body.body_weight
+    bounds = rec.provenance["phases"]["walk_start_sample"] + np.concatenate([[0], np.cumsum(strides["n_samples"])])
+    first, second, steady = (slice(bounds[i], bounds[i + 1]) for i in (0, 1, len(ramp)))
+    assert tr.u[first, 0].min() > -0.05  # no step back (ramped like a walk it stepped back at -0.37 m/s)
+    assert fy[first].min() > 0.2 and fy[second].min() > 0.2  # walking: no flight
+    assert fy[steady].min() < 0.02  # running: flight

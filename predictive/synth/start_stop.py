@@ -11,7 +11,7 @@ recording of :func:`start_stop_recording` is, at 100 Hz:
 2. **Initiation, steady walking, termination**: one stride chain
    (:func:`~predictive.synth.chain.simulate_chain`) that *starts from the last standing sample*
    (backward Euler from that state: the junction is as exact as any other sample of a chain),
-   with the stride speeds ramping up (:data:`RAMP` × the speed, nominal durations), steady
+   with the stride speeds ramping up (:func:`ramp_speeds`, nominal durations), steady
    strides at the speed (:func:`~predictive.synth.planning.plan_strides`, the configuration's
    stride-to-stride variability), the ramp reversed, and a stretch of :data:`SETTLE_NODES` samples
    at speed 0 whose end tracks the first sample of the closing standing trajectory with the
@@ -35,8 +35,21 @@ feet, the chain's samples carry the contact model's forces (smoke subjects S01 a
 first junction: 0.47–0.48 BW per foot against the standing labels' 0.5 and 0.5).
 
 **Speed label**: 0 while standing (the settle stretch too, a plan of speed 0), the stride's average
-pelvis speed during the strides (as in every chain), so it steps from 0 to ``RAMP[0]`` × the speed
+pelvis speed during the strides (as in every chain), so it steps from 0 to the first ramp speed
 at the first stride.
+
+**Running** (a speed at or above :data:`~predictive.synth.gait_library.RUN_SPEED`) starts the way
+people start a run: walking first. The reference then holds the subject's walking gait at
+:data:`RUN_UP_WALK_MPS` beside its running gait, and the ramp walks its first two strides (the
+walking ramp's 0.3 and 0.72 m/s), then gains :data:`RUN_UP_STEP_MPS` per stride through the jog
+into the run. Ramped like walking (0.25, 0.6, 0.9 × the running speed) on the running gait alone,
+the first stride had to reach 0.75 m/s in a running stride's time from standing: both smoke
+subjects stepped back (the pelvis at −0.37 and −0.29 m/s) and hopped (flight phases, 3.7 BW).
+Through walking, at 3.0 m/s, both step off at −0.03 m/s as the walking start does, the first two
+strides have no flight phase (peaks 1.3–1.8 BW), the strides at 1.32 and 1.92 m/s jog (flight in
+2–17 % of their samples), the run begins at 2.7 m/s (``python benchmarks/start_stop.py --speed
+3.0 --subject 0``, and ``--subject 1``). The stop mirrors it and is less human: braking through
+1.92 and 1.32 m/s peaks at 4.3–7.0 BW.
 
 Usage: ``python scripts/make_standing.py --config configs/synth/smoke.yaml --split test
 --start-stop 1.2 --out data/start_stop``.
@@ -55,7 +68,7 @@ from predictive.ocp.stride_nlp import StridePlan, StrideSettings, StrideSolverCa
 from predictive.synth.cache import CODE_VERSION, GENERATOR_NAME, SynthCache
 from predictive.synth.chain import ChainResult, simulate_chain
 from predictive.synth.config import SynthConfig, imu_model
-from predictive.synth.gait_library import periodic_library, template_library
+from predictive.synth.gait_library import RUN_SPEED, periodic_library, template_library
 from predictive.synth.periodic_reference import PeriodicReference, ReferenceStride
 from predictive.synth.planning import plan_strides
 from predictive.synth.recording import fallback_counts, stride_summary, synthetic_recording
@@ -69,6 +82,10 @@ from sspinn.model.trajectory import COLUMNS, Trajectory
 
 #: Speeds of the strides of gait initiation, fractions of the walking speed (termination: reversed).
 RAMP: Final[tuple[float, ...]] = (0.25, 0.6, 0.9)
+#: Walking speed of a running start's first strides (m/s): its walking gait joins the reference.
+RUN_UP_WALK_MPS: Final = 1.2
+#: Speed gained per stride of a running start after its two walking strides, m/s.
+RUN_UP_STEP_MPS: Final = 0.6
 #: Samples of the standing stretch at the end of the chain that reaches the closing standing state.
 SETTLE_NODES: Final = 30
 #: Terminal weight of the settle stretch (``StrideSettings.w_terminal``; the strides use the config's).
@@ -97,19 +114,36 @@ class StartStopTrajectory:
     time_s: float
 
 
+def ramp_speeds(speed: float) -> tuple[float, ...]:
+    """Speeds (m/s) of the strides that start a gait at ``speed`` from standing (its stop: the same,
+    reversed). Walking: the :data:`RAMP` fractions of ``speed``. Running (``speed`` at or above
+    :data:`~predictive.synth.gait_library.RUN_SPEED`): two walking strides (the first two
+    :data:`RAMP` fractions of :data:`RUN_UP_WALK_MPS`), then :data:`RUN_UP_STEP_MPS` more per stride
+    while that stays more than half a step below the last, ``RAMP[-1]`` × ``speed`` (3.0 m/s: 0.3,
+    0.72, 1.32, 1.92, 2.7)."""
+    if speed < RUN_SPEED:
+        return tuple(f * speed for f in RAMP)
+    speeds = [f * RUN_UP_WALK_MPS for f in RAMP[:2]]
+    last = RAMP[-1] * speed
+    while speeds[-1] + RUN_UP_STEP_MPS < last - RUN_UP_STEP_MPS / 2:
+        speeds.append(speeds[-1] + RUN_UP_STEP_MPS)
+    return (*speeds, last)
+
+
 def start_stop_plans(
     speed: float, walk_s: float, reference: PeriodicReference, config: SynthConfig, rng: np.random.Generator
 ) -> list[StridePlan]:
-    """The chain's plans: the :data:`RAMP` strides up, steady strides covering ``walk_s`` seconds
-    at ``speed`` (m/s) with the configuration's variability, the ramp down and the settle stretch
-    (speed 0, :data:`SETTLE_NODES` samples)."""
+    """The chain's plans: the :func:`ramp_speeds` strides up, steady strides covering ``walk_s``
+    seconds at ``speed`` (m/s) with the configuration's variability, the ramp down and the settle
+    stretch (speed 0, :data:`SETTLE_NODES` samples)."""
     h = config.stride.h
 
-    def nominal(fraction: float) -> StridePlan:
-        return StridePlan(speed=fraction * speed, n_nodes=int(round(reference.nominal_duration(fraction * speed) / h)))
+    def nominal(v: float) -> StridePlan:
+        return StridePlan(speed=v, n_nodes=int(round(reference.nominal_duration(v) / h)))
 
+    ramp = ramp_speeds(speed)
     steady = plan_strides([speed], walk_s, reference, config.variability, h, rng)
-    return [nominal(f) for f in RAMP] + steady + [nominal(f) for f in reversed(RAMP)] + [StridePlan(0.0, SETTLE_NODES)]
+    return [nominal(v) for v in ramp] + steady + [nominal(v) for v in reversed(ramp)] + [StridePlan(0.0, SETTLE_NODES)]
 
 
 def start_stop_trajectory(
@@ -138,10 +172,11 @@ def start_stop_trajectory(
     after = standing_trajectory(subject.body, stand_s, rng)
     for part, k in ((before, -1), (after, 0)):  # where the contact model carries the body at the junction
         part.q[:, 1] += contact_height(part.q[k], subject.body, solvers.contact)
-    templates = template_library([speed], stride, cache)
-    library = periodic_library(subject.body, [speed], stride, cache, templates)
+    gaits = [speed] if speed < RUN_SPEED else [RUN_UP_WALK_MPS, speed]  # a run starts walking
+    templates = template_library(gaits, stride, cache)
+    library = periodic_library(subject.body, gaits, stride, cache, templates)
     rest = ReferenceStride(before.q[-1:], before.u[-1:], before.tau[-1:], before.grf[-1:], before.q[-1], before.u[-1])
-    reference = PeriodicReference([library[speed][0]], boundary=config.boundary, rest=rest)
+    reference = PeriodicReference([library[v][0] for v in gaits], boundary=config.boundary, rest=rest)
     plans = start_stop_plans(speed, walk_s, reference, config, rng)
     last = len(plans) - 1
     target = (after.q[0], after.u[0])
