@@ -205,6 +205,6 @@ def test_a_run_starts_from_standing_walking_forward_then_runs(made) -> None:
     fy = (tr.grf[:, 1] + tr.grf[:, 3]) / subject.body.body_weight
     bounds = rec.provenance["phases"]["walk_start_sample"] + np.concatenate([[0], np.cumsum(strides["n_samples"])])
     first, second, steady = (slice(bounds[i], bounds[i + 1]) for i in (0, 1, len(ramp)))
-    assert tr.u[first, 0].min() > -0.05  # no step back (ramped like a walk it stepped back at -0.37 m/s)
+    assert tr.u[first, 0].min() > -0.1  # no step back beyond the sway (ramped like a walk: -0.37 m/s)
     assert fy[first].min() > 0.2 and fy[second].min() > 0.2  # walking: no flight
     assert fy[steady].min() < 0.02  # running: flight
