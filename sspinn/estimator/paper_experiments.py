@@ -192,13 +192,19 @@ def _misplacement(base: TrainConfig, steps: int) -> list[Arm]:
     ]
 
 
+def _placed(rec: Recording) -> np.ndarray:
+    """(7, 3) [x (m), y (m), angle (rad)] of the sensors as ``rec`` was recorded: the true placement
+    (:func:`true_placement`), or the nominal one where none is stored."""
+    truth = true_placement(rec)
+    return (rec.placement.vector() if truth is None else truth.ravel()).reshape(len(SEGMENTS), 3).copy()
+
+
 def misplaced_placement(rec: Recording, along_m: float, angle_rad: float, seed: int = 0) -> np.ndarray:
     """(7, 3) [x (m), y (m), angle (rad)] per sensor where :func:`misplaced` puts it: the true
     placement (``true_placement``; the nominal one if not stored) with every sensor ``along_m``
     further along its segment (y on the pelvis, thighs and shanks, x on the feet) and turned by
     ``angle_rad``, each with a random sign (seeded)."""
-    truth = true_placement(rec)
-    after = (rec.placement.vector() if truth is None else truth.ravel()).reshape(len(SEGMENTS), 3).copy()
+    after = _placed(rec)
     sign = np.where(np.random.default_rng(seed).random((len(SEGMENTS), 2)) < 0.5, -1.0, 1.0)
     for i, s in enumerate(SEGMENTS):
         after[i, 0 if s.startswith("foot") else 1] += sign[i, 0] * along_m
@@ -221,7 +227,7 @@ def misplaced(rec: Recording, along_m: float, angle_rad: float, seed: int = 0) -
     dt = 1.0 / SAMPLE_RATE_HZ  # rates and accelerations by central differences where not labelled
     u = lab.u if lab.u is not None and np.isfinite(lab.u).all() else np.gradient(lab.q, dt, axis=0)
     qdd = lab.qdd if lab.qdd is not None and np.isfinite(lab.qdd).all() else np.gradient(u, dt, axis=0)
-    before, after = misplaced_placement(rec, 0.0, 0.0, seed), misplaced_placement(rec, along_m, angle_rad, seed)
+    before, after = _placed(rec), misplaced_placement(rec, along_m, angle_rad, seed)
     p = BodyParameters.from_anthropometry(rec.height, rec.mass).vector()
     change = (virtual_imu(lab.q, u, qdd, IMUPlacement.from_vector(after.ravel()), p)
               - virtual_imu(lab.q, u, qdd, IMUPlacement.from_vector(before.ravel()), p))
