@@ -11,10 +11,16 @@ in-plane angle errors per segment; ``--out`` writes a figure of the error distri
 methods against the standing calibration. ``--measured`` uses a measured stride instead of the
 predicted one (OpenSim's subject01 walk, :func:`sspinn.validation.sensor_mounting.measured_stride`:
 real kinematics, whose feet rest flat in mid-stance as the predicted gait's never do).
+``--estimate MODEL`` adds a fourth condition: walking only, the feet's in-plane angles then fitted
+to the kinematics MODEL estimates from the calibrated signals (:func:`feet_from_estimate`); with
+``--estimate-data DIR`` (a dataset of imported recordings, e.g. the CMU benchmark's
+``results/cmu/data``, calibrated with standing) it prints how far the same fit turns each foot
+from that recording's own calibration.
 
 Usage::
 
     python scripts/validate_sensor_calibration.py [--trials 50] [--seed 0] [--solve] [--out results/validation/sensor_calibration.png] [--cmu] [--measured]
+        [--estimate results/demo/run/model.pt [--estimate-data results/cmu/data]]
 """
 
 from __future__ import annotations
@@ -26,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sspinn.model.conventions import SEGMENTS
 from sspinn.model.drawing import save_figure
 from sspinn.validation.sensor_mounting import (
     Gait,
@@ -92,6 +99,32 @@ def cmu_walking_only(data: Path) -> None:
             print(f"| {kind} | {condition} | " + " | ".join(cells) + " |")
 
 
+def feet_from_estimate(estimator, recording, iterations: int = 4) -> dict[str, float]:
+    """In-plane corrections (rad) of the foot sensors of ``recording``, fitted to the kinematics
+    ``estimator`` (a loaded :class:`~sspinn.estimator.sspinnpose.SSPINNpose`) estimates from it (:func:`sspinn.estimator.placement_fit.fit_placement`, positions,
+    angles and biases): the fitted angle turns the foot's signals and the estimate is made again,
+    ``iterations`` times (each round leaves about a fifth of the previous correction). The
+    network is used as trained: adapted to the recording first, it learns to explain the turned
+    signals and the fit then finds nothing (docs/imu_import.md)."""
+    from sspinn.data.dataset import Recording
+    from sspinn.estimator.placement_fit import fit_placement
+
+    nominal = recording.placement.vector().reshape(len(SEGMENTS), 3)[:, 2]
+    feet = [s for s in recording.segments if s.startswith("foot")]
+    total = dict.fromkeys(feet, 0.0)
+    imu = recording.imu.copy()
+    for _ in range(iterations):
+        turned = Recording(recording.name, imu, recording.segments, recording.height, recording.mass, placement=recording.placement)
+        fit = fit_placement(turned, estimator.predict(turned))
+        angles = fit.placement.vector().reshape(len(SEGMENTS), 3)[:, 2] - nominal
+        for seg in feet:
+            j, turn = recording.segments.index(seg), angles[SEGMENTS.index(seg)]
+            c, s = np.cos(turn), np.sin(turn)
+            imu[:, j, :2] = imu[:, j, :2] @ np.array([[c, s], [-s, c]])  # rows turned by R(turn)
+            total[seg] += float(turn)
+    return total
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--trials", type=int, default=50)
@@ -106,6 +139,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--measured", type=Path, nargs="?", const=OPENSIM_WALK, default=None,
                         help="a measured stride instead of --gait: OpenSim's subject01 walk (default folder: "
                              "../shared/data/opensim_subject01_walk)")
+    parser.add_argument("--estimate", type=Path, default=None, metavar="MODEL",
+                        help="also: walking only, the feet's in-plane angles fitted to MODEL's estimate (feet_from_estimate)")
+    parser.add_argument("--estimate-data", type=Path, default=None, metavar="DIR",
+                        help="with --estimate: imported recordings whose feet the same fit turns from their own calibration")
     args = parser.parse_args(argv)
     if args.measured is not None:
         if not (args.measured / "subject01_walk_IK.mot").exists():
@@ -122,10 +159,23 @@ def main(argv: list[str] | None = None) -> int:
     results = {}
     conditions = (("with 2 s quiet standing", 2.0, "joints"), ("walking only: joint centres and foot rests", 0.0, "joints"),
                   ("walking only: typical walking orientations", 0.0, "typical"))
+    refine, estimator = None, None
+    if args.estimate is not None:
+        from sspinn.data.dataset import Recording
+        from sspinn.estimator.sspinnpose import SSPINNpose
+        from sspinn.model.body import IMUPlacement
+
+        estimator = SSPINNpose.load(args.estimate)
+
+        conditions += (("walking only: joint centres, feet fitted to the estimate", 0.0, "joints"),)
+
+        def refine(imu: np.ndarray) -> dict[str, float]:  # the 1.75 m, 70 kg body of the synthetic gait
+            rec = Recording("synthetic", imu, tuple(SEGMENTS), 1.75, 70.0, placement=IMUPlacement.default(1.75))
+            return feet_from_estimate(estimator, rec)
     for label, standing, method in conditions:
         t0 = time.perf_counter()
         res = mounting_trials(q, u, qdd, trials=args.trials, seed=args.seed, standing_s=standing, strides=args.strides, oop=oop,
-                              walking_angles=method)
+                              walking_angles=method, refine=refine if "estimate" in label else None)
         results[label] = res
         print(f"\n### {label} ({time.perf_counter() - t0:.1f} s)\n")
         print("| sensors | axis error median (deg) | axis error max | in-plane angle error median (deg) | max | wrong signs |")
@@ -134,6 +184,16 @@ def main(argv: list[str] | None = None) -> int:
             print(f"| {name} | {ax_med:.2f} | {ax_max:.2f} | {an_med:.2f} | {an_max:.2f} | {wrong} |")
     if args.cmu is not None:
         cmu_walking_only(args.cmu)
+    if args.estimate is not None and args.estimate_data is not None:
+        from sspinn.data.dataset import Dataset
+
+        print(f"\n### Feet fitted to the estimate of {args.estimate}: turned from each recording's own calibration (deg)\n")
+        print("| recording | foot_r | foot_l |\n|---|---:|---:|")
+        data = Dataset.open(args.estimate_data)
+        for split in data.splits:
+            for rec in data.load(split):
+                turns = feet_from_estimate(estimator, rec)
+                print(f"| {rec.name} | " + " | ".join(f"{np.degrees(turns.get(f, np.nan)):+.1f}" for f in ("foot_r", "foot_l")) + " |")
     if args.out:
         import matplotlib
 

@@ -85,6 +85,26 @@ def test_walking_only_calibration_keeps_signs_and_axes(gait) -> None:
     assert np.abs(res["angle"][~feet]).max() < 2.5 and np.abs(res["angle"][feet]).max() < 20.0
 
 
+def test_a_refinement_turns_the_calibrated_in_plane_angle(gait) -> None:
+    """``refine``'s correction turns exactly the sensor it names, by exactly its angle, and it
+    sees the calibrated sagittal signals of all seven sensors."""
+    seen = []
+
+    def refine(imu: np.ndarray) -> dict[str, float]:
+        seen.append(imu.shape)
+        return {"foot_r": np.radians(5.0)}
+
+    kwargs = dict(trials=1, seed=4, standing_s=0.0, strides=10)
+    plain = mounting_trials(gait.q, gait.u, gait.qdd, **kwargs)
+    turned = mounting_trials(gait.q, gait.u, gait.qdd, refine=refine, **kwargs)
+    assert seen == [(10 * len(gait.q), 7, 3)]
+    foot = turned["segment"] == "foot_r"
+    # the signals turn by +5°: the recovered y axis, measured from the true one, by −5° (the
+    # recovered z is not exactly the true one, hence the tolerance)
+    assert np.allclose(turned["angle"][foot] - plain["angle"][foot], -5.0, atol=1e-2)
+    assert np.allclose(turned["angle"][~foot], plain["angle"][~foot]) and np.allclose(turned["axis"], plain["axis"])
+
+
 def _signals(gait, seed: int, mounting=None):
     rng = np.random.default_rng(seed)
     imu2d = synthetic_walk(gait.q, gait.u, gait.qdd, strides=20, standing_s=2.0)

@@ -23,6 +23,7 @@ Recipe (:func:`mounting_trials`):
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -183,13 +184,25 @@ def calibration_errors(rotation: np.ndarray, mounting: np.ndarray) -> tuple[floa
     return axis_error, angle_error
 
 
+def turned_in_plane(rotation: np.ndarray, angle: float) -> np.ndarray:
+    """A calibration ``rotation`` (rows: segment x, y, z in the sensor frame) whose in-plane axes
+    are turned by ``angle`` (rad) about z: the projected signals turn by R(angle)."""
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.array(rotation, dtype=float)
+    out[:2] = np.array([[c, -s], [s, c]]) @ out[:2]
+    return out
+
+
 def mounting_trials(q: np.ndarray, u: np.ndarray, qdd: np.ndarray, trials: int = 50, seed: int = 0,
                     standing_s: float = 2.0, strides: int = 12, oop: OutOfPlane = OutOfPlane(),
-                    walking_angles: str = "joints") -> dict[str, np.ndarray]:
+                    walking_angles: str = "joints",
+                    refine: Callable[[np.ndarray], dict[str, float]] | None = None) -> dict[str, np.ndarray]:
     """Calibrate ``trials`` random mountings of all seven sensors (``walking_angles``: the
     in-plane method without standing, see :func:`~sspinn.imu.calibration.calibrate`); returns per
     segment kind and overall arrays ``axis`` and ``angle`` (deg; one entry per trial and sensor)
-    and ``sign_ok``."""
+    and ``sign_ok``. ``refine`` takes the calibrated (n, 7, 3) sagittal signals (``SEGMENTS``
+    order) and returns in-plane corrections (rad) per segment name, applied with
+    :func:`turned_in_plane` before the errors are measured."""
     rng = np.random.default_rng(seed)
     imu2d = synthetic_walk(q, u, qdd, strides, standing_s)
     assignments = {s: SensorAssignment(f"sensor_{s}", s) for s in SEGMENTS}
@@ -200,8 +213,11 @@ def mounting_trials(q: np.ndarray, u: np.ndarray, qdd: np.ndarray, trials: int =
         signals = {s: embed_in_3d(imu2d[:, i], mountings[s], rng, oop, still) for i, s in enumerate(SEGMENTS)}
         cal: Calibration = calibrate(signals, assignments, RATE_HZ, standing="auto" if standing_s else None,
                                      walking_angles=walking_angles)
+        corrections = {}
+        if refine is not None:
+            corrections = refine(np.stack([cal.sensors[s].project(*signals[s]) for s in SEGMENTS], axis=1))
         for s in SEGMENTS:
-            a, b = calibration_errors(cal.sensors[s].rotation, mountings[s])
+            a, b = calibration_errors(turned_in_plane(cal.sensors[s].rotation, corrections.get(s, 0.0)), mountings[s])
             axis.append(a)
             angle.append(b)
             segs.append(s)
