@@ -42,7 +42,9 @@ The same protocol runs on other trials of this kind (continuous IMU + treadmill 
 subject and condition): ``--source DIR --train-subjects A B --test-subjects C --conditions X Y
 --imu-pattern '{subject}/{condition}/*_Accel.trc' --grf-pattern '{subject}/{condition}/*_GRF.mot'
 [--subjects-csv table.csv] [--sensor-map map.yaml]`` (files raw or ``.gz``; the defaults are the
-CMU trials above).
+CMU trials above). ``--adapt-set weights.temporal=10 …`` adapts with other settings (as ``sspinn
+adapt --set``; a new ``--out``); ``--grf-lowpass 10 6`` adds rows for every arm's GRF low-passed
+offline at those cut-offs.
 """
 
 from __future__ import annotations
@@ -56,6 +58,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+import yaml
+from scipy.signal import butter, sosfiltfilt
 
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset, Recording
 from sspinn.data.gait_events import foot_imu_heel_strikes, grf_event_timing, standing_mask, true_runs
@@ -184,13 +188,16 @@ def import_trials(protocol: Protocol, data: Path, train_subjects: tuple[str, ...
 
 
 # ------------------------------------------------------------------------------------- 2. train
-def train_arm(arm: str, train: list[Recording], out: Path, config_path: Path, steps: int, threads: int, pretrained: Path) -> Path:
+def train_arm(arm: str, train: list[Recording], out: Path, config_path: Path, steps: int, threads: int, pretrained: Path,
+              adapt_settings: tuple[str, ...] = ()) -> Path:
     """Train one arm (``scratch`` or ``finetune`` to ``steps`` steps on ``train``, ``adapted``
-    to :data:`~sspinn.estimator.training.ADAPT_STEPS` on the test recordings passed as ``train``); returns
-    its model file."""
+    to :data:`~sspinn.estimator.training.ADAPT_STEPS` on the test recordings passed as ``train``,
+    with ``adapt_settings`` — ``"key=value"`` as ``sspinn adapt --set`` takes them); returns its
+    model file. An arm already in ``out`` with other settings is an error (one run, one folder)."""
     run = out / arm
     if arm == "adapted":
-        config = adaptation_config(load_model(pretrained).config, str(pretrained), threads=threads, time_limit_s=4 * 3600.0)
+        config = adaptation_config(load_model(pretrained).config, str(pretrained), list(adapt_settings), threads=threads,
+                                   time_limit_s=4 * 3600.0)
         if steps < config.steps:  # the smoke run
             config = dataclasses.replace(config, steps=steps)
     else:
@@ -198,6 +205,14 @@ def train_arm(arm: str, train: list[Recording], out: Path, config_path: Path, st
         # a run shorter than the configuration's starts (the smoke run) trains one start
         config = dataclasses.replace(config, steps=steps, starts=config.starts if steps > config.start_steps else 1)
         config.finetune = arm == "finetune"
+    kept = run / "config.yaml"
+    if kept.exists():
+        def result_settings(train_config: dict) -> dict:  # what changes the model (not threads or logging)
+            return {k: v for k, v in train_config.items() if k not in ("steps", "threads", "time_limit_s", "device", "log_every", "checkpoint_every")}
+
+        before = yaml.safe_load(kept.read_text())["train"]
+        if result_settings(before) != result_settings(json.loads(json.dumps(config.to_dict()))):
+            sys.exit(f"{run}: this arm was trained with other settings ({kept}); give another --out for these")
     summary = run / "training_summary.json"
     if summary.exists() and json.loads(summary.read_text())["steps"] >= config.steps:
         return run / "model.pt"
@@ -249,10 +264,16 @@ def condition_of(rec: Recording, conditions: tuple[str, ...] = tuple(CONDITIONS)
     return next(c for c in conditions if rec.name.endswith(f"_{c}"))
 
 
-def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recording], conditions: tuple[str, ...] = tuple(CONDITIONS)
-             ) -> tuple[dict, dict[str, dict[str, GaitEstimate]], dict[str, np.ndarray]]:
-    """Per trial: the metrics of every arm and of the baselines; the estimates and the mean
-    profile's GRF (for the plots)."""
+def lowpassed(arm: str, cutoff_hz: float) -> str:
+    """Row name of an arm whose GRF was low-passed offline (``--grf-lowpass``)."""
+    return f"{arm}, GRF low-passed {cutoff_hz:g} Hz"
+
+
+def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recording], conditions: tuple[str, ...] = tuple(CONDITIONS),
+             lowpass: tuple[float, ...] = ()) -> tuple[dict, dict[str, dict[str, GaitEstimate]], dict[str, np.ndarray]]:
+    """Per trial: the metrics of every arm and of the baselines (and of every arm's GRF after a
+    zero-phase low-pass at each ``lowpass`` cut-off, Hz: a second-order Butterworth run forwards
+    and backwards, offline only); the estimates and the mean profile's GRF (for the plots)."""
     trivial = TrivialPredictor.fit(train, f"the training subjects' labels ({', '.join(sorted({r.subject for r in train}))})")
     profiles = {c: GRFProfilePredictor.fit([r for r in train if condition_of(r, conditions) == c], f"training subjects, {c}")
                 for c in conditions}
@@ -275,7 +296,11 @@ def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recordi
         for arm, stored in loaded.items():
             est = estimate_recording(stored.network, rec, stored.segments)
             estimates[rec.name][arm] = est
-            row[arm] = trial_metrics(est.grf, float(np.mean(est.u[evaluated(rec), 0])), rec)
+            speed = float(np.mean(est.u[evaluated(rec), 0]))
+            row[arm] = trial_metrics(est.grf, speed, rec)
+            for cutoff in lowpass:
+                smooth = sosfiltfilt(butter(2, cutoff, fs=SAMPLE_RATE_HZ, output="sos"), est.grf, axis=0)
+                row[lowpassed(arm, cutoff)] = trial_metrics(smooth, speed, rec)
         results[rec.name] = row
     return results, estimates, profile_grf
 
@@ -346,7 +371,9 @@ def report(results: dict, training: dict[str, dict], out: Path, protocol: Protoc
     """Markdown tables: per trial, and per condition (mean over the test subjects) with verdicts;
     the speed while standing (:func:`standing_speeds`) when given."""
     protocol = protocol or Protocol(REPO.parent / "shared/data/cmu_treadmill_imu_grf")
-    rows = [CONSTANT, FROUDE, PROFILE, PROFILE_IMU, *[a for a in ARMS if a in training or a == "zero_shot"]]
+    first = next(iter(results.values()), {})
+    arm_rows = [k for k in first if k not in (CONSTANT, FROUDE, PROFILE, PROFILE_IMU, "belt_speed")]
+    rows = [CONSTANT, FROUDE, PROFILE, PROFILE_IMU, *arm_rows]
     lines = [f"# SSPINNpose on real continuous IMU data ({protocol.source.name}; test subjects {', '.join(protocol.test_subjects)})", "",
              f"Trained (self-supervised, no labels) on {', '.join(protocol.train_subjects)}, conditions "
              f"{', '.join(protocol.conditions)}; metrics over each whole aligned "
@@ -355,6 +382,9 @@ def report(results: dict, training: dict[str, dict], out: Path, protocol: Protoc
              f"{1e3 * EVENT_WINDOW_S:.0f} ms), speed in m/s.", ""]
     for arm, info in training.items():
         lines.append(f"- `{arm}`: {info}")
+    if any(", GRF low-passed" in a for a in arm_rows):
+        lines.append("- `<arm>, GRF low-passed F Hz`: the same estimate with its GRF low-passed at F Hz, forwards and backwards "
+                     "(second-order Butterworth): offline only")
     lines += ["", "## Per trial", "", "| trial | predictor | vGRF | hGRF | GRF all | HS ms | HS matched | TO ms | speed | belt | speed error |",
               "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name, row in results.items():
@@ -380,7 +410,7 @@ def report(results: dict, training: dict[str, dict], out: Path, protocol: Protoc
                          f"{_fmt(m['hs_ms'], '.0f')} | {_fmt(m['to_ms'], '.0f')} | {_fmt(m['speed_error'], '.3f')} |")
         lines.append("")
         const, prof, froude, prof_imu = means[CONSTANT], means[PROFILE], means.get(FROUDE), means.get(PROFILE_IMU)
-        for arm in (a for a in ARMS if a in means):
+        for arm in (a for a in arm_rows if a in means):
             m = means[arm]
             verdicts = [
                 f"GRF {m['all']:.1f} %BW: {'meets' if m['all'] <= TARGETS['grf_rmse'] else 'MISSES'} ≤ {TARGETS['grf_rmse']:g}, "
@@ -445,10 +475,17 @@ def parse_args(argv: list[str] | None = None) -> tuple[argparse.Namespace, Proto
     parser.add_argument("--steps", type=int, default=6000, help="training steps of the scratch and finetune arms")
     parser.add_argument("--arms", nargs="+", choices=ARMS, default=list(ARMS))
     parser.add_argument("--threads", type=int, default=1, help="torch threads per training (two side by side: 1 each)")
+    parser.add_argument("--adapt-set", nargs="+", default=[], metavar="KEY=VALUE",
+                        help="settings of the adapted arm's adaptation, as `sspinn adapt --set` (e.g. weights.temporal=10)")
+    parser.add_argument("--grf-lowpass", nargs="+", type=float, default=[], metavar="HZ",
+                        help="also score every arm's GRF after a zero-phase low-pass at each cut-off (offline smoothing)")
     parser.add_argument("--no-report", action="store_true", help="only import and train (e.g. one arm per process)")
     parser.add_argument("--quick", action="store_true",
                         help="smoke run: the first training subject → the first test subject, first 20 s, 3 steps")
     args = parser.parse_args(argv)
+    bad = [f for f in args.grf_lowpass if not 0 < f < SAMPLE_RATE_HZ / 2]
+    if bad:
+        parser.error(f"--grf-lowpass {bad[0]:g}: a cut-off must lie between 0 and {SAMPLE_RATE_HZ / 2:g} Hz (half the 100 Hz rate)")
     overlap = set(args.train_subjects) & set(args.test_subjects)
     if overlap:
         parser.error(f"subjects {sorted(overlap)} are in both --train-subjects and --test-subjects")
@@ -488,16 +525,18 @@ def main(argv: list[str] | None = None) -> dict:
             models[arm] = args.pretrained
             training[arm] = {"model": str(args.pretrained), "real-data steps": 0}
             continue
-        models[arm] = train_arm(arm, test if arm == "adapted" else train, args.out, args.config, steps, args.threads, args.pretrained)
+        models[arm] = train_arm(arm, test if arm == "adapted" else train, args.out, args.config, steps, args.threads, args.pretrained,
+                                tuple(args.adapt_set))
         summary = json.loads((args.out / arm / "training_summary.json").read_text())
         training[arm] = {"steps": summary["steps"], "stopped_by": summary["stopped_by"],
                          "wall_s_last_run": summary["wall_s_this_run"], "threads": args.threads,
                          "from": str(args.pretrained) if arm != "scratch" else "random initialisation",
                          "config": {"finetune": args.config.name + " (fine-tuning weights)",
-                                    "adapted": "the pretrained model's own (sspinn adapt), on the TEST subjects' unlabeled IMU"}.get(arm, args.config.name)}
+                                    "adapted": "the pretrained model's own (sspinn adapt), on the TEST subjects' unlabeled IMU"
+                                               + (f", with {' '.join(args.adapt_set)}" if args.adapt_set else "")}.get(arm, args.config.name)}
     if args.no_report:
         return {}
-    results, estimates, profile_grf = evaluate(models, test, train, protocol.conditions)
+    results, estimates, profile_grf = evaluate(models, test, train, protocol.conditions, tuple(args.grf_lowpass))
     (args.out / "plots").mkdir(parents=True, exist_ok=True)
     for rec in test:
         plot_trial(args.out / "plots" / f"{rec.name}.png", rec, estimates[rec.name], profile_grf[rec.name])

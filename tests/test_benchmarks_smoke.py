@@ -112,8 +112,8 @@ def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     source = shared_data("cmu_treadmill_imu_grf")
     _, _, cfg, _, run = tiny_run
     bench = runpy.run_path(str(BENCHMARKS / "bench_cmu_continuous.py"), run_name="bench_cmu_continuous")
-    results = bench["main"](["--quick", "--out", str(tmp_path / "cmu"), "--config", str(cfg),
-                             "--pretrained", str(run / "model.pt"), "--source", str(source)])
+    common = ["--quick", "--out", str(tmp_path / "cmu"), "--config", str(cfg), "--pretrained", str(run / "model.pt"), "--source", str(source)]
+    results = bench["main"]([*common, "--grf-lowpass", "10"])
     out = capsys.readouterr().out
     assert set(results) == {"Sub05_CSBaseline", "Sub05_CSStiffKnee"}
     row = results["Sub05_CSBaseline"]
@@ -127,6 +127,13 @@ def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     saved = json.loads((tmp_path / "cmu" / "metrics.json").read_text())
     assert saved["training"]["scratch"]["steps"] == 3 and saved["training"]["adapted"]["steps"] == 3
     assert torch.load(tmp_path / "cmu" / "adapted" / "checkpoint.pt", weights_only=False)["recordings"] == ["Sub05_CSBaseline", "Sub05_CSStiffKnee"]
+    # the offline low-pass rows: the same speed, another GRF error
+    smooth = row["zero_shot, GRF low-passed 10 Hz"]
+    assert smooth["speed"] == row["zero_shot"]["speed"] and np.isfinite(smooth["all"]) and smooth["all"] != row["zero_shot"]["all"]
+    assert "zero_shot, GRF low-passed 10 Hz" in out
+    # an arm adapted with other settings does not reuse this folder's
+    with pytest.raises(SystemExit, match="trained with other settings"):
+        bench["main"]([*common, "--arms", "adapted", "--adapt-set", "weights.temporal=10"])
 
 
 def test_bench_cmu_continuous_finds_trials_by_pattern(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -159,6 +166,7 @@ def test_bench_cmu_continuous_finds_trials_by_pattern(tmp_path: Path, capsys: py
         (["--test-subjects", "P4"], r"people\.csv: no row for subject 'P4'"),
         (["--test-subjects", "P2"], r"subjects \['P2'\] are in both"),
         (["--imu-pattern", "{subj}/x"], r"--imu-pattern '\{subj\}/x': only \{subject\} and \{condition\}"),
+        (["--grf-lowpass", "60"], r"--grf-lowpass 60: a cut-off must lie between 0 and 50 Hz"),
     ):
         with pytest.raises(SystemExit) as exit_info:
             bench["parse_args"](argv + bad)
