@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 import torch
 
+from sspinn.data.dataset import Labels, Recording
 from tests.conftest import SHARED_DATA, shared_data
 
 #: every test here runs a benchmark end to end (training, compilation, real data): the quick loop skips them
@@ -104,6 +105,27 @@ def test_bench_synth(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None
     assert 1 <= after["builds"] <= before["builds"] and result["label_difference"] == 0.0
     assert "| shared solvers |" in out and "strides/s" in out
     assert json.loads((tmp_path / "synth.json").read_text())["subjects"] == 1
+
+
+def test_grf_lowpass(capsys: pytest.CaptureFixture[str], tiny_run, torch_threads) -> None:
+    """The offline low-pass table on the tiny dataset: one row per gait, the estimate's error and the
+    labels' spectrum per cut-off; a cut-off above the Nyquist frequency is a one-line error."""
+    _, data, _, _, run = tiny_run
+    bench = runpy.run_path(str(BENCHMARKS / "grf_lowpass.py"), run_name="grf_lowpass")
+    out = bench["main"](["--data", str(data), "--model", str(run / "model.pt"), "--split", "train", "--cutoffs", "10", "3", "--skip", "10"])
+    assert out and all(len(row["grfe"]) == 3 and len(row["share_above"]) == 2 for row in out.values())
+    assert all(row["grfe"][1] != row["grfe"][0] for row in out.values())  # the low-pass changes the estimate
+    assert "labels' vertical GRF RMS above 10 / 3 Hz" in capsys.readouterr().out
+    # the spectrum share: equal sines at 2 and 15 Hz put 1/√2 of the RMS above 10 Hz, none above 20 Hz
+    t = np.arange(2000) / 100.0
+    grf = np.zeros((2000, 4))
+    grf[:, 1] = 70 * 9.81 * (1 + 0.3 * np.sin(2 * np.pi * 2 * t) + 0.3 * np.sin(2 * np.pi * 15 * t))
+    imu = np.random.default_rng(0).normal(0.0, 0.1, (2000, 1, 3)) + [0.0, 9.81, 0.0]  # a pelvis sensor at rest
+    rec = Recording("sines", imu, ("pelvis",), 1.75, 70.0, labels=Labels(grf=grf))
+    assert bench["share_above"](rec, 10.0) == pytest.approx(2**-0.5, abs=0.02) and bench["share_above"](rec, 20.0) < 0.02
+    with pytest.raises(SystemExit):
+        bench["main"](["--data", str(data), "--model", str(run / "model.pt"), "--cutoffs", "60"])
+    assert "a cut-off must lie between 0 and 50 Hz" in capsys.readouterr().err
 
 
 def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str], tiny_run, torch_threads) -> None:

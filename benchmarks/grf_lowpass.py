@@ -1,0 +1,107 @@
+"""The estimated GRF smoothed offline, against the labels, and how fast the labelled forces change.
+
+For every recording of one split of a labelled dataset (a synthetic one, or real recordings imported
+with ``sspinn import``): the model's GRF error (GRFE, %BW, both feet, horizontal and vertical) and
+heel-strike timing (ms, :func:`sspinn.estimator.evaluation.heel_strike_timing`) as estimated and
+after a zero-phase low-pass at each ``--cutoffs`` frequency (second-order Butterworth, forwards and
+backwards: offline only; the same filter as ``bench_cmu_continuous.py --grf-lowpass``), and the share
+of the labels' vertical GRF RMS above each cut-off (Welch spectrum, the mean left out): how much of
+the force a low-pass would take away from the truth itself. Means per gait (a synthetic recording's
+program name, else the last part of the recording's name, e.g. the CMU condition).
+
+Why: on the real CMU treadmill trials a low-pass lowers the GRF error of every arm, on the synthetic
+test subjects it raises it (docs/estimator_results.md, "Offline smoothing of the estimated GRF").
+
+Usage: ``python benchmarks/grf_lowpass.py --data data/synth_default --model results/demo/run/model.pt
+[--split test] [--cutoffs 20 10 6] [--skip 100]``. Under a minute on the default dataset; no timing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+from scipy.signal import butter, sosfiltfilt, welch
+
+from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset, Recording
+from sspinn.estimator.evaluation import compute_metrics
+from sspinn.estimator.sspinnpose import SSPINNpose
+from sspinn.model.conventions import GRAVITY
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def lowpass(grf: np.ndarray, cutoff_hz: float) -> np.ndarray:
+    """(T, 4) GRF low-passed at ``cutoff_hz`` forwards and backwards (second-order Butterworth)."""
+    return sosfiltfilt(butter(2, cutoff_hz, fs=SAMPLE_RATE_HZ, output="sos"), grf, axis=0)
+
+
+def share_above(rec: Recording, cutoff_hz: float) -> float:
+    """Share of the RMS of ``rec``'s labelled vertical GRF (the feet whose force is finite and not
+    constant, BW; its mean left out) above ``cutoff_hz``; NaN when no foot has such a force."""
+    assert rec.labels is not None and rec.labels.grf is not None
+    vertical = rec.labels.grf[:, [1, 3]] / (rec.mass * GRAVITY)
+    vertical = vertical[:, [k for k in range(2) if np.isfinite(vertical[:, k]).all() and np.ptp(vertical[:, k]) > 0]]
+    if vertical.shape[1] == 0:
+        return float("nan")
+    freq, power = welch(vertical, fs=SAMPLE_RATE_HZ, nperseg=min(256, len(vertical)), axis=0)
+    power = power.sum(axis=1)
+    return float(np.sqrt(power[freq > cutoff_hz].sum() / power[freq > 0].sum()))
+
+
+def _mean(values: list[list[float]]) -> np.ndarray:
+    """Column means over the recordings, NaN where none has a finite value."""
+    v = np.array(values, dtype=float)
+    return np.array([c[np.isfinite(c)].mean() if np.isfinite(c).any() else np.nan for c in v.T])
+
+
+def gait_of(rec: Recording) -> str:
+    program = rec.provenance.get("program")
+    return program["name"] if isinstance(program, dict) and "name" in program else rec.name.rsplit("_", 1)[-1]
+
+
+def main(argv: list[str] | None = None) -> dict[str, dict[str, list[float]]]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", type=Path, default=REPO / "data" / "synth_default")
+    parser.add_argument("--model", type=Path, default=REPO / "results" / "demo" / "run" / "model.pt")
+    parser.add_argument("--split", default="test")
+    parser.add_argument("--cutoffs", nargs="+", type=float, default=[20.0, 10.0, 6.0])
+    parser.add_argument("--skip", type=int, default=100, help="samples of warm-up left out (1 s)")
+    args = parser.parse_args(argv)
+    bad = [f for f in args.cutoffs if not 0 < f < SAMPLE_RATE_HZ / 2]
+    if bad:
+        parser.error(f"--cutoffs {bad[0]:g}: a cut-off must lie between 0 and {SAMPLE_RATE_HZ / 2:g} Hz")
+    for path, what in ((args.data, "dataset folder"), (args.model, "model file")):
+        if not path.exists():
+            parser.error(f"{path}: no such {what}")
+    estimator = SSPINNpose.load(args.model)
+    recordings = Dataset.open(args.data).load(args.split)
+    if not recordings or any(r.labels is None or r.labels.grf is None for r in recordings):
+        parser.error(f"{args.data} ({args.split}): every recording needs GRF labels")
+    rows: dict[str, dict[str, list[float]]] = {}
+    for rec in recordings:
+        estimate = estimator.predict(rec)
+        row = rows.setdefault(gait_of(rec), {"n": [], "grfe": [], "hs": [], "share": []})
+        arms = [estimate] + [dataclasses.replace(estimate, grf=lowpass(estimate.grf, f)) for f in args.cutoffs]
+        metrics = [compute_metrics(e, rec, args.skip, physics=False) for e in arms]
+        row["n"].append(1)
+        row["grfe"].append([m.grfe_pct_bw for m in metrics])
+        row["hs"].append([m.hs_timing_ms for m in metrics])
+        row["share"].append([share_above(rec, f) for f in args.cutoffs])
+    cut = " / ".join(f"{f:g}" for f in args.cutoffs)
+    print(f"{args.model} on {args.data} ({args.split}); GRF low-passed offline at {cut} Hz\n")
+    print(f"| gait | recordings | GRFE %BW: estimated, then at {cut} Hz | heel strike ms: the same | labels' vertical GRF RMS above {cut} Hz |")
+    print("|---|---:|---|---|---|")
+    out = {}
+    for gait, row in sorted(rows.items()):
+        grfe, hs, share = (_mean(row[k]) for k in ("grfe", "hs", "share"))
+        out[gait] = {"grfe": grfe.tolist(), "hs_ms": hs.tolist(), "share_above": share.tolist()}
+        print(f"| {gait} | {len(row['n'])} | " + " / ".join(f"{v:.2f}" for v in grfe) + " | " + " / ".join(f"{v:.0f}" for v in hs)
+              + " | " + " / ".join("n/a" if np.isnan(v) else f"{100 * v:.1f} %" for v in share) + " |")
+    return out
+
+
+if __name__ == "__main__":
+    main()
