@@ -210,9 +210,10 @@ def train_arm(arm: str, train: list[Recording], out: Path, config_path: Path, st
         def result_settings(train_config: dict) -> dict:  # what changes the model (not threads or logging)
             return {k: v for k, v in train_config.items() if k not in ("steps", "threads", "time_limit_s", "device", "log_every", "checkpoint_every")}
 
-        before = yaml.safe_load(kept.read_text())["train"]
-        if result_settings(before) != result_settings(json.loads(json.dumps(config.to_dict()))):
-            sys.exit(f"{run}: this arm was trained with other settings ({kept}); give another --out for these")
+        before, now = result_settings(yaml.safe_load(kept.read_text())["train"]), result_settings(json.loads(json.dumps(config.to_dict())))
+        differ = sorted(k for k in before.keys() & now.keys() if before[k] != now[k])  # options of another code version aside
+        if differ:
+            sys.exit(f"{run}: this arm was trained with other settings ({', '.join(differ)}: see {kept}); give another --out for these")
     summary = run / "training_summary.json"
     if summary.exists() and json.loads(summary.read_text())["steps"] >= config.steps:
         return run / "model.pt"
