@@ -29,9 +29,11 @@ import argparse
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sspinn.data.dataset import Recording
 from sspinn.model.conventions import SEGMENTS
 from sspinn.model.drawing import save_figure
 from sspinn.validation.sensor_mounting import (
@@ -46,6 +48,9 @@ from sspinn.validation.sensor_mounting import (
 
 GAIT = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "predicted_walk_1.3.csv"
 CMU = Path(__file__).resolve().parents[2] / "shared" / "data" / "cmu_treadmill_imu_grf"
+if TYPE_CHECKING:
+    from sspinn.estimator.sspinnpose import SSPINNpose
+
 OPENSIM_WALK = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_subject01_walk"
 
 
@@ -99,14 +104,13 @@ def cmu_walking_only(data: Path) -> None:
             print(f"| {kind} | {condition} | " + " | ".join(cells) + " |")
 
 
-def feet_from_estimate(estimator, recording, iterations: int = 4) -> dict[str, float]:
+def feet_from_estimate(estimator: SSPINNpose, recording: Recording, iterations: int = 4) -> dict[str, float]:
     """In-plane corrections (rad) of the foot sensors of ``recording``, fitted to the kinematics
     ``estimator`` (a loaded :class:`~sspinn.estimator.sspinnpose.SSPINNpose`) estimates from it (:func:`sspinn.estimator.placement_fit.fit_placement`, positions,
     angles and biases): the fitted angle turns the foot's signals and the estimate is made again,
     ``iterations`` times (each round leaves about a fifth of the previous correction). The
     network is used as trained: adapted to the recording first, it learns to explain the turned
     signals and the fit then finds nothing (docs/imu_import.md)."""
-    from sspinn.data.dataset import Recording
     from sspinn.estimator.placement_fit import fit_placement
 
     nominal = recording.placement.vector().reshape(len(SEGMENTS), 3)[:, 2]
@@ -144,6 +148,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--estimate-data", type=Path, default=None, metavar="DIR",
                         help="with --estimate: imported recordings whose feet the same fit turns from their own calibration")
     args = parser.parse_args(argv)
+    if args.estimate_data is not None and args.estimate is None:
+        parser.error("--estimate-data needs --estimate MODEL")
+    for path, what in ((args.estimate, "model file"), (args.estimate_data, "dataset folder")):
+        if path is not None and not path.exists():
+            parser.error(f"{path}: no such {what}")
     if args.measured is not None:
         if not (args.measured / "subject01_walk_IK.mot").exists():
             parser.error(f"{args.measured}: no subject01_walk_IK.mot (see ../shared/data/README.md)")
@@ -157,25 +166,23 @@ def main(argv: list[str] | None = None) -> int:
     print(f"gait {args.gait} ({len(q)} samples per stride, {args.strides} strides); {args.trials} random mountings × 7 sensors; "
           f"out-of-plane: {oop}")
     results = {}
-    conditions = (("with 2 s quiet standing", 2.0, "joints"), ("walking only: joint centres and foot rests", 0.0, "joints"),
-                  ("walking only: typical walking orientations", 0.0, "typical"))
-    refine, estimator = None, None
+    conditions = [("with 2 s quiet standing", 2.0, "joints", None), ("walking only: joint centres and foot rests", 0.0, "joints", None),
+                  ("walking only: typical walking orientations", 0.0, "typical", None)]
     if args.estimate is not None:
-        from sspinn.data.dataset import Recording
         from sspinn.estimator.sspinnpose import SSPINNpose
         from sspinn.model.body import IMUPlacement
 
         estimator = SSPINNpose.load(args.estimate)
 
-        conditions += (("walking only: joint centres, feet fitted to the estimate", 0.0, "joints"),)
-
         def refine(imu: np.ndarray) -> dict[str, float]:  # the 1.75 m, 70 kg body of the synthetic gait
             rec = Recording("synthetic", imu, tuple(SEGMENTS), 1.75, 70.0, placement=IMUPlacement.default(1.75))
             return feet_from_estimate(estimator, rec)
-    for label, standing, method in conditions:
+
+        conditions.append(("walking only: joint centres, feet fitted to the estimate", 0.0, "joints", refine))
+    for label, standing, method, refinement in conditions:
         t0 = time.perf_counter()
         res = mounting_trials(q, u, qdd, trials=args.trials, seed=args.seed, standing_s=standing, strides=args.strides, oop=oop,
-                              walking_angles=method, refine=refine if "estimate" in label else None)
+                              walking_angles=method, refine=refinement)
         results[label] = res
         print(f"\n### {label} ({time.perf_counter() - t0:.1f} s)\n")
         print("| sensors | axis error median (deg) | axis error max | in-plane angle error median (deg) | max | wrong signs |")

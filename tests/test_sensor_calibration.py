@@ -105,6 +105,24 @@ def test_a_refinement_turns_the_calibrated_in_plane_angle(gait) -> None:
     assert np.allclose(turned["angle"][~foot], plain["angle"][~foot]) and np.allclose(turned["axis"], plain["axis"])
 
 
+def test_the_validation_script_fits_the_feet_to_an_estimate(tiny_run, capsys: pytest.CaptureFixture[str], torch_threads) -> None:
+    """``--estimate MODEL`` adds the condition whose feet are fitted to MODEL's estimate (a tiny
+    model: the mechanics, not the accuracy); bad paths are one-line errors."""
+    import runpy
+
+    script = runpy.run_path(str(REPO / "scripts" / "validate_sensor_calibration.py"), run_name="validate_sensor_calibration")
+    model = tiny_run[4] / "model.pt"
+    assert script["main"](["--trials", "1", "--strides", "5", "--estimate", str(model)]) == 0
+    out = capsys.readouterr().out
+    table = out.split("feet fitted to the estimate")[1]
+    assert "| foot_r |" in table and "| foot_l |" in table
+    for argv, message in ((["--estimate-data", str(REPO)], "--estimate-data needs --estimate MODEL"),
+                          (["--estimate", str(REPO / "no_model.pt")], "no_model.pt: no such model file")):
+        with pytest.raises(SystemExit):
+            script["main"](argv)
+        assert message in capsys.readouterr().err
+
+
 def _signals(gait, seed: int, mounting=None):
     rng = np.random.default_rng(seed)
     imu2d = synthetic_walk(gait.q, gait.u, gait.qdd, strides=20, standing_s=2.0)
