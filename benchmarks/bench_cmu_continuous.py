@@ -8,13 +8,15 @@ and with a mock stiff knee (``CSStiffKnee``), with 8 Xsens IMUs in unknown mount
    plane from the data, GRF aligned by cross-correlation, belt speed as the speed label):
    Sub01–Sub04 into the train split, Sub05–Sub06 into the test split. Cached: a trial already
    imported by this importer version is reused.
-2. **Four arms**, each evaluated on Sub05–Sub06:
+2. **Four arms** (and a fifth on request), each evaluated on Sub05–Sub06:
    ``scratch`` (self-supervised training on the real training trials, no labels),
    ``zero_shot`` (the model ``make demo`` trains on synthetic data only, ``--pretrained``),
    ``finetune`` (that model, fine-tuned self-supervised on the real training trials; the CLI's
    ``sspinn finetune``) — none of these three saw the test subjects — and ``adapted`` (that
    model adapted to the test subjects' own unlabeled IMU recordings, ``sspinn adapt``'s
-   :func:`~sspinn.estimator.training.adaptation_config`: it saw their IMU signals, never their labels).
+   :func:`~sspinn.estimator.training.adaptation_config`: it saw their IMU signals, never their labels);
+   on request (``--arms adapted_all``) the same adaptation on every trial's unlabeled IMU, the
+   training subjects' too.
    The two trainings use the demo configuration with ``--steps`` steps; every arm stops on its
    step count, continues from its checkpoint when rerun, and arms can run as processes side by
    side (``--arms scratch`` and ``--arms finetune``, one thread each).
@@ -82,7 +84,9 @@ CONDITIONS = {"CSBaseline": "normal walking", "CSStiffKnee": "stiff-knee walking
 #: in, glob wildcards allowed; a file may also be gzip-compressed (the pattern + ``.gz``).
 IMU_PATTERN = "{subject}/{condition}/OpenSim_{subject}_{condition}_Accel.trc"
 GRF_PATTERN = "{subject}/{condition}/OpenSim_{subject}_{condition}_GRF.mot"
-ARMS = ("scratch", "zero_shot", "finetune", "adapted")
+ARMS = ("scratch", "zero_shot", "finetune", "adapted", "adapted_all")
+#: The arms run when ``--arms`` is not given.
+DEFAULT_ARMS = ("scratch", "zero_shot", "finetune", "adapted")
 WARMUP = 100  # samples (1 s) of LSTM warm-up left out of every metric
 TARGETS = {"grf_rmse": 15.0, "hs_ms": 30.0, "speed": 0.10, "standing_speed": 0.05}
 #: Row names of the baselines in the results and the report.
@@ -195,7 +199,7 @@ def train_arm(arm: str, train: list[Recording], out: Path, config_path: Path, st
     with ``adapt_settings`` — ``"key=value"`` as ``sspinn adapt --set`` takes them); returns its
     model file. An arm already in ``out`` with other settings is an error (one run, one folder)."""
     run = out / arm
-    if arm == "adapted":
+    if arm in ("adapted", "adapted_all"):
         config = adaptation_config(load_model(pretrained).config, str(pretrained), list(adapt_settings), threads=threads,
                                    time_limit_s=4 * 3600.0)
         if steps < config.steps:  # the smoke run
@@ -474,7 +478,7 @@ def parse_args(argv: list[str] | None = None) -> tuple[argparse.Namespace, Proto
                         help="model trained on synthetic data only (what `make demo` writes)")
     parser.add_argument("--config", type=Path, default=REPO / "configs/sspinn/demo.yaml", help="training configuration")
     parser.add_argument("--steps", type=int, default=6000, help="training steps of the scratch and finetune arms")
-    parser.add_argument("--arms", nargs="+", choices=ARMS, default=list(ARMS))
+    parser.add_argument("--arms", nargs="+", choices=ARMS, default=list(DEFAULT_ARMS))
     parser.add_argument("--threads", type=int, default=1, help="torch threads per training (two side by side: 1 each)")
     parser.add_argument("--adapt-set", nargs="+", default=[], metavar="KEY=VALUE",
                         help="settings of the adapted arm's adaptation, as `sspinn adapt --set` (e.g. weights.temporal=10)")
@@ -497,7 +501,7 @@ def parse_args(argv: list[str] | None = None) -> tuple[argparse.Namespace, Proto
             parser.error(f"{option} {pattern!r}: only {{subject}} and {{condition}} can be filled in ({exc})")
     if not args.source.exists():
         parser.error(f"{args.source}: the trials' folder is not there (the CMU treadmill data: see ../shared/data/README.md)")
-    needs_pretrained = {"zero_shot", "finetune", "adapted"} & set(args.arms)
+    needs_pretrained = {"zero_shot", "finetune", "adapted", "adapted_all"} & set(args.arms)
     if needs_pretrained and not args.pretrained.exists():
         parser.error(f"{args.pretrained}: no synthetic-only model for {sorted(needs_pretrained)}; run `make demo` first or pass --pretrained")
     protocol = Protocol(args.source, tuple(args.train_subjects), tuple(args.test_subjects), tuple(args.conditions),
@@ -526,7 +530,8 @@ def main(argv: list[str] | None = None) -> dict:
             models[arm] = args.pretrained
             training[arm] = {"model": str(args.pretrained), "real-data steps": 0}
             continue
-        models[arm] = train_arm(arm, test if arm == "adapted" else train, args.out, args.config, steps, args.threads, args.pretrained,
+        recordings = {"adapted": test, "adapted_all": train + test}.get(arm, train)
+        models[arm] = train_arm(arm, recordings, args.out, args.config, steps, args.threads, args.pretrained,
                                 tuple(args.adapt_set))
         summary = json.loads((args.out / arm / "training_summary.json").read_text())
         training[arm] = {"steps": summary["steps"], "stopped_by": summary["stopped_by"],
@@ -534,7 +539,10 @@ def main(argv: list[str] | None = None) -> dict:
                          "from": str(args.pretrained) if arm != "scratch" else "random initialisation",
                          "config": {"finetune": args.config.name + " (fine-tuning weights)",
                                     "adapted": "the pretrained model's own (sspinn adapt), on the TEST subjects' unlabeled IMU"
-                                               + (f", with {' '.join(args.adapt_set)}" if args.adapt_set else "")}.get(arm, args.config.name)}
+                                               + (f", with {' '.join(args.adapt_set)}" if args.adapt_set else ""),
+                                    "adapted_all": "the pretrained model's own (sspinn adapt), on EVERY trial's unlabeled IMU "
+                                                   "(training and test subjects)"
+                                                   + (f", with {' '.join(args.adapt_set)}" if args.adapt_set else "")}.get(arm, args.config.name)}
     if args.no_report:
         return {}
     results, estimates, profile_grf = evaluate(models, test, train, protocol.conditions, tuple(args.grf_lowpass))

@@ -135,7 +135,7 @@ def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     _, _, cfg, _, run = tiny_run
     bench = runpy.run_path(str(BENCHMARKS / "bench_cmu_continuous.py"), run_name="bench_cmu_continuous")
     common = ["--quick", "--out", str(tmp_path / "cmu"), "--config", str(cfg), "--pretrained", str(run / "model.pt"), "--source", str(source)]
-    results = bench["main"]([*common, "--grf-lowpass", "10"])
+    results = bench["main"]([*common, "--grf-lowpass", "10", "--arms", *bench["ARMS"]])
     out = capsys.readouterr().out
     assert set(results) == {"Sub05_CSBaseline", "Sub05_CSStiffKnee"}
     row = results["Sub05_CSBaseline"]
@@ -148,6 +148,8 @@ def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert "per condition" in out.lower() and (tmp_path / "cmu" / "plots" / "Sub05_CSBaseline.png").exists()
     saved = json.loads((tmp_path / "cmu" / "metrics.json").read_text())
     assert saved["training"]["scratch"]["steps"] == 3 and saved["training"]["adapted"]["steps"] == 3
+    assert torch.load(tmp_path / "cmu" / "adapted_all" / "checkpoint.pt", weights_only=False)["recordings"] == [
+        "Sub01_CSBaseline", "Sub01_CSStiffKnee", "Sub05_CSBaseline", "Sub05_CSStiffKnee"]  # every trial's IMU
     assert torch.load(tmp_path / "cmu" / "adapted" / "checkpoint.pt", weights_only=False)["recordings"] == ["Sub05_CSBaseline", "Sub05_CSStiffKnee"]
     # the offline low-pass rows: the same speed, another GRF error
     smooth = row["zero_shot, GRF low-passed 10 Hz"]
