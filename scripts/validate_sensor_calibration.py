@@ -46,11 +46,11 @@ from sspinn.validation.sensor_mounting import (
     write_gait_csv,
 )
 
-GAIT = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "predicted_walk_1.3.csv"
-CMU = Path(__file__).resolve().parents[2] / "shared" / "data" / "cmu_treadmill_imu_grf"
 if TYPE_CHECKING:
     from sspinn.estimator.sspinnpose import SSPINNpose
 
+GAIT = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "predicted_walk_1.3.csv"
+CMU = Path(__file__).resolve().parents[2] / "shared" / "data" / "cmu_treadmill_imu_grf"
 OPENSIM_WALK = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_subject01_walk"
 
 
