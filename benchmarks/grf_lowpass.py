@@ -80,13 +80,12 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, list[float]]]:
     recordings = Dataset.open(args.data).load(args.split)
     if not recordings or any(r.labels is None or r.labels.grf is None for r in recordings):
         parser.error(f"{args.data} ({args.split}): every recording needs GRF labels")
-    rows: dict[str, dict[str, list[float]]] = {}
+    rows: dict[str, dict[str, list[list[float]]]] = {}
     for rec in recordings:
         estimate = estimator.predict(rec)
-        row = rows.setdefault(gait_of(rec), {"n": [], "grfe": [], "hs": [], "share": []})
+        row = rows.setdefault(gait_of(rec), {"grfe": [], "hs": [], "share": []})
         arms = [estimate] + [dataclasses.replace(estimate, grf=lowpass(estimate.grf, f)) for f in args.cutoffs]
         metrics = [compute_metrics(e, rec, args.skip, physics=False) for e in arms]
-        row["n"].append(1)
         row["grfe"].append([m.grfe_pct_bw for m in metrics])
         row["hs"].append([m.hs_timing_ms for m in metrics])
         row["share"].append([share_above(rec, f) for f in args.cutoffs])
@@ -98,7 +97,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, list[float]]]:
     for gait, row in sorted(rows.items()):
         grfe, hs, share = (_mean(row[k]) for k in ("grfe", "hs", "share"))
         out[gait] = {"grfe": grfe.tolist(), "hs_ms": hs.tolist(), "share_above": share.tolist()}
-        print(f"| {gait} | {len(row['n'])} | " + " / ".join(f"{v:.2f}" for v in grfe) + " | " + " / ".join(f"{v:.0f}" for v in hs)
+        print(f"| {gait} | {len(row['grfe'])} | " + " / ".join(f"{v:.2f}" for v in grfe) + " | " + " / ".join(f"{v:.0f}" for v in hs)
               + " | " + " / ".join("n/a" if np.isnan(v) else f"{100 * v:.1f} %" for v in share) + " |")
     return out
 
