@@ -4,7 +4,9 @@ For every recording of one split of a labelled dataset (a synthetic one, or real
 with ``sspinn import``): the model's GRF error (GRFE, %BW, both feet, horizontal and vertical) and
 heel-strike timing (ms, :func:`sspinn.estimator.evaluation.heel_strike_timing`) as estimated and
 after a zero-phase low-pass at each ``--cutoffs`` frequency (second-order Butterworth, forwards and
-backwards: offline only; the same filter as ``bench_cmu_continuous.py --grf-lowpass``), and the share
+backwards with the double pass's −3 dB point at the cut-off,
+:func:`sspinn.validation.inverse_dynamics.lowpass`: offline only; the same filter as
+``bench_cmu_continuous.py --grf-lowpass``), and the share
 of the labels' vertical GRF RMS above each cut-off (Welch spectrum, the mean left out): how much of
 the force a low-pass would take away from the truth itself. Means per gait (a synthetic recording's
 program name, else the last part of the recording's name, e.g. the CMU condition).
@@ -23,19 +25,15 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
-from scipy.signal import butter, sosfiltfilt, welch
+from scipy.signal import welch
 
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset, Recording
 from sspinn.estimator.evaluation import compute_metrics
 from sspinn.estimator.sspinnpose import SSPINNpose
 from sspinn.model.conventions import GRAVITY
+from sspinn.validation.inverse_dynamics import DUAL_PASS_CORRECTION, lowpass
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-def lowpass(grf: np.ndarray, cutoff_hz: float) -> np.ndarray:
-    """(T, 4) GRF low-passed at ``cutoff_hz`` forwards and backwards (second-order Butterworth)."""
-    return sosfiltfilt(butter(2, cutoff_hz, fs=SAMPLE_RATE_HZ, output="sos"), grf, axis=0)
 
 
 def share_above(rec: Recording, cutoff_hz: float) -> float:
@@ -70,9 +68,10 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, list[float]]]:
     parser.add_argument("--cutoffs", nargs="+", type=float, default=[20.0, 10.0, 6.0])
     parser.add_argument("--skip", type=int, default=100, help="samples of warm-up left out (1 s)")
     args = parser.parse_args(argv)
-    bad = [f for f in args.cutoffs if not 0 < f < SAMPLE_RATE_HZ / 2]
+    highest = SAMPLE_RATE_HZ / 2 * DUAL_PASS_CORRECTION
+    bad = [f for f in args.cutoffs if not 0 < f < highest]
     if bad:
-        parser.error(f"--cutoffs {bad[0]:g}: a cut-off must lie between 0 and {SAMPLE_RATE_HZ / 2:g} Hz")
+        parser.error(f"--cutoffs {bad[0]:g}: a cut-off must lie between 0 and {highest:g} Hz (the double pass's −3 dB point)")
     for path, what in ((args.data, "dataset folder"), (args.model, "model file")):
         if not path.exists():
             parser.error(f"{path}: no such {what}")
@@ -84,7 +83,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, list[float]]]:
     for rec in recordings:
         estimate = estimator.predict(rec)
         row = rows.setdefault(gait_of(rec), {"grfe": [], "hs": [], "share": []})
-        arms = [estimate] + [dataclasses.replace(estimate, grf=lowpass(estimate.grf, f)) for f in args.cutoffs]
+        arms = [estimate] + [dataclasses.replace(estimate, grf=lowpass(estimate.grf, SAMPLE_RATE_HZ, f)) for f in args.cutoffs]
         metrics = [compute_metrics(e, rec, args.skip, physics=False) for e in arms]
         row["grfe"].append([m.grfe_pct_bw for m in metrics])
         row["hs"].append([m.hs_timing_ms for m in metrics])

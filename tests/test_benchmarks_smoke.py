@@ -125,7 +125,7 @@ def test_grf_lowpass(capsys: pytest.CaptureFixture[str], tiny_run, torch_threads
     assert bench["share_above"](rec, 10.0) == pytest.approx(2**-0.5, abs=0.02) and bench["share_above"](rec, 20.0) < 0.02
     with pytest.raises(SystemExit):
         bench["main"](["--data", str(data), "--model", str(run / "model.pt"), "--cutoffs", "60"])
-    assert "a cut-off must lie between 0 and 50 Hz" in capsys.readouterr().err
+    assert "a cut-off must lie between 0 and 40.1 Hz" in capsys.readouterr().err
 
 
 def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str], tiny_run, torch_threads) -> None:
@@ -190,7 +190,7 @@ def test_bench_cmu_continuous_finds_trials_by_pattern(tmp_path: Path, capsys: py
         (["--test-subjects", "P4"], r"people\.csv: no row for subject 'P4'"),
         (["--test-subjects", "P2"], r"subjects \['P2'\] are in both"),
         (["--imu-pattern", "{subj}/x"], r"--imu-pattern '\{subj\}/x': only \{subject\} and \{condition\}"),
-        (["--grf-lowpass", "60"], r"--grf-lowpass 60: a cut-off must lie between 0 and 50 Hz"),
+        (["--grf-lowpass", "60"], r"--grf-lowpass 60: a cut-off must lie between 0 and 40.1 Hz"),
     ):
         with pytest.raises(SystemExit) as exit_info:
             bench["parse_args"](argv + bad)
