@@ -193,6 +193,15 @@ def import_trials(protocol: Protocol, data: Path, train_subjects: tuple[str, ...
 
 
 # ------------------------------------------------------------------------------------- 2. train
+#: Training settings that do not change the model an arm trains (its budget, threads, device, logging).
+RUNTIME_SETTINGS = ("steps", "threads", "time_limit_s", "device", "log_every", "checkpoint_every")
+
+
+def result_settings(train_config: dict) -> dict:
+    """``train_config`` (a ``TrainConfig`` as a dict) less its :data:`RUNTIME_SETTINGS`."""
+    return {k: v for k, v in train_config.items() if k not in RUNTIME_SETTINGS}
+
+
 def train_arm(arm: str, train: list[Recording], out: Path, config_path: Path, steps: int, threads: int, pretrained: Path,
               adapt_settings: tuple[str, ...] = ()) -> Path:
     """Train one arm (``scratch`` or ``finetune`` to ``steps`` steps on ``train``, ``adapted``
@@ -212,9 +221,6 @@ def train_arm(arm: str, train: list[Recording], out: Path, config_path: Path, st
         config.finetune = arm == "finetune"
     kept = run / "config.yaml"
     if kept.exists():
-        def result_settings(train_config: dict) -> dict:  # what changes the model (not threads or logging)
-            return {k: v for k, v in train_config.items() if k not in ("steps", "threads", "time_limit_s", "device", "log_every", "checkpoint_every")}
-
         before, now = result_settings(yaml.safe_load(kept.read_text())["train"]), result_settings(json.loads(json.dumps(config.to_dict())))
         differ = sorted(k for k in before.keys() & now.keys() if before[k] != now[k])  # options of another code version aside
         if differ:
