@@ -8,7 +8,9 @@ backwards with the double pass's −3 dB point at the cut-off,
 :func:`sspinn.validation.inverse_dynamics.lowpass`: offline only; the same filter as
 ``bench_cmu_continuous.py --grf-lowpass``), and the share
 of the labels' vertical GRF RMS above each cut-off (Welch spectrum, the mean left out): how much of
-the force a low-pass would take away from the truth itself. Means per gait (a synthetic recording's
+the force a low-pass would take away from the truth itself; the same share of the pelvis sensor's
+specific force, and at each cut-off its coherence with the total vertical force (:func:`pelvis_coherence`): whether what the sensors
+carry at that frequency is the force's. Means per gait (a synthetic recording's
 program name, else the last part of the recording's name, e.g. the CMU condition).
 
 Why: on the real CMU treadmill trials a low-pass lowers the GRF error of every arm, on the synthetic
@@ -25,28 +27,53 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
-from scipy.signal import welch
+from scipy.signal import coherence, welch
 
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset, Recording
 from sspinn.estimator.evaluation import compute_metrics
 from sspinn.estimator.sspinnpose import SSPINNpose
-from sspinn.model.conventions import GRAVITY
 from sspinn.validation.inverse_dynamics import DUAL_PASS_CORRECTION, lowpass
 
 REPO = Path(__file__).resolve().parents[1]
 
 
+def rms_share_above(signals: np.ndarray, cutoff_hz: float) -> float:
+    """Share of the RMS of ``signals`` ((T,) or (T, k), summed over the columns; the mean left out:
+    Welch) above ``cutoff_hz``."""
+    freq, power = welch(signals, fs=SAMPLE_RATE_HZ, nperseg=min(256, len(signals)), axis=0)
+    power = power.reshape(len(freq), -1).sum(axis=1)
+    return float(np.sqrt(power[freq > cutoff_hz].sum() / power[freq > 0].sum()))
+
+
 def share_above(rec: Recording, cutoff_hz: float) -> float:
     """Share of the RMS of ``rec``'s labelled vertical GRF (the feet whose force is finite and not
-    constant, BW; its mean left out) above ``cutoff_hz``; NaN when no foot has such a force."""
+    constant) above ``cutoff_hz``; NaN when no foot has such a force."""
     assert rec.labels is not None and rec.labels.grf is not None
-    vertical = rec.labels.grf[:, [1, 3]] / (rec.mass * GRAVITY)
+    vertical = rec.labels.grf[:, [1, 3]]
     vertical = vertical[:, [k for k in range(2) if np.isfinite(vertical[:, k]).all() and np.ptp(vertical[:, k]) > 0]]
-    if vertical.shape[1] == 0:
-        return float("nan")
-    freq, power = welch(vertical, fs=SAMPLE_RATE_HZ, nperseg=min(256, len(vertical)), axis=0)
-    power = power.sum(axis=1)
-    return float(np.sqrt(power[freq > cutoff_hz].sum() / power[freq > 0].sum()))
+    return rms_share_above(vertical, cutoff_hz) if vertical.shape[1] else float("nan")
+
+
+def pelvis_force(rec: Recording) -> tuple[np.ndarray, np.ndarray] | None:
+    """The magnitude of the pelvis sensor's in-plane specific force (T,) and ``rec``'s labelled
+    total vertical GRF (T,), or None without a pelvis sensor or with a non-finite force."""
+    assert rec.labels is not None and rec.labels.grf is not None
+    total = rec.labels.grf[:, [1, 3]].sum(axis=1)
+    if "pelvis" not in rec.segments or not np.isfinite(total).all():
+        return None
+    return np.linalg.norm(rec.imu[:, rec.segments.index("pelvis"), :2], axis=1), total
+
+
+def pelvis_coherence(rec: Recording, freqs_hz: list[float]) -> list[float]:
+    """Magnitude-squared coherence (Welch) at each of ``freqs_hz`` between the two signals of
+    :func:`pelvis_force`: near 1 where the sensor's content at that frequency is the force's (the
+    pelvis moves with the centre of mass, whose acceleration is the total force over the mass), low
+    where the sensor carries something else (its own wobble, noise). NaN without them."""
+    both = pelvis_force(rec)
+    if both is None:
+        return [float("nan")] * len(freqs_hz)
+    freq, coh = coherence(*both, fs=SAMPLE_RATE_HZ, nperseg=min(256, len(both[1])))
+    return [float(coh[np.argmin(abs(freq - f))]) for f in freqs_hz]
 
 
 def _mean(values: list[list[float]]) -> np.ndarray:
@@ -82,22 +109,28 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, list[float]]]:
     rows: dict[str, dict[str, list[list[float]]]] = {}
     for rec in recordings:
         estimate = estimator.predict(rec)
-        row = rows.setdefault(gait_of(rec), {"grfe": [], "hs": [], "share": []})
+        row = rows.setdefault(gait_of(rec), {"grfe": [], "hs": [], "share": [], "pelvis_share": [], "coherence": []})
         arms = [estimate] + [dataclasses.replace(estimate, grf=lowpass(estimate.grf, SAMPLE_RATE_HZ, f)) for f in args.cutoffs]
         metrics = [compute_metrics(e, rec, args.skip, physics=False) for e in arms]
         row["grfe"].append([m.grfe_pct_bw for m in metrics])
         row["hs"].append([m.hs_timing_ms for m in metrics])
         row["share"].append([share_above(rec, f) for f in args.cutoffs])
+        both = pelvis_force(rec)
+        row["pelvis_share"].append([float("nan") if both is None else rms_share_above(both[0], f) for f in args.cutoffs])
+        row["coherence"].append(pelvis_coherence(rec, args.cutoffs))
     cut = " / ".join(f"{f:g}" for f in args.cutoffs)
     print(f"{args.model} on {args.data} ({args.split}); GRF low-passed offline at {cut} Hz\n")
-    print(f"| gait | recordings | GRFE %BW: estimated, then at {cut} Hz | heel strike ms: the same | labels' vertical GRF RMS above {cut} Hz |")
-    print("|---|---:|---|---|---|")
+    print(f"| gait | recordings | GRFE %BW: estimated, then at {cut} Hz | heel strike ms: the same | labels' vertical GRF RMS above {cut} Hz "
+          f"| the pelvis sensor's RMS above them | its coherence with the total vertical GRF at {cut} Hz |")
+    print("|---|---:|---|---|---|---|---|")
     out = {}
     for gait, row in sorted(rows.items()):
-        grfe, hs, share = (_mean(row[k]) for k in ("grfe", "hs", "share"))
-        out[gait] = {"grfe": grfe.tolist(), "hs_ms": hs.tolist(), "share_above": share.tolist()}
+        grfe, hs, share, pelvis, coh = (_mean(row[k]) for k in ("grfe", "hs", "share", "pelvis_share", "coherence"))
+        out[gait] = {"grfe": grfe.tolist(), "hs_ms": hs.tolist(), "share_above": share.tolist(),
+                     "pelvis_share_above": pelvis.tolist(), "pelvis_coherence": coh.tolist()}
         print(f"| {gait} | {len(row['grfe'])} | " + " / ".join(f"{v:.2f}" for v in grfe) + " | " + " / ".join(f"{v:.0f}" for v in hs)
-              + " | " + " / ".join("n/a" if np.isnan(v) else f"{100 * v:.1f} %" for v in share) + " |")
+              + "".join(" | " + " / ".join("n/a" if np.isnan(v) else f"{100 * v:.1f} %" for v in shares) for shares in (share, pelvis))
+              + " | " + " / ".join("n/a" if np.isnan(v) else f"{v:.2f}" for v in coh) + " |")
     return out
 
 
