@@ -279,6 +279,36 @@ def test_soft_tissue_statistics_and_band():
     assert not np.any(info["sta_displacement"][:, feet]) and np.all(np.abs(info["sta_displacement"][:, 1]).max(0) > 0)
 
 
+def test_strap_wobble_rate_band_rest_and_other_draws():
+    """The strap wobble: its rotation rate has the RMS asked for, its content lies in its band, the
+    displacement is the arm times the rotation, it is off where the body rests and on the sensors a
+    zero factor names, and switching it on leaves every other term's realisation as it was."""
+    fs = 100.0
+    q, u, qdd = smooth_motion(np.arange(6000) / fs)
+    p, nominal = BodyParameters.from_anthropometry().vector(), IMUPlacement.default()
+    model = NONE.replace(wobble_rate=0.1, wobble_segment_scale={"pelvis": 0.0})
+    rest = np.zeros(len(q), dtype=bool)
+    rest[:200] = True
+    imu, info = measure_imu(q, u, qdd, p, nominal, model, rng=4, rest=rest)
+    moving = slice(300, None)
+    rate = info["sta_rotation_rate"][moving]
+    assert np.sqrt(np.mean(rate[:, 1:] ** 2)) == pytest.approx(0.1, rel=0.1)
+    assert not info["sta_rotation_rate"][:, 0].any() and not info["sta_rotation_rate"][:200].any()
+    assert np.sqrt(np.mean(info["sta_displacement"][moving, 1:] ** 2)) == pytest.approx(
+        0.05 * np.sqrt(np.mean(info["sta_rotation"][moving, 1:] ** 2)), rel=0.1)
+    spectrum = np.abs(np.fft.rfft(rate[:, 1:], axis=0)) ** 2
+    freq = np.fft.rfftfreq(len(rate), 1 / fs)
+    assert spectrum[(freq < 7.5) | (freq > 25.5)].sum() < 0.01 * spectrum.sum()  # leakage only (a piece of a longer process)
+    np.testing.assert_allclose(imu[..., 2] - info["rigid"][..., 2], info["sta_rotation_rate"], atol=1e-12)
+    # the other terms draw from their own streams: the default model with and without the wobble
+    _, plain = measure_imu(q, u, qdd, p, nominal, IMUErrorModel(), rng=4)
+    _, both = measure_imu(q, u, qdd, p, nominal, IMUErrorModel().replace(wobble_rate=0.1), rng=4)
+    for key in ("bias", "drift", "noise"):
+        assert np.array_equal(plain[key], both[key]), key
+    assert plain["true_placement"] == both["true_placement"] and not IMUErrorModel().has_wobble
+    assert not np.array_equal(plain["sta_rotation_rate"], both["sta_rotation_rate"])
+
+
 # ------------------------------------------------------------------------------------ reproducibility, API
 def test_reproducible_with_same_seed(gait, p, nominal):
     q, u, qdd = gait
@@ -306,7 +336,8 @@ def test_default_model_long_recording(p, nominal):
 
 
 def test_dict_and_yaml_round_trip(tmp_path):
-    model = IMUErrorModel().replace(bias_correlation_time=30.0, soft_tissue_segment_scale=(1, 1, 0.5, 0.2, 1, 0.5, 0.2))
+    model = IMUErrorModel().replace(bias_correlation_time=30.0, soft_tissue_segment_scale=(1, 1, 0.5, 0.2, 1, 0.5, 0.2),
+                                    wobble_rate=0.1, wobble_segment_scale={"foot_r": 3.0, "foot_l": 3.0})
     assert IMUErrorModel.from_dict(model.to_dict()) == model
     path = tmp_path / "imu_errors.yaml"
     path.write_text(yaml.safe_dump({"imu_errors": IMUErrorModel().to_dict()}))
@@ -336,6 +367,9 @@ def test_dict_and_yaml_round_trip(tmp_path):
         {"soft_tissue_segment_scale": (1.0, 1.0)},
         {"soft_tissue_segment_scale": (1.0, -1.0, 1, 1, 1, 1, 1)},
         {"soft_tissue_segment_scale": {"tibia": 0.5}},
+        {"wobble_rate": -0.1},
+        {"wobble_bandwidth": 8.0},
+        {"wobble_segment_scale": {"shin": 2.0}},
     ],
 )
 def test_bad_model_parameters_raise(changes):

@@ -26,6 +26,16 @@ Error terms (each one switched off by a zero; :meth:`IMUErrorModel.none` switche
    derivatives stay analytic). Without that, synthetic quiet standing showed a std of ‖acc‖ of
    1.1–2.0 m/s² and rates up to 40°/s; real Xsens MTw sensors on a person standing still show
    0.017–0.044 m/s² and ≤ 6.5°/s (and the synthetic standing now 0.017–0.019 m/s², ≤ 3.2°/s).
+2b. **Strap wobble** (off by default): the sensor also rocks on its strap, faster than the
+   movement: a second process of the same kind, flat between ``wobble_low_cutoff`` and
+   ``wobble_bandwidth`` (Hz), whose rotation rate ψ̇ has the expected RMS ``wobble_rate`` (rad/s)
+   and whose displacement RMS per axis is ``wobble_arm`` × its rotation RMS (a sensor rocking
+   about a point of its strap that far away), optionally scaled per segment
+   (``wobble_segment_scale``). It adds to δ and ψ above (so to the same relative-motion physics)
+   and rests where the body rests. Why: real strapped sensors read rates above 10 Hz that the
+   body does not make — on the CMU treadmill trials (slow walking) 0.03 (pelvis) to 0.3 rad/s
+   (feet) RMS, 3–4× what the synthetic sensors of faster walkers read, and their content there
+   is not coherent with the ground reaction force (``benchmarks/grf_lowpass.py``).
 3. **Constant (turn-on) bias**: N(0, ``acc_bias``²) on acc_x, acc_y and N(0, ``gyr_bias``²) on
    gyr_z, per sensor, constant over the recording.
 4. **Bias drift**: per channel, b'(t) = −b/τ + K·w(t) with w unit white noise, starting at 0;
@@ -113,7 +123,30 @@ _G0 = 9.80665  # standard gravity for µg → m/s² conversions of data-sheet va
 STA_RAMP_S: Final = 0.3
 
 #: Error components returned by :func:`measure_imu`, in the order of the child random streams.
-_STREAMS = ("placement", "soft_tissue", "bias", "drift", "noise")
+_STREAMS = ("placement", "soft_tissue", "bias", "drift", "noise", "wobble")  # appended streams keep the earlier ones
+
+
+#: The per-segment factors of :class:`IMUErrorModel`.
+_SEGMENT_SCALES: Final = ("soft_tissue_segment_scale", "wobble_segment_scale")
+
+
+def _segment_scale(name: str, scale: Any) -> tuple[float, ...]:
+    """``scale`` (N_SEGMENTS numbers in SEGMENTS order, or ``{segment: factor}``, missing
+    segments 1) as a tuple of finite factors ≥ 0; a :class:`ParameterError` naming ``name``."""
+    if isinstance(scale, Mapping):
+        unknown = set(scale) - set(SEGMENTS)
+        if unknown:
+            raise ParameterError(f"IMU error model: {name}: unknown segments {sorted(unknown)}")
+        scale = [scale.get(s, 1.0) for s in SEGMENTS]
+    try:
+        values = tuple(float(v) for v in scale)
+    except (TypeError, ValueError):
+        raise ParameterError(f"IMU error model: {name} must be {N_SEGMENTS} numbers, got {scale!r}") from None
+    if len(values) != N_SEGMENTS or not all(math.isfinite(v) and v >= 0 for v in values):
+        raise ParameterError(
+            f"IMU error model: {name} must be {N_SEGMENTS} finite numbers >= 0 (SEGMENTS order {SEGMENTS}), got {values!r}"
+        )
+    return values
 
 
 @dataclass(frozen=True)
@@ -137,6 +170,11 @@ class IMUErrorModel:
         soft_tissue_low_cutoff: lower edge of the flat STA spectrum, Hz (≥ 0; DC is never used).
         soft_tissue_bandwidth: upper edge of the flat STA spectrum, Hz (> low cutoff, < f_s/2).
         soft_tissue_segment_scale: factor on both STA amplitudes per segment, SEGMENTS order.
+        wobble_rate: expected RMS of the strap wobble's rotation rate, rad/s (0: off).
+        wobble_arm: the wobble's displacement RMS per axis over its rotation RMS, m.
+        wobble_low_cutoff: lower edge of the flat wobble spectrum, Hz.
+        wobble_bandwidth: upper edge of the flat wobble spectrum, Hz (> low cutoff, < f_s/2).
+        wobble_segment_scale: factor on the wobble per segment, SEGMENTS order.
     """
 
     acc_noise_density: float = 180e-6 * _G0
@@ -153,10 +191,15 @@ class IMUErrorModel:
     soft_tissue_low_cutoff: float = 0.5
     soft_tissue_bandwidth: float = 4.0
     soft_tissue_segment_scale: tuple[float, ...] = (1.0,) * N_SEGMENTS
+    wobble_rate: float = 0.0
+    wobble_arm: float = 0.05
+    wobble_low_cutoff: float = 8.0
+    wobble_bandwidth: float = 25.0
+    wobble_segment_scale: tuple[float, ...] = (1.0,) * N_SEGMENTS
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
-            if f.name == "soft_tissue_segment_scale":
+            if f.name in _SEGMENT_SCALES:
                 continue
             value = getattr(self, f.name)
             if isinstance(value, bool):
@@ -176,29 +219,11 @@ class IMUErrorModel:
                 "IMU error model: bias_correlation_time must be > 0 s (math.inf: random walk), "
                 f"got {self.bias_correlation_time!r}"
             )
-        if not self.soft_tissue_bandwidth > self.soft_tissue_low_cutoff:
-            raise ParameterError(
-                f"IMU error model: soft_tissue_bandwidth ({self.soft_tissue_bandwidth} Hz) must exceed "
-                f"soft_tissue_low_cutoff ({self.soft_tissue_low_cutoff} Hz)"
-            )
-        scale = self.soft_tissue_segment_scale
-        if isinstance(scale, Mapping):
-            unknown = set(scale) - set(SEGMENTS)
-            if unknown:
-                raise ParameterError(f"IMU error model: soft_tissue_segment_scale: unknown segments {sorted(unknown)}")
-            scale = [scale.get(s, 1.0) for s in SEGMENTS]
-        try:
-            scale = tuple(float(v) for v in scale)
-        except (TypeError, ValueError):
-            raise ParameterError(
-                f"IMU error model: soft_tissue_segment_scale must be {N_SEGMENTS} numbers, got {scale!r}"
-            ) from None
-        if len(scale) != N_SEGMENTS or not all(math.isfinite(v) and v >= 0 for v in scale):
-            raise ParameterError(
-                f"IMU error model: soft_tissue_segment_scale must be {N_SEGMENTS} finite numbers >= 0 "
-                f"(SEGMENTS order {SEGMENTS}), got {scale!r}"
-            )
-        object.__setattr__(self, "soft_tissue_segment_scale", scale)
+        for low, high in (("soft_tissue_low_cutoff", "soft_tissue_bandwidth"), ("wobble_low_cutoff", "wobble_bandwidth")):
+            if not getattr(self, high) > getattr(self, low):
+                raise ParameterError(f"IMU error model: {high} ({getattr(self, high)} Hz) must exceed {low} ({getattr(self, low)} Hz)")
+        for name in _SEGMENT_SCALES:
+            object.__setattr__(self, name, _segment_scale(name, getattr(self, name)))
 
     @classmethod
     def none(cls) -> IMUErrorModel:
@@ -227,10 +252,25 @@ class IMUErrorModel:
             s > 0 for s in self.soft_tissue_segment_scale
         )
 
+    @property
+    def has_wobble(self) -> bool:
+        """Whether any strap wobble is generated."""
+        return self.wobble_rate > 0 and any(s > 0 for s in self.wobble_segment_scale)
+
+    def wobble_rms(self) -> np.ndarray:
+        """(N_SEGMENTS, 3) expected RMS of the wobble's displacement (x, y; m) and rotation (rad):
+        the rotation RMS is ``wobble_rate`` over the band's RMS angular frequency (a flat spectrum
+        from f₁ to f₂: 2π·√((f₂³ − f₁³) / (3 (f₂ − f₁))))."""
+        f1, f2 = self.wobble_low_cutoff, self.wobble_bandwidth
+        rotation = self.wobble_rate / (2.0 * math.pi * math.sqrt((f2**3 - f1**3) / (3.0 * (f2 - f1))))
+        scale = np.asarray(self.wobble_segment_scale)[:, None]
+        return scale * np.array([self.wobble_arm * rotation, self.wobble_arm * rotation, rotation])
+
     def to_dict(self) -> dict[str, Any]:
-        """Plain dict (floats, a list for the segment scale) for YAML; inf stays ``float('inf')``."""
+        """Plain dict (floats, lists for the segment scales) for YAML; inf stays ``float('inf')``."""
         data = dataclasses.asdict(self)
-        data["soft_tissue_segment_scale"] = list(self.soft_tissue_segment_scale)
+        for name in _SEGMENT_SCALES:
+            data[name] = list(getattr(self, name))
         return data
 
     @classmethod
@@ -250,8 +290,9 @@ class IMUErrorModel:
         if tau is None or str(tau).strip().lower() in ("inf", ".inf", "infinity"):
             kwargs.pop("bias_correlation_time", None)
             later["bias_correlation_time"] = math.inf  # a random walk (the loader takes finite numbers)
-        if isinstance(kwargs.get("soft_tissue_segment_scale"), Mapping):
-            later["soft_tissue_segment_scale"] = kwargs.pop("soft_tissue_segment_scale")
+        for name in _SEGMENT_SCALES:
+            if isinstance(kwargs.get(name), Mapping):
+                later[name] = kwargs.pop(name)
         model = config_from_mapping(cls, kwargs, source, what="IMU error parameter", error=ParameterError)
         try:
             return model.replace(**later) if later else model
@@ -562,10 +603,11 @@ def measure_imu(
     if not q.shape == u.shape == qdd.shape:
         raise ParameterError(f"q, u, qdd must have the same shape, got {q.shape}, {u.shape}, {qdd.shape}")
     n = q.shape[0]
-    if model.has_soft_tissue and model.soft_tissue_bandwidth >= fs / 2:
-        raise ParameterError(
-            f"soft_tissue_bandwidth {model.soft_tissue_bandwidth} Hz must be below the Nyquist frequency {fs / 2} Hz"
-        )
+    for on, name in ((model.has_soft_tissue, "soft_tissue_bandwidth"), (model.has_wobble, "wobble_bandwidth")):
+        if on and getattr(model, name) >= fs / 2:
+            raise ParameterError(f"{name} {getattr(model, name)} Hz must be below the Nyquist frequency {fs / 2} Hz")
+    if rest is not None and np.shape(rest) != (n,):
+        raise ParameterError(f"rest: expected shape ({n},) like q, got {np.shape(rest)}")
     streams = dict(zip(_STREAMS, _as_generator(rng).spawn(len(_STREAMS))))
 
     # 1. placement errors (drawn once per recording)
@@ -573,31 +615,24 @@ def measure_imu(
     placement = drawn if true_placement is None else true_placement
     rigid = np.asarray(virtual_imu(q, u, qdd, placement.vector(), p), dtype=np.float64)
 
-    # 2. soft-tissue artefact: relative motion of each sensor with respect to its bone
-    zeros2 = np.zeros((n, N_SEGMENTS, 2))
-    zeros1 = np.zeros((n, N_SEGMENTS))
-    disp, vel, acc, rot, rot_rate = zeros2, zeros2, zeros2, zeros1, zeros1
+    # 2. soft-tissue artefact and strap wobble: relative motion of each sensor with respect to its bone
+    relative = np.zeros((3, n, N_SEGMENTS, 3))  # (x, ẋ, ẍ) of [δ_x, δ_y, ψ]
+    bands = []
     if model.has_soft_tissue:
         scale = np.asarray(model.soft_tissue_segment_scale)[:, None]
         rms = scale * np.array([model.soft_tissue_amplitude, model.soft_tissue_amplitude, model.soft_tissue_rotation])
-        x, dx, ddx = band_limited_process(
-            streams["soft_tissue"],
-            n,
-            (N_SEGMENTS, 3),
-            rms,
-            model.soft_tissue_low_cutoff,
-            model.soft_tissue_bandwidth,
-            fs,
-        )
-        if rest is not None:
-            if np.shape(rest) != (n,):
-                raise ParameterError(f"rest: expected shape ({n},) like q, got {np.shape(rest)}")
-            e, de, dde = (v[:, None, None] for v in activity_envelope(rest, fs))
-            x, dx, ddx = e * x, e * dx + de * x, e * ddx + 2.0 * de * dx + dde * x
-        disp, vel, acc, rot, rot_rate = x[..., :2], dx[..., :2], ddx[..., :2], x[..., 2], dx[..., 2]
-        kinematic = imu_with_relative_motion(q, u, qdd, p, placement, disp, vel, acc, rot, rot_rate)
-    else:
-        kinematic = rigid
+        bands.append((streams["soft_tissue"], rms, model.soft_tissue_low_cutoff, model.soft_tissue_bandwidth))
+    if model.has_wobble:
+        bands.append((streams["wobble"], model.wobble_rms(), model.wobble_low_cutoff, model.wobble_bandwidth))
+    for stream, rms, low, high in bands:
+        relative += np.asarray(band_limited_process(stream, n, (N_SEGMENTS, 3), rms, low, high, fs))
+    if bands and rest is not None:
+        x, dx, ddx = relative
+        e, de, dde = (v[:, None, None] for v in activity_envelope(rest, fs))
+        relative = np.asarray((e * x, e * dx + de * x, e * ddx + 2.0 * de * dx + dde * x))
+    x, dx, ddx = relative
+    disp, vel, acc, rot, rot_rate = x[..., :2], dx[..., :2], ddx[..., :2], x[..., 2], dx[..., 2]
+    kinematic = imu_with_relative_motion(q, u, qdd, p, placement, disp, vel, acc, rot, rot_rate) if bands else rigid
 
     # 3.–5. sensor errors, per channel [acc_x, acc_y, gyr_z]
     def per_channel(acc_value: float, gyr_value: float) -> np.ndarray:
