@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 import torch
 
-from sspinn.data.dataset import Labels, Recording
+from sspinn.data.dataset import Dataset, Labels, Recording
 from tests.conftest import SHARED_DATA, shared_data
 
 #: every test here runs a benchmark end to end (training, compilation, real data): the quick loop skips them
@@ -132,6 +132,24 @@ def test_grf_lowpass(capsys: pytest.CaptureFixture[str], tiny_run, torch_threads
     with pytest.raises(SystemExit):
         bench["main"](["--data", str(data), "--model", str(run / "model.pt"), "--cutoffs", "60"])
     assert "a cut-off must lie between 0 and 40.1 Hz" in capsys.readouterr().err
+
+
+def test_sensor_rates(capsys: pytest.CaptureFixture[str], tiny_run) -> None:
+    """The fast content per segment of a dataset: one row per gait, finite RMS per channel; the
+    strap wobble of the error model raises the rates it adds; a folder that is not a dataset and a
+    cut-off above Nyquist are one-line errors."""
+    _, data, _, _, _ = tiny_run
+    bench = runpy.run_path(str(BENCHMARKS / "sensor_rates.py"), run_name="sensor_rates")
+    out = bench["main"](["--data", str(data), "--above", "10"])
+    assert out and all(np.isfinite(v).all() and len(v) == 3 for row in out.values() for v in row.values())
+    assert "| pelvis | thighs | shanks | feet |" in capsys.readouterr().out
+    rec = Dataset.open(data).load("train")[0]
+    wobbly = dataclasses.replace(rec, imu=rec.imu + np.random.default_rng(0).normal(0.0, 0.5, rec.imu.shape))
+    assert all((bench["fast_rms"](wobbly, 10.0)[k] > bench["fast_rms"](rec, 10.0)[k]).all() for k in ("pelvis", "feet"))
+    for argv, message in ((["--data", str(data.parent)], "no dataset.json"), (["--data", str(data), "--above", "60"], "--above 60")):
+        with pytest.raises(SystemExit):
+            bench["main"](argv)
+        assert message in capsys.readouterr().err
 
 
 def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str], tiny_run, torch_threads) -> None:
