@@ -585,7 +585,8 @@ def measure_imu(
         * ``bias`` (n_seg, 3), ``drift`` (T, n_seg, 3), ``noise`` (T, n_seg, 3): sensor errors,
           so that ``imu == kinematic + bias + drift + noise``,
         * ``sta_displacement``, ``sta_velocity``, ``sta_acceleration`` (T, n_seg, 2): δ, δ̇, δ̈ in the
-          segment frame (m, m/s, m/s²); ``sta_rotation``, ``sta_rotation_rate`` (T, n_seg): ψ, ψ̇,
+          segment frame (m, m/s, m/s²); ``sta_rotation``, ``sta_rotation_rate`` (T, n_seg): ψ, ψ̇
+          (the soft-tissue artefact and the strap wobble together),
         * ``segments``, ``sample_rate_hz``.
     """
     if not isinstance(model, IMUErrorModel):
