@@ -32,6 +32,7 @@ from scipy.signal import coherence, welch
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset, Recording
 from sspinn.estimator.evaluation import compute_metrics
 from sspinn.estimator.sspinnpose import SSPINNpose
+from sspinn.estimator.trivial_predictors import program_of
 from sspinn.validation.inverse_dynamics import DUAL_PASS_CORRECTION, lowpass
 
 REPO = Path(__file__).resolve().parents[1]
@@ -82,10 +83,6 @@ def _mean(values: list[list[float]]) -> np.ndarray:
     return np.array([c[np.isfinite(c)].mean() if np.isfinite(c).any() else np.nan for c in v.T])
 
 
-def gait_of(rec: Recording) -> str:
-    program = rec.provenance.get("program")
-    return program["name"] if isinstance(program, dict) and "name" in program else rec.name.rsplit("_", 1)[-1]
-
 
 def main(argv: list[str] | None = None) -> dict[str, dict[str, list[float]]]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -109,7 +106,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, list[float]]]:
     rows: dict[str, dict[str, list[list[float]]]] = {}
     for rec in recordings:
         estimate = estimator.predict(rec)
-        row = rows.setdefault(gait_of(rec), {"grfe": [], "hs": [], "share": [], "pelvis_share": [], "coherence": []})
+        row = rows.setdefault(program_of(rec, from_name=True), {"grfe": [], "hs": [], "share": [], "pelvis_share": [], "coherence": []})
         arms = [estimate] + [dataclasses.replace(estimate, grf=lowpass(estimate.grf, SAMPLE_RATE_HZ, f)) for f in args.cutoffs]
         metrics = [compute_metrics(e, rec, args.skip, physics=False) for e in arms]
         row["grfe"].append([m.grfe_pct_bw for m in metrics])

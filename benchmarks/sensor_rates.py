@@ -21,14 +21,11 @@ import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset, Recording
+from sspinn.estimator.trivial_predictors import program_of
 
 #: Segment groups of the table, in order: a segment name's prefix and its label.
 GROUPS = {"pelvis": "pelvis", "femur": "thighs", "tibia": "shanks", "foot": "feet"}
 
-
-def gait_of(rec: Recording) -> str:
-    program = rec.provenance.get("program")
-    return program["name"] if isinstance(program, dict) and "name" in program else rec.name.rsplit("_", 1)[-1]
 
 
 def fast_rms(rec: Recording, above_hz: float) -> dict[str, np.ndarray]:
@@ -67,7 +64,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, list[float]]]:
         for split in (s for s in args.splits if s in dataset.splits):
             for rec in dataset.load(split):
                 try:
-                    rows.setdefault(gait_of(rec), []).append(fast_rms(rec, args.above))
+                    rows.setdefault(program_of(rec, from_name=True), []).append(fast_rms(rec, args.above))
                 except ValueError as exc:
                     parser.error(f"{folder}: {exc}")
         for gait, values in sorted(rows.items()):

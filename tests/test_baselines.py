@@ -48,6 +48,9 @@ def test_means_are_per_program_and_the_prediction_is_constant() -> None:
     # a program the reference never saw falls back to the means over all recordings
     assert pred.means_for(_recording("s", "sprint", 6.0, 1.0, 3)).speed == pytest.approx(2.15)
     assert program_of(Recording("n", heavy.imu, SEGMENTS, 1.75, 70.0)) == ALL
+    imported = Recording("Sub05_CSBaseline", heavy.imu, SEGMENTS, 1.75, 70.0)  # no program: the name's last part
+    assert program_of(imported) == ALL and program_of(imported, from_name=True) == "CSBaseline"
+    assert program_of(_recording("s", "sprint", 6.0, 1.0, 3), from_name=True) == "sprint"
     with pytest.raises(ValueError, match="no recording with the labels"):
         TrivialPredictor.fit([Recording("n", heavy.imu, SEGMENTS, 1.75, 70.0)], "nothing")
 

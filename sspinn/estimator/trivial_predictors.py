@@ -47,12 +47,15 @@ from sspinn.model.conventions import COORDINATES, GRAVITY, GRF, N_Q, N_TAU
 ALL: str = "all"
 
 
-def program_of(rec: Recording) -> str:
+def program_of(rec: Recording, from_name: bool = False) -> str:
     """The recording's gait program (``provenance['program']['name']``, e.g. "walk", "run"),
-    else :data:`ALL`."""
+    else :data:`ALL` — or, with ``from_name``, the last ``_``-separated part of the recording's
+    name (an imported trial's condition, e.g. "CSBaseline" of "Sub05_CSBaseline")."""
     program = rec.provenance.get("program") if isinstance(rec.provenance, dict) else None
     name = program.get("name") if isinstance(program, dict) else None
-    return str(name) if name else ALL
+    if name:
+        return str(name)
+    return rec.name.rsplit("_", 1)[-1] if from_name else ALL
 
 
 def leg_length(rec: Recording) -> float:
