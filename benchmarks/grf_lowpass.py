@@ -65,12 +65,12 @@ def pelvis_force(rec: Recording) -> tuple[np.ndarray, np.ndarray] | None:
     return np.linalg.norm(rec.imu[:, rec.segments.index("pelvis"), :2], axis=1), total
 
 
-def pelvis_coherence(rec: Recording, freqs_hz: list[float]) -> list[float]:
+def pelvis_coherence(both: tuple[np.ndarray, np.ndarray] | None, freqs_hz: list[float]) -> list[float]:
     """Magnitude-squared coherence (Welch) at each of ``freqs_hz`` between the two signals of
-    :func:`pelvis_force`: near 1 where the sensor's content at that frequency is the force's (the
-    pelvis moves with the centre of mass, whose acceleration is the total force over the mass), low
-    where the sensor carries something else (its own wobble, noise). NaN without them."""
-    both = pelvis_force(rec)
+    :func:`pelvis_force` (``both``): near 1 where the sensor's content at that frequency is the
+    force's (the pelvis moves with the centre of mass, whose acceleration is the total force over
+    the mass), low where the sensor carries something else (its own wobble, noise). NaN without
+    them (``both`` None)."""
     if both is None:
         return [float("nan")] * len(freqs_hz)
     freq, coh = coherence(*both, fs=SAMPLE_RATE_HZ, nperseg=min(256, len(both[1])))
@@ -114,7 +114,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, list[float]]]:
         row["share"].append([share_above(rec, f) for f in args.cutoffs])
         both = pelvis_force(rec)
         row["pelvis_share"].append([float("nan") if both is None else rms_share_above(both[0], f) for f in args.cutoffs])
-        row["coherence"].append(pelvis_coherence(rec, args.cutoffs))
+        row["coherence"].append(pelvis_coherence(both, args.cutoffs))
     cut = " / ".join(f"{f:g}" for f in args.cutoffs)
     print(f"{args.model} on {args.data} ({args.split}); GRF low-passed offline at {cut} Hz\n")
     print(f"| gait | recordings | GRFE %BW: estimated, then at {cut} Hz | heel strike ms: the same | labels' vertical GRF RMS above {cut} Hz "
