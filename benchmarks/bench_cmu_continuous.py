@@ -73,7 +73,7 @@ from sspinn.imu.pipeline import IMPORTER_VERSION, import_imu
 from sspinn.imu.turns import turning_mask
 from sspinn.model.conventions import GRAVITY
 from sspinn.run_folder import atomic_write_text
-from sspinn.validation.inverse_dynamics import DUAL_PASS_CORRECTION
+from sspinn.validation.inverse_dynamics import highest_cutoff
 from sspinn.validation.inverse_dynamics import lowpass as grf_lowpass
 
 REPO = Path(__file__).resolve().parents[1]
@@ -395,7 +395,7 @@ def report(results: dict, training: dict[str, dict], out: Path, protocol: Protoc
         lines.append(f"- `{arm}`: {info}")
     if any(", GRF low-passed" in a for a in arm_rows):
         lines.append("- `<arm>, GRF low-passed F Hz`: the same estimate with its GRF low-passed at F Hz, forwards and backwards "
-                     "(second-order Butterworth): offline only")
+                     "(second-order Butterworth, the double pass −3 dB at F): offline only")
     lines += ["", "## Per trial", "", "| trial | predictor | vGRF | hGRF | GRF all | HS ms | HS matched | TO ms | speed | belt | speed error |",
               "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name, row in results.items():
@@ -494,7 +494,7 @@ def parse_args(argv: list[str] | None = None) -> tuple[argparse.Namespace, Proto
     parser.add_argument("--quick", action="store_true",
                         help="smoke run: the first training subject → the first test subject, first 20 s, 3 steps")
     args = parser.parse_args(argv)
-    highest = SAMPLE_RATE_HZ / 2 * DUAL_PASS_CORRECTION
+    highest = highest_cutoff(SAMPLE_RATE_HZ)
     bad = [f for f in args.grf_lowpass if not 0 < f < highest]
     if bad:
         parser.error(f"--grf-lowpass {bad[0]:g}: a cut-off must lie between 0 and {highest:g} Hz (the double pass's −3 dB point)")

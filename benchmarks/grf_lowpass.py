@@ -33,7 +33,7 @@ from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset, Recording
 from sspinn.estimator.evaluation import compute_metrics
 from sspinn.estimator.sspinnpose import SSPINNpose
 from sspinn.estimator.trivial_predictors import program_of
-from sspinn.validation.inverse_dynamics import DUAL_PASS_CORRECTION, lowpass
+from sspinn.validation.inverse_dynamics import highest_cutoff, lowpass
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -92,7 +92,7 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, list[float]]]:
     parser.add_argument("--cutoffs", nargs="+", type=float, default=[20.0, 10.0, 6.0])
     parser.add_argument("--skip", type=int, default=100, help="samples of warm-up left out (1 s)")
     args = parser.parse_args(argv)
-    highest = SAMPLE_RATE_HZ / 2 * DUAL_PASS_CORRECTION
+    highest = highest_cutoff(SAMPLE_RATE_HZ)
     bad = [f for f in args.cutoffs if not 0 < f < highest]
     if bad:
         parser.error(f"--cutoffs {bad[0]:g}: a cut-off must lie between 0 and {highest:g} Hz (the double pass's −3 dB point)")

@@ -166,12 +166,18 @@ def rmse(a: np.ndarray, b: np.ndarray) -> float:
 # --------------------------------------------------------------------------------------------
 # Signal processing
 # --------------------------------------------------------------------------------------------
+def highest_cutoff(fs: float) -> float:
+    """The highest cut-off :func:`lowpass` takes at the sampling rate ``fs`` (Hz): its per-pass
+    cut-off, ``cutoff / 0.802``, must stay below fs/2."""
+    return fs / 2.0 * DUAL_PASS_CORRECTION
+
+
 def lowpass(x: np.ndarray, fs: float, cutoff: float = DEFAULT_CUTOFF_HZ) -> np.ndarray:
     """Zero-lag low-pass along axis 0: 2nd-order Butterworth, forward and backward, with the
     cutoff ``cutoff / 0.802`` per pass so that the double pass has its −3 dB point at ``cutoff``
-    (Hz). ``fs`` is the sampling rate, Hz."""
+    (Hz). ``fs`` is the sampling rate, Hz; ``cutoff`` lies between 0 and :func:`highest_cutoff`."""
     wn = cutoff / DUAL_PASS_CORRECTION / (fs / 2.0)
-    if not 0.0 < wn < 1.0:
+    if not 0.0 < cutoff < highest_cutoff(fs):
         raise ValueError(f"cutoff {cutoff} Hz (/{DUAL_PASS_CORRECTION} per pass) is not below fs/2 = {fs / 2} Hz")
     b, a = butter(2, wn)
     return filtfilt(b, a, np.asarray(x, dtype=float), axis=0)
