@@ -541,15 +541,14 @@ def main(argv: list[str] | None = None) -> dict:
         models[arm] = train_arm(arm, recordings, args.out, args.config, steps, args.threads, args.pretrained,
                                 tuple(args.adapt_set))
         summary = json.loads((args.out / arm / "training_summary.json").read_text())
+        settings = f", with {' '.join(args.adapt_set)}" if args.adapt_set else ""
         training[arm] = {"steps": summary["steps"], "stopped_by": summary["stopped_by"],
                          "wall_s_last_run": summary["wall_s_this_run"], "threads": args.threads,
                          "from": str(args.pretrained) if arm != "scratch" else "random initialisation",
                          "config": {"finetune": args.config.name + " (fine-tuning weights)",
-                                    "adapted": "the pretrained model's own (sspinn adapt), on the TEST subjects' unlabeled IMU"
-                                               + (f", with {' '.join(args.adapt_set)}" if args.adapt_set else ""),
+                                    "adapted": "the pretrained model's own (sspinn adapt), on the TEST subjects' unlabeled IMU" + settings,
                                     "adapted_all": "the pretrained model's own (sspinn adapt), on EVERY trial's unlabeled IMU "
-                                                   "(training and test subjects)"
-                                                   + (f", with {' '.join(args.adapt_set)}" if args.adapt_set else "")}.get(arm, args.config.name)}
+                                                   "(training and test subjects)" + settings}.get(arm, args.config.name)}
     if args.no_report:
         return {}
     results, estimates, profile_grf = evaluate(models, test, train, protocol.conditions, tuple(args.grf_lowpass))
