@@ -46,7 +46,8 @@ subject and condition): ``--source DIR --train-subjects A B --test-subjects C --
 [--subjects-csv table.csv] [--sensor-map map.yaml]`` (files raw or ``.gz``; the defaults are the
 CMU trials above). ``--adapt-set weights.temporal=10 …`` adapts with other settings (as ``sspinn
 adapt --set``; a new ``--out``); ``--grf-lowpass 10 6`` adds rows for every arm's GRF low-passed
-offline at those cut-offs.
+offline at those cut-offs; ``--load-transfer`` rows for every arm with the vertical GRF of double
+support moved between the feet at a constant rate (:mod:`sspinn.estimator.load_transfer`).
 """
 
 from __future__ import annotations
@@ -66,11 +67,13 @@ from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset, Recording
 from sspinn.data.gait_events import foot_imu_heel_strikes, grf_event_timing, standing_mask, true_runs
 from sspinn.estimator.evaluation import finite_or_null
 from sspinn.estimator.inference import GaitEstimate, estimate_recording
+from sspinn.estimator.load_transfer import linear_load_transfer
 from sspinn.estimator.model_store import load_model
 from sspinn.estimator.training import TrainConfig, Trainer, adaptation_config
 from sspinn.estimator.trivial_predictors import GRFProfilePredictor, TrivialPredictor
 from sspinn.imu.pipeline import IMPORTER_VERSION, import_imu
 from sspinn.imu.turns import turning_mask
+from sspinn.model.body import BodyParameters
 from sspinn.model.conventions import GRAVITY
 from sspinn.run_folder import atomic_write_text
 from sspinn.validation.inverse_dynamics import highest_cutoff
@@ -276,16 +279,25 @@ def condition_of(rec: Recording, conditions: tuple[str, ...] = tuple(CONDITIONS)
     return next(c for c in conditions if rec.name.endswith(f"_{c}"))
 
 
+def transferred(arm: str) -> str:
+    """Row name of an arm whose double-support load was shared offline (``--load-transfer``)."""
+    return f"{arm}, linear load transfer"
+
+
 def lowpassed(arm: str, cutoff_hz: float) -> str:
     """Row name of an arm whose GRF was low-passed offline (``--grf-lowpass``)."""
     return f"{arm}, GRF low-passed {cutoff_hz:g} Hz"
 
 
 def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recording], conditions: tuple[str, ...] = tuple(CONDITIONS),
-             lowpass: tuple[float, ...] = ()) -> tuple[dict, dict[str, dict[str, GaitEstimate]], dict[str, np.ndarray]]:
+             lowpass: tuple[float, ...] = (), load_transfer: bool = False,
+             ) -> tuple[dict, dict[str, dict[str, GaitEstimate]], dict[str, np.ndarray]]:
     """Per trial: the metrics of every arm and of the baselines (and of every arm's GRF after a
     zero-phase low-pass at each ``lowpass`` cut-off, Hz: a second-order Butterworth run forwards
-    and backwards with its −3 dB point at the cut-off, offline only); the estimates and the mean profile's GRF (for the plots)."""
+    and backwards with its −3 dB point at the cut-off, offline only; with ``load_transfer``, of
+    every arm's GRF with the double-support load shared linearly:
+    :func:`~sspinn.estimator.load_transfer.linear_load_transfer`); the estimates and the mean
+    profile's GRF (for the plots)."""
     trivial = TrivialPredictor.fit(train, f"the training subjects' labels ({', '.join(sorted({r.subject for r in train}))})")
     profiles = {c: GRFProfilePredictor.fit([r for r in train if condition_of(r, conditions) == c], f"training subjects, {c}")
                 for c in conditions}
@@ -312,6 +324,9 @@ def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recordi
             row[arm] = trial_metrics(est.grf, speed, rec)
             for cutoff in lowpass:
                 row[lowpassed(arm, cutoff)] = trial_metrics(grf_lowpass(est.grf, SAMPLE_RATE_HZ, cutoff), speed, rec)
+            if load_transfer:
+                shared = linear_load_transfer(est, BodyParameters.from_anthropometry(rec.height, rec.mass), SAMPLE_RATE_HZ)
+                row[transferred(arm)] = trial_metrics(shared.grf, speed, rec)
         results[rec.name] = row
     return results, estimates, profile_grf
 
@@ -396,6 +411,9 @@ def report(results: dict, training: dict[str, dict], out: Path, protocol: Protoc
     if any(", GRF low-passed" in a for a in arm_rows):
         lines.append("- `<arm>, GRF low-passed F Hz`: the same estimate with its GRF low-passed at F Hz, forwards and backwards "
                      "(second-order Butterworth, the double pass −3 dB at F): offline only")
+    if any(a.endswith(transferred("")) for a in arm_rows):
+        lines.append(f"- `{transferred('<arm>')}`: the same estimate with the vertical GRF of each double support moved from the "
+                     "trailing to the leading foot at a constant rate, the total kept (`sspinn infer --load-transfer`): offline only")
     lines += ["", "## Per trial", "", "| trial | predictor | vGRF | hGRF | GRF all | HS ms | HS matched | TO ms | speed | belt | speed error |",
               "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name, row in results.items():
@@ -490,6 +508,8 @@ def parse_args(argv: list[str] | None = None) -> tuple[argparse.Namespace, Proto
                         help="settings of the adapted arm's adaptation, as `sspinn adapt --set` (e.g. weights.temporal=10)")
     parser.add_argument("--grf-lowpass", nargs="+", type=float, default=[], metavar="HZ",
                         help="also score every arm's GRF after a zero-phase low-pass at each cut-off (offline smoothing)")
+    parser.add_argument("--load-transfer", action="store_true",
+                        help="also score every arm with the double-support load moved between the feet at a constant rate (offline)")
     parser.add_argument("--no-report", action="store_true", help="only import and train (e.g. one arm per process)")
     parser.add_argument("--quick", action="store_true",
                         help="smoke run: the first training subject → the first test subject, first 20 s, 3 steps")
@@ -551,7 +571,7 @@ def main(argv: list[str] | None = None) -> dict:
                                                    "(training and test subjects)" + settings}.get(arm, args.config.name)}
     if args.no_report:
         return {}
-    results, estimates, profile_grf = evaluate(models, test, train, protocol.conditions, tuple(args.grf_lowpass))
+    results, estimates, profile_grf = evaluate(models, test, train, protocol.conditions, tuple(args.grf_lowpass), args.load_transfer)
     (args.out / "plots").mkdir(parents=True, exist_ok=True)
     for rec in test:
         plot_trial(args.out / "plots" / f"{rec.name}.png", rec, estimates[rec.name], profile_grf[rec.name])

@@ -173,7 +173,7 @@ def _infer(args: argparse.Namespace) -> int:
 
     _new_output_folder(args, lambda f: any(f.glob("*_estimate.csv")), "estimates", "")
     recs = open_recordings(args.data, args.split, args.periods, args.height, args.mass)
-    est = SSPINNpose.load(args.model)
+    est = SSPINNpose.load(args.model, load_transfer=args.load_transfer)
     quality_file = args.quality or calibration_path(args.model)
     calibration = load_calibration(quality_file, args.model) if args.quality or quality_file.exists() else None
     if calibration is None:
@@ -377,6 +377,9 @@ def _main(argv: list[str]) -> int:
                      help="quality calibration file (default: <model>.quality.json beside the model, if there)")
     inf.add_argument("--uncertainty", type=Path, default=None,
                      help="uncertainty calibration file (default: <model>.uncertainty.json beside the model, if there)")
+    inf.add_argument("--load-transfer", action="store_true",
+                     help="offline: move the vertical GRF of each double support from the trailing to the leading foot at a "
+                          "constant rate, the torques following (lowers the GRF error on real walkers, raises it on synthetic gaits)")
 
     cq = sub.add_parser("calibrate-quality", help="calibrate the per-window quality score on labelled recordings (JSON beside the model)")
     cq.add_argument("--model", type=Path, required=True)

@@ -17,6 +17,7 @@ import torch
 
 from sspinn.data.dataset import SAMPLE_RATE_HZ, DataFormatError, Recording
 from sspinn.errors import UserError
+from sspinn.estimator.load_transfer import linear_load_transfer
 from sspinn.estimator.network import (
     BLOCKS,
     VERTICAL_FORCE_OUTPUTS,
@@ -167,10 +168,14 @@ def physical_outputs(raw: torch.Tensor, body: BodyParameters, grf: str) -> dict[
 
 
 @torch.no_grad()
-def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str, ...], placement: np.ndarray | None = None) -> GaitEstimate:
+def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str, ...], placement: np.ndarray | None = None,
+                       load_transfer: bool = False) -> GaitEstimate:
     """Run the model over a whole recording (the assumed body: Winter scaling of its height and
     mass; the nominal IMU placement unless ``placement`` (21,) is given). A model with presence
-    inputs accepts a recording with a subset of its IMUs (:func:`network_inputs`).
+    inputs accepts a recording with a subset of its IMUs (:func:`network_inputs`). With
+    ``load_transfer`` the vertical GRF of each double support moves from the trailing to the
+    leading foot at a constant rate, the torques following
+    (:func:`~sspinn.estimator.load_transfer.linear_load_transfer`; offline, off by default).
 
     Where every IMU rests for at least half a second (:func:`~sspinn.estimator.zupt.whole_body_still`:
     standing or sitting still), the forward pelvis velocity is set to 0 and pelvis_tx integrated
@@ -192,6 +197,8 @@ def estimate_recording(model: SSPINNposeNet, rec: Recording, segments: tuple[str
     if still.any():
         estimate.u[:, 0] = vx
         estimate.q[:, 0] = np.concatenate([[0.0], np.cumsum(0.5 * (vx[1:] + vx[:-1]) / SAMPLE_RATE_HZ)])
+    if load_transfer:
+        estimate = linear_load_transfer(estimate, body, SAMPLE_RATE_HZ)
     return estimate
 
 
