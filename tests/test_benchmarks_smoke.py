@@ -134,6 +134,20 @@ def test_grf_lowpass(capsys: pytest.CaptureFixture[str], tiny_run, torch_threads
     assert "a cut-off must lie between 0 and 40.1 Hz" in capsys.readouterr().err
 
 
+def test_load_transfer(capsys: pytest.CaptureFixture[str], tiny_run, torch_threads) -> None:
+    """The load-transfer table on the tiny dataset: one row per gait with the errors before and
+    after, and the share profiles of labels, estimate and transferred estimate."""
+    _, data, _, _, run = tiny_run
+    bench = runpy.run_path(str(BENCHMARKS / "load_transfer.py"), run_name="load_transfer")
+    out = bench["main"](["--data", str(data), "--model", str(run / "model.pt"), "--split", "train", "--skip", "10"])
+    assert out and all(len(row["grfe"]) == 2 and np.isfinite(row["grfe"]).all() and len(row["share_labels"]) == 10
+                       for row in out.values())
+    assert "| gait | source |" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        bench["main"](["--data", str(data.parent / "missing"), "--model", str(run / "model.pt")])
+    assert "no such dataset folder" in capsys.readouterr().err
+
+
 def test_sensor_rates(capsys: pytest.CaptureFixture[str], tiny_run) -> None:
     """The fast content per segment of a dataset: one row per gait, finite RMS per channel; the
     strap wobble of the error model raises the rates it adds; a folder that is not a dataset and a
@@ -159,7 +173,7 @@ def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     _, _, cfg, _, run = tiny_run
     bench = runpy.run_path(str(BENCHMARKS / "bench_cmu_continuous.py"), run_name="bench_cmu_continuous")
     common = ["--quick", "--out", str(tmp_path / "cmu"), "--config", str(cfg), "--pretrained", str(run / "model.pt"), "--source", str(source)]
-    results = bench["main"]([*common, "--grf-lowpass", "10", "--arms", *bench["ARMS"]])
+    results = bench["main"]([*common, "--grf-lowpass", "10", "--load-transfer", "--arms", *bench["ARMS"]])
     out = capsys.readouterr().out
     assert set(results) == {"Sub05_CSBaseline", "Sub05_CSStiffKnee"}
     row = results["Sub05_CSBaseline"]
@@ -179,6 +193,10 @@ def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     smooth = row["zero_shot, GRF low-passed 10 Hz"]
     assert smooth["speed"] == row["zero_shot"]["speed"] and np.isfinite(smooth["all"]) and smooth["all"] != row["zero_shot"]["all"]
     assert "zero_shot, GRF low-passed 10 Hz" in out
+    shared = row["zero_shot, linear load transfer"]  # the offline load transfer: the same speed and heel strikes
+    np.testing.assert_equal([shared["speed"], shared["hs_ms"]], [row["zero_shot"]["speed"], row["zero_shot"]["hs_ms"]])
+    assert np.isfinite(shared["all"])
+    assert "`<arm>, linear load transfer`" in out
     # an arm adapted with other settings does not reuse this folder's
     with pytest.raises(SystemExit, match="trained with other settings"):
         bench["main"]([*common, "--arms", "adapted", "--adapt-set", "weights.temporal=10"])
