@@ -108,7 +108,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     from sspinn.estimator.sspinnpose import SSPINNpose
 
     _new_output_folder(args, lambda f: (f / "metrics.json").exists() or (f / "report.md").exists(), "an evaluation", "")
-    est = SSPINNpose.load(args.model)
+    est = SSPINNpose.load(args.model, load_transfer=args.load_transfer)
     reference = None
     if (args.data / "dataset.json").exists():  # one read of the index for both splits
         dataset = Dataset.open(args.data)
@@ -130,7 +130,9 @@ def _evaluate(args: argparse.Namespace) -> int:
             print(f"WARNING: {exc}; evaluated without intervals")
     try:
         result = evaluate(est, recs, args.out, reference=reference, reference_where=str(args.data),
-                          title=f"{args.model} on {args.data} ({args.split})", skip=args.skip, uncertainty=bands)
+                          title=f"{args.model} on {args.data} ({args.split})"
+                          + (", the double-support load transferred linearly (offline)" if args.load_transfer else ""),
+                          skip=args.skip, uncertainty=bands)
     except (EvaluationError, NonFiniteEstimateError, ImplausibleEstimateError) as exc:
         raise type(exc)(f"{args.model} on {args.data} ({args.split} split), recording {exc}") from None
     print(json.dumps(result["mean"], indent=2))
@@ -366,6 +368,7 @@ def _main(argv: list[str]) -> int:
     ev.add_argument("--overwrite", action="store_true", help="replace an evaluation already in --out (else a new folder <out>_2 …)")
     ev.add_argument("--uncertainty", type=Path, default=None,
                     help="uncertainty calibration file (default: <model>.uncertainty.json beside the model, if there)")
+    ev.add_argument("--load-transfer", action="store_true", help="score the estimates as `sspinn infer --load-transfer` writes them")
 
     inf = sub.add_parser("infer", help="estimates of recordings without labels → CSV")
     inf.add_argument("--model", type=Path, required=True)

@@ -95,3 +95,10 @@ def test_infer_load_transfer_keeps_the_total_force(tiny_run, tmp_path) -> None:
         x_r, y_r, x_l, y_l = (header.index(c) for c in ("grf_x_r", "grf_y_r", "grf_x_l", "grf_y_l"))
         np.testing.assert_allclose(shared[:, y_r] + shared[:, y_l], plain[:, y_r] + plain[:, y_l], rtol=1e-5, atol=1e-2)
         np.testing.assert_array_equal(shared[:, [x_r, x_l]], plain[:, [x_r, x_l]])
+
+
+def test_evaluate_load_transfer_says_so_in_the_report(tiny_run, tmp_path) -> None:
+    data, run = tiny_run[1], tiny_run[4]
+    assert main(["evaluate", "--model", str(run / "model.pt"), "--data", str(data), "--out", str(tmp_path / "ev"),
+                 "--skip", "10", "--load-transfer"]) == 0
+    assert "double-support load transferred linearly" in (tmp_path / "ev" / "report.md").read_text()
