@@ -29,7 +29,9 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import coherence, welch
 
-from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset, Recording
+from sspinn.data.dataset import SAMPLE_RATE_HZ, Recording
+from sspinn.data.loading import labelled_recordings
+from sspinn.errors import UserError
 from sspinn.estimator.evaluation import compute_metrics
 from sspinn.estimator.sspinnpose import SSPINNpose
 from sspinn.estimator.trivial_predictors import program_of
@@ -96,13 +98,10 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, list[float]]]:
     bad = [f for f in args.cutoffs if not 0 < f < highest]
     if bad:
         parser.error(f"--cutoffs {bad[0]:g}: a cut-off must lie between 0 and {highest:g} Hz (the double pass's −3 dB point)")
-    for path, what in ((args.data, "dataset folder"), (args.model, "model file")):
-        if not path.exists():
-            parser.error(f"{path}: no such {what}")
-    estimator = SSPINNpose.load(args.model)
-    recordings = Dataset.open(args.data).load(args.split)
-    if not recordings or any(r.labels is None or r.labels.grf is None for r in recordings):
-        parser.error(f"{args.data} ({args.split}): every recording needs GRF labels")
+    try:  # a missing or unreadable folder or model file: one line
+        recordings, estimator = labelled_recordings(args.data, args.split, "grf"), SSPINNpose.load(args.model)
+    except UserError as exc:
+        parser.error(str(exc))
     rows: dict[str, dict[str, list[list[float]]]] = {}
     for rec in recordings:
         estimate = estimator.predict(rec)

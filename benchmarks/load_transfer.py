@@ -22,7 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from sspinn.data.dataset import SAMPLE_RATE_HZ, Dataset
+from sspinn.data.dataset import SAMPLE_RATE_HZ
+from sspinn.data.loading import labelled_recordings
+from sspinn.errors import UserError
 from sspinn.estimator.evaluation import compute_metrics
 from sspinn.estimator.load_transfer import linear_load_transfer, share_profile
 from sspinn.estimator.sspinnpose import SSPINNpose
@@ -49,13 +51,10 @@ def main(argv: list[str] | None = None) -> dict[str, dict[str, list[float]]]:
     parser.add_argument("--split", default="test")
     parser.add_argument("--skip", type=int, default=100, help="samples of warm-up left out (1 s)")
     args = parser.parse_args(argv)
-    for path, what in ((args.data, "dataset folder"), (args.model, "model file")):
-        if not path.exists():
-            parser.error(f"{path}: no such {what}")
-    estimator = SSPINNpose.load(args.model)
-    recordings = Dataset.open(args.data).load(args.split)
-    if not recordings or any(r.labels is None or r.labels.grf is None for r in recordings):
-        parser.error(f"{args.data} ({args.split}): every recording needs GRF labels")
+    try:  # a missing or unreadable folder or model file: one line
+        recordings, estimator = labelled_recordings(args.data, args.split, "grf"), SSPINNpose.load(args.model)
+    except UserError as exc:
+        parser.error(str(exc))
     rows: dict[str, dict[str, list[np.ndarray]]] = {}
     for rec in recordings:
         estimate = estimator.predict(rec)

@@ -145,7 +145,7 @@ def test_load_transfer(capsys: pytest.CaptureFixture[str], tiny_run, torch_threa
     assert "| gait | source |" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         bench["main"](["--data", str(data.parent / "missing"), "--model", str(run / "model.pt")])
-    assert "no such dataset folder" in capsys.readouterr().err
+    assert "not a dataset folder" in capsys.readouterr().err
 
 
 def test_sensor_rates(capsys: pytest.CaptureFixture[str], tiny_run) -> None:

@@ -3,12 +3,18 @@ changes, what it keeps, and that the joints' equations of motion still hold."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
+import pytest
 
 from sspinn.cli import main
+from sspinn.data.dataset import DataFormatError
+from sspinn.data.loading import labelled_recordings
 from sspinn.estimator.load_transfer import double_supports, linear_load_transfer
 from sspinn.model.body import BodyParameters
 from sspinn.model.trajectory import Trajectory
+from sspinn.testing import make_recording
 
 BODY = BodyParameters.from_anthropometry(1.75, 70.0)
 BW = BODY.body_weight
@@ -102,3 +108,14 @@ def test_evaluate_load_transfer_says_so_in_the_report(tiny_run, tmp_path) -> Non
     assert main(["evaluate", "--model", str(run / "model.pt"), "--data", str(data), "--out", str(tmp_path / "ev"),
                  "--skip", "10", "--load-transfer"]) == 0
     assert "double-support load transferred linearly" in (tmp_path / "ev" / "report.md").read_text()
+
+
+def test_labelled_recordings_names_the_recording_without_the_labels(tmp_path) -> None:
+    with_grf = make_recording("walk")
+    path = with_grf.save(tmp_path)
+    assert [r.name for r in labelled_recordings(path, "test", "grf")] == ["walk"]
+    with pytest.raises(DataFormatError, match="recording walk has no tau labels"):
+        labelled_recordings(path, "test", "tau")
+    bare = dataclasses.replace(with_grf, name="bare", labels=None).save(tmp_path)
+    with pytest.raises(DataFormatError, match="recording bare has no grf labels"):
+        labelled_recordings(bare, "test", "grf")

@@ -40,3 +40,17 @@ def dataset_recordings(path: str | Path) -> list[Recording]:
     dataset = Dataset.open(path)
     unique = {rec.name: rec for split in dataset.splits for rec in dataset.load(split)}
     return list(unique.values())
+
+
+def labelled_recordings(path: str | Path, split: str, group: str = "grf") -> list[Recording]:
+    """The recordings of ``split`` at ``path`` (as :func:`open_recordings`), each with the label
+    group ``group`` (a :class:`~sspinn.data.dataset.Labels` field, e.g. ``"grf"``); raises
+    :class:`~sspinn.data.dataset.DataFormatError` naming the path and the first recording
+    without it, or saying that the split is empty."""
+    recordings = open_recordings(path, split)
+    if not recordings:
+        raise DataFormatError(f"{path} ({split}): no recordings")
+    for rec in recordings:
+        if rec.labels is None or getattr(rec.labels, group) is None:
+            raise DataFormatError(f"{path} ({split}): recording {rec.name} has no {group} labels, which this needs")
+    return recordings
