@@ -21,7 +21,8 @@ joints hold as they did); the pelvis's rotational row of the Kane residual chang
 had balanced it with its own share. It needs the end of each double support, so it is offline
 (:func:`~sspinn.estimator.inference.estimate_recording`'s ``load_transfer``), not for the stream.
 The horizontal forces are left as estimated (in double support they brake and propel, so a share of
-their total means nothing). What it does, measured: docs/estimator_results.md ("Load transfer in
+their total means nothing). The quality signal and the uncertainty intervals of ``sspinn infer`` stay
+those of the network's own estimate (the intervals were calibrated on it, not on the transferred one). What it does, measured: docs/estimator_results.md ("Load transfer in
 double support").
 """
 
