@@ -317,6 +317,7 @@ def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recordi
                PROFILE: trial_metrics(profile_grf[rec.name], None, rec),
                PROFILE_IMU: trial_metrics(profile_imu, None, rec)}
         estimates[rec.name] = {}
+        body = BodyParameters.from_anthropometry(rec.height, rec.mass)
         for arm, stored in loaded.items():
             est = estimate_recording(stored.network, rec, stored.segments)
             estimates[rec.name][arm] = est
@@ -325,7 +326,7 @@ def evaluate(models: dict[str, Path], test: list[Recording], train: list[Recordi
             for cutoff in lowpass:
                 row[lowpassed(arm, cutoff)] = trial_metrics(grf_lowpass(est.grf, SAMPLE_RATE_HZ, cutoff), speed, rec)
             if load_transfer:
-                shared = linear_load_transfer(est, BodyParameters.from_anthropometry(rec.height, rec.mass), SAMPLE_RATE_HZ)
+                shared = linear_load_transfer(est, body, SAMPLE_RATE_HZ)
                 row[transferred(arm)] = trial_metrics(shared.grf, speed, rec)
         results[rec.name] = row
     return results, estimates, profile_grf

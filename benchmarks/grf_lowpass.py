@@ -85,7 +85,6 @@ def _mean(values: list[list[float]]) -> np.ndarray:
     return np.array([c[np.isfinite(c)].mean() if np.isfinite(c).any() else np.nan for c in v.T])
 
 
-
 def main(argv: list[str] | None = None) -> dict[str, dict[str, list[float]]]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=REPO / "data" / "synth_default")

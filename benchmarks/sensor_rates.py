@@ -27,7 +27,6 @@ from sspinn.estimator.trivial_predictors import program_of
 GROUPS = {"pelvis": "pelvis", "femur": "thighs", "tibia": "shanks", "foot": "feet"}
 
 
-
 def fast_rms(rec: Recording, above_hz: float) -> dict[str, np.ndarray]:
     """Per segment group of ``rec``: the RMS (3,) of [acc_x, acc_y, gyr_z] above ``above_hz``
     (4th-order Butterworth high-pass run forwards and backwards; 1 s left out at each end, a

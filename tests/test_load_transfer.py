@@ -23,22 +23,16 @@ BW = BODY.body_weight
 def walk(n_cycles: int = 3, double: int = 12, single: int = 48, flight: int = 0, seed: int = 0) -> Trajectory:
     """Vertical forces of a walk (or, with ``flight``, a run) whose double supports share the load
     along a bent curve, with random kinematics and torques (only the bookkeeping is tested)."""
-    fr, fl = [], []
-    for _ in range(n_cycles):
-        for lead_r in (False, True):
-            s = np.linspace(0.05, 0.95, double)
-            trail = BW * (1 - s) ** 2 + 0.1 * BW  # bent: the trailing foot unloads early
-            lead = BW * 1.1 - trail
-            stance = np.full(single, BW)
-            gap = np.zeros(flight)
-            seg_r = np.concatenate([lead, stance, gap]) if lead_r else np.concatenate([trail, np.zeros(single), gap])
-            seg_l = np.concatenate([trail, np.zeros(single), gap]) if lead_r else np.concatenate([lead, stance, gap])
-            if flight:  # a run: no foot shares the load
-                seg_r, seg_l = (np.concatenate([np.zeros(double), stance, gap]), np.zeros(double + single + flight)) if lead_r \
-                    else (np.zeros(double + single + flight), np.concatenate([np.zeros(double), stance, gap]))
-            fr.append(seg_r)
-            fl.append(seg_l)
-    fy_r, fy_l = np.concatenate(fr), np.concatenate(fl)
+    s = np.linspace(0.05, 0.95, double)
+    trail = BW * (1 - s) ** 2 + 0.1 * BW  # bent: the trailing foot unloads early
+    lead = BW * 1.1 - trail
+    stance, gap = np.full(single, BW), np.zeros(flight)
+    landing = np.concatenate([lead, stance, gap])  # the foot that lands, over one step
+    leaving = np.concatenate([trail, np.zeros(single), gap])  # the other foot
+    if flight:  # a run: no foot shares the load
+        landing, leaving = np.concatenate([np.zeros(double), stance, gap]), np.zeros(double + single + flight)
+    fy_r = np.tile(np.concatenate([leaving, landing]), n_cycles)
+    fy_l = np.tile(np.concatenate([landing, leaving]), n_cycles)
     n = len(fy_r)
     rng = np.random.default_rng(seed)
     grf = np.stack([rng.normal(0, 50, n), fy_r, rng.normal(0, 50, n), fy_l], axis=1)
