@@ -97,14 +97,20 @@ def detect_events(vertical: np.ndarray, body_weight: float, rate_hz: float,
 MIN_STANDING_S: Final = 0.5
 
 
-def standing_mask(grf: np.ndarray, body_weight: float, rate_hz: float, min_s: float = MIN_STANDING_S) -> np.ndarray:
-    """(T,) bool: the samples of standing in a GRF array (T, 4) [x_r, y_r, x_l, y_l] (N) — both feet
-    in contact (:func:`detect_events`' contact masks) for at least ``min_s`` seconds at a time."""
+def foot_contacts(grf: np.ndarray, body_weight: float, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """The right and the left foot's (T,) bool contact masks (:func:`detect_events`) of a GRF array
+    (T, 4) [x_r, y_r, x_l, y_l] (N)."""
     grf = np.asarray(grf, dtype=float)
     if grf.ndim != 2 or grf.shape[1] != 4:
         raise ValueError(f"grf must be (T, 4) [x_r, y_r, x_l, y_l], got {grf.shape}")
-    both = detect_events(grf[:, 1], body_weight, rate_hz).contact & detect_events(grf[:, 3], body_weight, rate_hz).contact
-    return runs_at_least(both, round(min_s * rate_hz))
+    return detect_events(grf[:, 1], body_weight, rate_hz).contact, detect_events(grf[:, 3], body_weight, rate_hz).contact
+
+
+def standing_mask(grf: np.ndarray, body_weight: float, rate_hz: float, min_s: float = MIN_STANDING_S) -> np.ndarray:
+    """(T,) bool: the samples of standing in a GRF array (T, 4) [x_r, y_r, x_l, y_l] (N) — both feet
+    in contact (:func:`foot_contacts`) for at least ``min_s`` seconds at a time."""
+    right, left = foot_contacts(grf, body_weight, rate_hz)
+    return runs_at_least(right & left, round(min_s * rate_hz))
 
 
 def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:

@@ -35,7 +35,7 @@ from typing import Final, TypeVar
 
 import numpy as np
 
-from sspinn.data.gait_events import MIN_STANDING_S, detect_events, true_runs
+from sspinn.data.gait_events import MIN_STANDING_S, foot_contacts, true_runs
 from sspinn.model import dynamics
 from sspinn.model.body import BodyParameters
 from sspinn.model.trajectory import Trajectory
@@ -48,13 +48,12 @@ MIN_DOUBLE_SUPPORT_SAMPLES: Final = 3
 
 def double_supports(grf: np.ndarray, body_weight: float, rate_hz: float) -> list[tuple[int, int, int]]:
     """``(start, stop, trailing)`` of every double support in a GRF (T, 4) ``[Fx_r, Fy_r, Fx_l, Fy_l]``
-    (N): both feet in contact (:func:`~sspinn.data.gait_events.detect_events`) in samples
+    (N): both feet in contact (:func:`~sspinn.data.gait_events.foot_contacts`) in samples
     [start, stop), entered from single support on foot ``trailing`` (0 right, 1 left). Those cut by
     the recording's edges, entered from flight or from both feet, shorter than
     :data:`MIN_DOUBLE_SUPPORT_SAMPLES` or as long as standing (:data:`~sspinn.data.gait_events.MIN_STANDING_S`)
     are left out."""
-    right = detect_events(grf[:, 1], body_weight, rate_hz).contact
-    left = detect_events(grf[:, 3], body_weight, rate_hz).contact
+    right, left = foot_contacts(grf, body_weight, rate_hz)
     out = []
     for start, stop in true_runs(right & left):
         if start == 0 or stop >= len(grf) or not MIN_DOUBLE_SUPPORT_SAMPLES <= stop - start < MIN_STANDING_S * rate_hz:
