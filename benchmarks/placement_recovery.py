@@ -30,12 +30,18 @@ the estimate (angles kept: ``fit_placement(..., angles=False)``) per recording, 
 their spread between its recordings — the same sensors, so the same placement, is all that can be
 checked there.
 
+With ``--decompose`` (and ``--model``): what of the estimate limits the fit to it. The fit to the
+true segment motion (from the same first sample as the estimate's fit), then with one part of the
+estimate's motion put in at a time — each segment origin's acceleration, the segment's angle, its
+angular rate, its angular acceleration (:class:`sspinn.estimator.placement_fit.SegmentMotion`) —
+and with all of it (the fit to the estimate).
+
 ``--pieces SECONDS`` fits consecutive pieces of that length of every recording, each on its own:
 how the recovery depends on the length of the recording (``configs/synth/long_walk.yaml`` makes
 minute-long walking recordings for it).
 
 Usage: ``python benchmarks/placement_recovery.py --data data/synth_default [--model
-results/demo/run/model.pt [--misplacements]] [--pieces SECONDS] [--json PATH]`` (a dataset made by ``python -m predictive synth``,
+results/demo/run/model.pt [--misplacements] [--decompose]] [--pieces SECONDS] [--json PATH]`` (a dataset made by ``python -m predictive synth``,
 whose recordings store their true placement, or any other with ``--model``).
 """
 
@@ -60,6 +66,8 @@ CHAINS = {
 #: Rows of the table, in order: a segment name's prefix and its label.
 GROUPS = {"pelvis": "pelvis", "femur": "thigh", "tibia": "shank", "foot": "foot"}
 #: The methods' keys and column heads.
+#: The parts of the segment motion swapped in by ``--decompose``: SegmentMotion field → label.
+PARTS = {"origin_acc": "origin acceleration", "angle": "angle", "rate": "angular rate", "angular_acc": "angular acceleration"}
 METHODS = {"joint_centres": "joint-centre fits", "estimate": "fitted to the estimate", "labels": "fitted to the true kinematics (bound)"}
 
 
@@ -91,13 +99,16 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--model", type=Path, help="a trained model (model.pt): also fit the placement to its estimates")
     parser.add_argument("--misplacements", action="store_true",
                         help="with --model: also fit recordings whose sensors were deliberately moved or turned")
+    parser.add_argument("--decompose", action="store_true",
+                        help="with --model: also fit to the true segment motion with one part of the estimate's put in at a time")
     parser.add_argument("--pieces", type=float, metavar="SECONDS",
                         help="fit consecutive pieces of this many seconds of each recording, each on its own "
                              "(how the recovery depends on the recording's length)")
     parser.add_argument("--json", type=Path, help="also save the results")
     args = parser.parse_args(argv)
-    if args.misplacements and args.model is None:
-        parser.error("--misplacements needs --model")
+    for flag in ("misplacements", "decompose"):
+        if getattr(args, flag) and args.model is None:
+            parser.error(f"--{flag} needs --model")
 
     from scipy.signal import butter, sosfiltfilt
 
@@ -117,6 +128,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     sos = butter(2, CUTOFF_HZ, fs=SAMPLE_RATE_HZ, output="sos")
     rows: list[dict[str, Any]] = []
     moved: list[dict[str, Any]] = []
+    decomposed: list[dict[str, Any]] = []
     real: list[dict[str, Any]] = []
     index = -1
     for split in dataset.splits:
@@ -138,10 +150,13 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                 omega = sosfiltfilt(sos, rec.imu[:, i, 2])
                 signals[s] = (sosfiltfilt(sos, rec.imu[:, i, :2], axis=0), omega, np.gradient(omega) * SAMPLE_RATE_HZ)
             fits = {"labels": fit_placement(rec, rec.labels, body, warmup_s=0.0).placement.vector().reshape(len(SEGMENTS), 3)}
-            if est is not None:
-                fits["estimate"] = fit_placement(rec, est.predict(rec), body).placement.vector().reshape(len(SEGMENTS), 3)
             program = rec.provenance.get("program") if isinstance(rec.provenance, dict) else None
             gait = str(program.get("name", "?")) if isinstance(program, dict) else "?"
+            if est is not None:
+                estimate = est.predict(rec)
+                fits["estimate"] = fit_placement(rec, estimate, body).placement.vector().reshape(len(SEGMENTS), 3)
+                if args.decompose:
+                    decomposed += _decompose(rec, estimate, body, truth, gait)
             if args.misplacements and est is not None:
                 for what, (along, angle) in MISPLACEMENTS.items():
                     if not (along or angle):
@@ -172,8 +187,10 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     summary = _print_truth(rows, args.data, args.model) if rows else {}
     if moved:
         summary["misplaced"] = _print_moved(moved)
+    if decomposed:
+        summary["decomposed"] = _print_decomposed(decomposed)
     out = {"data": str(args.data), "model": str(args.model) if args.model else None, "summary": summary, "rows": rows,
-           "misplaced": moved, "real": real}
+           "misplaced": moved, "decomposed": decomposed, "real": real}
     if args.json:
         from sspinn.run_folder import atomic_write_text
 
@@ -216,6 +233,53 @@ def _print_truth(rows: list[dict[str, Any]], data: Path, model: Path | None) -> 
                 cells.append(f"{cm:.2f} ({cm / nom:.2f}×), {deg:.1f}°")
             summary[f"{gait}/{label}"] = entry
             print(f"| {gait} | {label} | {len(sel)} | {nom:.2f}, {nom_angle:.1f}° | " + " | ".join(cells) + " |")
+    return summary
+
+
+def _decompose(rec: Any, estimate: Any, body: Any, truth: np.ndarray, gait: str) -> list[dict[str, Any]]:
+    """Rows (one per sensor and arm) of the fits to the true segment motion with nothing, one part
+    (:data:`PARTS`) or all of the estimate's motion put in, scored against ``truth`` ((7, 3))."""
+    import dataclasses
+
+    from sspinn.estimator.placement_fit import check_fit_inputs, fit_to_terms, segment_motion
+    from sspinn.model.conventions import SEGMENTS
+
+    start = check_fit_inputs(rec, estimate)
+    true_motion, estimated = segment_motion(rec.labels, body), segment_motion(estimate, body)
+    arms = {"none": true_motion, **{part: dataclasses.replace(true_motion, **{part: getattr(estimated, part)}) for part in PARTS},
+            "all": estimated}
+    nominal = rec.placement.vector().reshape(len(SEGMENTS), 3)
+    rows = []
+    for arm, motion in arms.items():
+        fitted = fit_to_terms(rec, *(t[start:] for t in motion.terms()), start).placement.vector().reshape(len(SEGMENTS), 3)
+        for name in rec.segments:
+            k = SEGMENTS.index(name)
+            rows.append({"recording": rec.name, "gait": gait, "sensor": name, "arm": arm,
+                         **_errors("nominal", nominal[k], truth[k]), **_errors("fit", fitted[k], truth[k])})
+    return rows
+
+
+def _print_decomposed(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per gait and segment group, the median position error (cm) and its ratio to the nominal's of
+    each ``--decompose`` arm; returns them."""
+    arms = {"none": "true motion", **{p: f"+ estimated {label}" for p, label in PARTS.items()}, "all": "estimated motion"}
+    print("\nWhat of the estimate limits the fit: the fit to the true segment motion with one part of the estimate's put in, "
+          "median position error cm (ratio to the nominal's):\n")
+    print("| gait | segment | " + " | ".join(arms.values()) + " |")
+    print("|---|---|" + "---:|" * len(arms))
+    summary: dict[str, Any] = {}
+    for gait in sorted({r["gait"] for r in rows}):
+        for prefix, label in GROUPS.items():
+            cells = []
+            for arm in arms:
+                sel = [r for r in rows if r["gait"] == gait and r["arm"] == arm and r["sensor"].startswith(prefix)]
+                if not sel:
+                    break
+                cm, nom = float(np.median([r["fit_cm"] for r in sel])), float(np.median([r["nominal_cm"] for r in sel]))
+                summary[f"{gait}/{label}/{arm}"] = {"cm": cm, "ratio": cm / nom}
+                cells.append(f"{cm:.2f} ({cm / nom:.2f}×)")
+            if cells:
+                print(f"| {gait} | {label} | " + " | ".join(cells) + " |")
     return summary
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from sspinn.data.dataset import Recording
-from sspinn.estimator.placement_fit import PlacementFitError, fit_placement
+from sspinn.estimator.placement_fit import PlacementFitError, fit_placement, segment_motion
 from sspinn.model.body import BodyParameters, IMUPlacement
 from sspinn.model.conventions import SEGMENTS
 from sspinn.model.kinematics import virtual_imu
@@ -35,6 +35,18 @@ def _recording(walk, truth: np.ndarray, bias: np.ndarray, segments: tuple[str, .
     idx = [SEGMENTS.index(s) for s in segments]
     return Recording("moved", imu[:, idx], segments, body.height, body.mass,
                      placement=IMUPlacement.from_vector(nominal.ravel()))
+
+
+def test_the_segment_motion_terms_are_the_virtual_imu(walk) -> None:
+    """a₀ + A_x·x + A_y·y, turned by θ, is the generated virtual IMU of a sensor at (x, y, θ)."""
+    q, u, qdd, body, nominal = walk
+    a0, ax, ay = segment_motion(type("Gait", (), {"q": q, "u": u, "qdd": qdd})(), body).terms()
+    placement = nominal + [0.03, -0.05, 0.2]
+    x, y, theta = (placement[:, i][None, :, None] for i in range(3))
+    a = a0 + ax * x + ay * y
+    turned = np.stack((np.cos(theta[..., 0]) * a[..., 0] + np.sin(theta[..., 0]) * a[..., 1],
+                       -np.sin(theta[..., 0]) * a[..., 0] + np.cos(theta[..., 0]) * a[..., 1]), axis=-1)
+    np.testing.assert_allclose(turned, virtual_imu(q, u, qdd, placement.ravel(), body.vector())[..., :2], atol=1e-9)
 
 
 def test_moved_and_turned_sensors_are_found_again(walk) -> None:
@@ -124,13 +136,18 @@ def test_the_recovery_benchmark_finds_moved_sensors_with_a_model(walk, tmp_path:
     _, _, run = tiny_run(tmp_path / "model")
     bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "placement_recovery.py"), run_name="bench")
     result = bench["main"](["--data", str(tmp_path / "data"), "--model", str(run / "model.pt"), "--misplacements",
-                            "--json", str(tmp_path / "p.json")])
+                            "--decompose", "--json", str(tmp_path / "p.json")])
     assert {r["sensor"] for r in result["rows"]} == set(SEGMENTS)
     assert all(r["labels_cm"] < 0.05 and np.isfinite(r["estimate_cm"]) for r in result["rows"])  # exact sensors: on the truth
     assert {r["misplacement"] for r in result["misplaced"]} >= {"5 cm", "30°"}
     assert all(np.isfinite([r["estimate_cm"], r["estimate_angle_deg"]]).all() for r in result["misplaced"])
+    # --decompose: every arm for every sensor; exact sensors on the true motion land on the truth
+    assert {r["arm"] for r in result["decomposed"]} == {"none", "origin_acc", "angle", "rate", "angular_acc", "all"}
+    assert len(result["decomposed"]) == 6 * 2 * len(SEGMENTS)
+    assert all(r["fit_cm"] < 0.05 for r in result["decomposed"] if r["arm"] == "none")
+    assert all(np.isfinite(r["fit_cm"]) for r in result["decomposed"])
     out = capsys.readouterr().out
-    assert "fitted to the estimate" in out and "| walk | 20 cm |" in out
+    assert "fitted to the estimate" in out and "| walk | 20 cm |" in out and "What of the estimate limits the fit" in out
     # --pieces: each 1.5-s piece fitted on its own (two per 3.3-s recording, the rest left out)
     pieces = bench["main"](["--data", str(tmp_path / "data"), "--pieces", "1.5"])
     assert sorted({r["recording"] for r in pieces["rows"]}) == ["a_walk[0-1.5 s]", "a_walk[1.5-3 s]", "b_run[0-1.5 s]",
