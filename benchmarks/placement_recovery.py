@@ -263,21 +263,35 @@ def _print_decomposed(rows: list[dict[str, Any]]) -> dict[str, Any]:
     """Per gait and segment group, the median position error (cm) and its ratio to the nominal's of
     each ``--decompose`` arm; returns them."""
     arms = {"none": "true motion", **{p: f"+ estimated {label}" for p, label in PARTS.items()}, "all": "estimated motion"}
-    print("\nWhat of the estimate limits the fit: the fit to the true segment motion with one part of the estimate's put in, "
-          "median position error cm (ratio to the nominal's):\n")
-    print("| gait | segment | " + " | ".join(arms.values()) + " |")
-    print("|---|---|" + "---:|" * len(arms))
+
+    def cell(sel: list[dict[str, Any]]) -> tuple[str, dict[str, float]]:
+        cm, nom = float(np.median([r["fit_cm"] for r in sel])), float(np.median([r["nominal_cm"] for r in sel]))
+        return f"{cm:.2f} ({cm / nom:.2f}×)", {"cm": cm, "ratio": cm / nom}
+
+    return _print_grid("What of the estimate limits the fit: the fit to the true segment motion with one part of the estimate's "
+                       "put in, median position error cm (ratio to the nominal's):", "segment", rows,
+                       [(label, lambda r, p=prefix: r["sensor"].startswith(p)) for prefix, label in GROUPS.items()],
+                       [(label, arm, lambda r, a=arm: r["arm"] == a) for arm, label in arms.items()], cell)
+
+
+def _print_grid(title: str, outer_head: str, rows: list[dict[str, Any]], outer: list[tuple[str, Any]],
+                columns: list[tuple[str, str, Any]], cell: Any) -> dict[str, Any]:
+    """A Markdown table of ``rows``: a line per gait and ``outer`` (label, predicate), a cell per
+    ``columns`` (head, key, predicate) made by ``cell(selected rows)`` → (text, summary entry);
+    returns the entries keyed ``gait/outer label/column key``. A line stops at its first empty cell."""
+    print(f"\n{title}\n")
+    print(f"| gait | {outer_head} | " + " | ".join(head for head, _, _ in columns) + " |")
+    print("|---|---|" + "---|" * len(columns))
     summary: dict[str, Any] = {}
     for gait in sorted({r["gait"] for r in rows}):
-        for prefix, label in GROUPS.items():
+        for label, in_line in outer:
             cells = []
-            for arm in arms:
-                sel = [r for r in rows if r["gait"] == gait and r["arm"] == arm and r["sensor"].startswith(prefix)]
+            for _, key, in_column in columns:
+                sel = [r for r in rows if r["gait"] == gait and in_line(r) and in_column(r)]
                 if not sel:
                     break
-                cm, nom = float(np.median([r["fit_cm"] for r in sel])), float(np.median([r["nominal_cm"] for r in sel]))
-                summary[f"{gait}/{label}/{arm}"] = {"cm": cm, "ratio": cm / nom}
-                cells.append(f"{cm:.2f} ({cm / nom:.2f}×)")
+                text, summary[f"{gait}/{label}/{key}"] = cell(sel)
+                cells.append(text)
             if cells:
                 print(f"| {gait} | {label} | " + " | ".join(cells) + " |")
     return summary
@@ -302,23 +316,17 @@ def _print_moved(moved: list[dict[str, Any]]) -> dict[str, Any]:
     """Per gait, misplacement and leg segment: the medians of the nominal placement's and of the
     fit's position (cm) and angle (°) errors against the moved placement; returns them."""
     legs = {"femur": "thigh", "tibia": "shank", "foot": "foot"}
-    print("\nSensors deliberately moved or turned (every sensor of every recording), the fit to the estimate of the "
-          "moved recording against the moved placement: nominal → fitted, median cm (ratio) and °:\n")
-    print("| gait | misplacement | " + " | ".join(legs.values()) + " |")
-    print("|---|---|" + "---|" * len(legs))
-    summary: dict[str, Any] = {}
-    for gait in sorted({r["gait"] for r in moved}):
-        for what in dict.fromkeys(r["misplacement"] for r in moved):
-            cells = []
-            for prefix, label in legs.items():
-                sel = [r for r in moved if r["gait"] == gait and r["misplacement"] == what and r["sensor"].startswith(prefix)]
-                med = {key: float(np.median([r[key] for r in sel]))
-                       for key in ("nominal_cm", "estimate_cm", "nominal_angle_deg", "estimate_angle_deg")}
-                summary[f"{gait}/{what}/{label}"] = med
-                cells.append(f"{med['nominal_cm']:.1f} → {med['estimate_cm']:.2f} cm ({med['estimate_cm'] / med['nominal_cm']:.2f}×), "
-                             f"{med['nominal_angle_deg']:.1f} → {med['estimate_angle_deg']:.1f}°")
-            print(f"| {gait} | {what} | " + " | ".join(cells) + " |")
-    return summary
+
+    def cell(sel: list[dict[str, Any]]) -> tuple[str, dict[str, float]]:
+        med = {key: float(np.median([r[key] for r in sel]))
+               for key in ("nominal_cm", "estimate_cm", "nominal_angle_deg", "estimate_angle_deg")}
+        return (f"{med['nominal_cm']:.1f} → {med['estimate_cm']:.2f} cm ({med['estimate_cm'] / med['nominal_cm']:.2f}×), "
+                f"{med['nominal_angle_deg']:.1f} → {med['estimate_angle_deg']:.1f}°"), med
+
+    return _print_grid("Sensors deliberately moved or turned (every sensor of every recording), the fit to the estimate of the "
+                       "moved recording against the moved placement: nominal → fitted, median cm (ratio) and °:", "misplacement",
+                       moved, [(what, lambda r, w=what: r["misplacement"] == w) for what in dict.fromkeys(r["misplacement"] for r in moved)],
+                       [(label, label, lambda r, p=prefix: r["sensor"].startswith(p)) for prefix, label in legs.items()], cell)
 
 
 def _print_real(real: list[dict[str, Any]], data: Path, model: Path | None) -> None:
