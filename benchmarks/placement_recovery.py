@@ -65,9 +65,9 @@ CHAINS = {
 }
 #: Rows of the table, in order: a segment name's prefix and its label.
 GROUPS = {"pelvis": "pelvis", "femur": "thigh", "tibia": "shank", "foot": "foot"}
-#: The methods' keys and column heads.
 #: The parts of the segment motion swapped in by ``--decompose``: SegmentMotion field → label.
 PARTS = {"origin_acc": "origin acceleration", "angle": "angle", "rate": "angular rate", "angular_acc": "angular acceleration"}
+#: The methods' keys and column heads.
 METHODS = {"joint_centres": "joint-centre fits", "estimate": "fitted to the estimate", "labels": "fitted to the true kinematics (bound)"}
 
 
@@ -156,7 +156,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                 estimate = est.predict(rec)
                 fits["estimate"] = fit_placement(rec, estimate, body).placement.vector().reshape(len(SEGMENTS), 3)
                 if args.decompose:
-                    decomposed += _decompose(rec, estimate, body, truth, gait)
+                    decomposed += _decompose(rec, estimate, fits["estimate"], body, truth, gait)
             if args.misplacements and est is not None:
                 for what, (along, angle) in MISPLACEMENTS.items():
                     if not (along or angle):
@@ -236,9 +236,10 @@ def _print_truth(rows: list[dict[str, Any]], data: Path, model: Path | None) -> 
     return summary
 
 
-def _decompose(rec: Any, estimate: Any, body: Any, truth: np.ndarray, gait: str) -> list[dict[str, Any]]:
+def _decompose(rec: Any, estimate: Any, estimate_fit: np.ndarray, body: Any, truth: np.ndarray, gait: str) -> list[dict[str, Any]]:
     """Rows (one per sensor and arm) of the fits to the true segment motion with nothing, one part
-    (:data:`PARTS`) or all of the estimate's motion put in, scored against ``truth`` ((7, 3))."""
+    (:data:`PARTS`) or all of the estimate's motion put in (that is ``estimate_fit`` (7, 3), the fit
+    to the estimate), scored against ``truth`` ((7, 3))."""
     import dataclasses
 
     from sspinn.estimator.placement_fit import check_fit_inputs, fit_to_terms, segment_motion
@@ -246,12 +247,12 @@ def _decompose(rec: Any, estimate: Any, body: Any, truth: np.ndarray, gait: str)
 
     start = check_fit_inputs(rec, estimate)
     true_motion, estimated = segment_motion(rec.labels, body), segment_motion(estimate, body)
-    arms = {"none": true_motion, **{part: dataclasses.replace(true_motion, **{part: getattr(estimated, part)}) for part in PARTS},
-            "all": estimated}
+    arms = {"none": true_motion, **{part: dataclasses.replace(true_motion, **{part: getattr(estimated, part)}) for part in PARTS}}
+    fits = {arm: fit_to_terms(rec, *(t[start:] for t in motion.terms()), start).placement.vector().reshape(len(SEGMENTS), 3)
+            for arm, motion in arms.items()} | {"all": estimate_fit}
     nominal = rec.placement.vector().reshape(len(SEGMENTS), 3)
     rows = []
-    for arm, motion in arms.items():
-        fitted = fit_to_terms(rec, *(t[start:] for t in motion.terms()), start).placement.vector().reshape(len(SEGMENTS), 3)
+    for arm, fitted in fits.items():
         for name in rec.segments:
             k = SEGMENTS.index(name)
             rows.append({"recording": rec.name, "gait": gait, "sensor": name, "arm": arm,

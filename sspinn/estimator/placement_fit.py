@@ -106,9 +106,7 @@ class SegmentMotion:
         """(a₀, A_x, A_y), each (T, 7, 2) in the segment frame (m/s², and m/s² per m): a sensor at
         (x, y) of a segment turned by 0 reads a₀ + A_x·x + A_y·y, with a₀ = R(θ)ᵀ(a_O + g·ŷ),
         A_x = (−ω², ω̇) and A_y = (−ω̇, −ω²) (the rigid-body point acceleration ω̇·J·r − ω²·r)."""
-        c, s = np.cos(self.angle), np.sin(self.angle)
-        ax_, ay_ = self.origin_acc[..., 0], self.origin_acc[..., 1] + self.gravity
-        a0 = np.stack((c * ax_ + s * ay_, -s * ax_ + c * ay_), axis=-1)
+        a0 = _rotate_into_sensor(self.origin_acc + [0.0, self.gravity], self.angle)
         w2, alpha = self.rate**2, self.angular_acc
         return a0, np.stack((-w2, alpha), axis=-1), np.stack((-alpha, -w2), axis=-1)
 
@@ -121,10 +119,10 @@ def segment_motion(gait: Kinematics, body: BodyParameters) -> SegmentMotion:
     return SegmentMotion(np.asarray(origin)[..., 4:6], *(np.asarray(seg)[..., i] for i in range(3)), float(body.gravity))
 
 
-def _rotate_into_sensor(a: np.ndarray, theta: float) -> np.ndarray:
-    """R(θ)ᵀ·a for (T, 2) vectors a in the segment frame."""
+def _rotate_into_sensor(a: np.ndarray, theta: float | np.ndarray) -> np.ndarray:
+    """R(θ)ᵀ·a for (..., 2) vectors a, θ one angle or one per vector (the shape of a[..., 0])."""
     c, s = np.cos(theta), np.sin(theta)
-    return np.column_stack((c * a[:, 0] + s * a[:, 1], -s * a[:, 0] + c * a[:, 1]))
+    return np.stack((c * a[..., 0] + s * a[..., 1], -s * a[..., 0] + c * a[..., 1]), axis=-1)
 
 
 def fit_sensor(a0: np.ndarray, ax: np.ndarray, ay: np.ndarray, measured: np.ndarray, nominal: np.ndarray,
