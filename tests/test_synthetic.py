@@ -407,3 +407,18 @@ def test_the_calibration_subjects_are_new_subjects_of_the_same_population_all_in
     assert sorted(s.index % len(calibration.programs) for s in subjects) == [0] * 8 + [1] * 8  # first programs: walk, run
     known = {(round(s.height, 6), round(s.mass, 6)) for s in sample_subjects(default)}
     assert not known & {(round(s.height, 6), round(s.mass, 6)) for s in subjects}
+
+
+@pytest.mark.parametrize(("name", "program"), [("long_walk.yaml", 0), ("long_run.yaml", 1)])
+def test_the_minute_long_recordings_are_new_subjects_of_the_default_population(name: str, program: int):
+    """configs/synth/long_walk.yaml and long_run.yaml (the placement fit on recordings no model was
+    trained on): 8 subjects of the default population, every one in the val split and none a subject
+    of the default dataset, each walking (running) the default's walking (running) programme for 60 s."""
+    configs = Path(__file__).resolve().parents[1] / "configs" / "synth"
+    default, long = SynthConfig.from_yaml(configs / "default.yaml"), SynthConfig.from_yaml(configs / name)
+    assert (long.paces, long.subjects, long.duration_s) == (default.paces, default.subjects, 60.0)
+    assert long.programs == (default.programs[program],) and long.program_names == (default.program_names[program],)
+    subjects = sample_subjects(long)
+    assert len(subjects) == 8 and {s.split for s in subjects} == {"val"}
+    known = {(round(s.height, 6), round(s.mass, 6)) for s in sample_subjects(default)}
+    assert not known & {(round(s.height, 6), round(s.mass, 6)) for s in subjects}
