@@ -405,8 +405,7 @@ def test_the_calibration_subjects_are_new_subjects_of_the_same_population_all_in
     subjects = sample_subjects(calibration)
     assert len(subjects) == 16 and {s.split for s in subjects} == {"val"}
     assert sorted(s.index % len(calibration.programs) for s in subjects) == [0] * 8 + [1] * 8  # first programs: walk, run
-    known = {(round(s.height, 6), round(s.mass, 6)) for s in sample_subjects(default)}
-    assert not known & {(round(s.height, 6), round(s.mass, 6)) for s in subjects}
+    _assert_none_is_a_subject_of(default, subjects)
 
 
 @pytest.mark.parametrize(("name", "program"), [("long_walk.yaml", 0), ("long_run.yaml", 1)])
@@ -420,5 +419,10 @@ def test_the_minute_long_recordings_are_new_subjects_of_the_default_population(n
     assert long.programs == (default.programs[program],) and long.program_names == (default.program_names[program],)
     subjects = sample_subjects(long)
     assert len(subjects) == 8 and {s.split for s in subjects} == {"val"}
-    known = {(round(s.height, 6), round(s.mass, 6)) for s in sample_subjects(default)}
+    _assert_none_is_a_subject_of(default, subjects)
+
+
+def _assert_none_is_a_subject_of(config: SynthConfig, subjects: list) -> None:
+    """No subject of ``subjects`` has the height and mass of one of ``config``'s subjects."""
+    known = {(round(s.height, 6), round(s.mass, 6)) for s in sample_subjects(config)}
     assert not known & {(round(s.height, 6), round(s.mass, 6)) for s in subjects}
