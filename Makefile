@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo demo-smoke intervals showcase test generate bench lint clean clean-numba robustness
+.PHONY: demo demo-smoke intervals showcase test generate bench lint clean clean-numba robustness docs
 
 # The main job on the embedded default: generate (or reuse) the synthetic dataset, train the
 # CPU-sized SSPINNpose configuration (five 500-step starts, then the chosen one to 12,000 steps;
@@ -75,6 +75,11 @@ bench: $(STAMP)
 # Optimisation tests + the default synthetic dataset (cold) under 12 simulated other machines.
 robustness: $(STAMP)
 	$(BIN)/python scripts/check_robustness.py --out results/robustness --jobs 2
+
+# The API reference from the docstrings (pdoc, the `docs` extra) into docs/api/ (not committed).
+docs: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[docs]"
+	$(BIN)/python scripts/build_api_docs.py --out docs/api
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

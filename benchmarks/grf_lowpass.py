@@ -14,7 +14,7 @@ carry at that frequency is the force's. Means per gait (a synthetic recording's
 program name, else the last part of the recording's name, e.g. the CMU condition).
 
 Why: on the real CMU treadmill trials a low-pass lowers the GRF error of every arm, on the synthetic
-test subjects it raises it (docs/estimator_results.md, "Offline smoothing of the estimated GRF").
+test subjects it raises it (docs/results/cmu_treadmill.md, "Offline smoothing of the estimated GRF").
 
 Usage: ``python benchmarks/grf_lowpass.py --data data/synth_default --model results/demo/run/model.pt
 [--split test] [--cutoffs 20 10 6] [--skip 100]``. Under a minute on the default dataset; no timing.

@@ -6,7 +6,7 @@ m/s², gyr_z in rad/s) after a zero-phase 4th-order Butterworth high-pass at ``-
 1 s trimmed at each end (filter transients), averaged per gait (a synthetic recording's program name, else the last
 part of the recording's name, e.g. the CMU condition) and per segment (left and right together).
 No labels are read: it compares what the sensors carry, e.g. whether synthetic sensors rock on
-their straps as much as real ones (docs/estimator_results.md, "Strap wobble").
+their straps as much as real ones (docs/results/cmu_treadmill.md, "Strap wobble").
 
 Usage: ``python benchmarks/sensor_rates.py --data data/synth_default results/cmu/data [--splits
 train test] [--above 10]``. Seconds; no timing.

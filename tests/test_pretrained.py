@@ -15,7 +15,7 @@ import sspinn
 
 ROOT = Path(__file__).resolve().parents[1]
 PRETRAINED = ROOT / "models" / "pretrained"
-QUICKSTART_HEADING = "Your own recording in five minutes"
+QUICKSTART_HEADING = "Five minutes of Python"
 
 
 def test_the_pretrained_model_reproduces_its_recorded_outputs() -> None:

@@ -35,7 +35,7 @@ Error terms (each one switched off by a zero; :meth:`IMUErrorModel.none` switche
    and rests where the body rests. Why: real strapped sensors read rates above 10 Hz that the
    body does not make — on the CMU treadmill trials (slow walking) 0.03 (pelvis) to 0.3 rad/s
    (feet) RMS, 2–4× what the synthetic sensors of faster walkers read, and their content there
-   is not coherent with the ground reaction force (docs/estimator_results.md, "Strap wobble").
+   is not coherent with the ground reaction force (docs/results/cmu_treadmill.md, "Strap wobble").
 3. **Constant (turn-on) bias**: N(0, ``acc_bias``²) on acc_x, acc_y and N(0, ``gyr_bias``²) on
    gyr_z, per sensor, constant over the recording.
 4. **Bias drift**: per channel, b'(t) = −b/τ + K·w(t) with w unit white noise, starting at 0;

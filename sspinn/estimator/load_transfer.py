@@ -24,7 +24,7 @@ torques match its own share better). It needs the end of each double support, so
 (:func:`~sspinn.estimator.inference.estimate_recording`'s ``load_transfer``), not for the stream.
 The horizontal forces are left as estimated (in double support they brake and propel, so a share of
 their total means nothing). The quality signal and the uncertainty intervals of ``sspinn infer`` stay
-those of the network's own estimate (the intervals were calibrated on it, not on the transferred one). What it does, measured: docs/estimator_results.md ("Load transfer in
+those of the network's own estimate (the intervals were calibrated on it, not on the transferred one). What it does, measured: docs/results/cmu_treadmill.md ("Load transfer in
 double support").
 """
 

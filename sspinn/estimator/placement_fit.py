@@ -19,7 +19,7 @@ afterwards to the kinematics it estimates. A trained network's kinematics alread
 signals, so the residual that is left is what the nominal placement cannot explain; on the
 synthetic benchmark this recovers the running thighs to about a third of the nominal error (about
 half on runners no model was trained on), the walking thighs to about two thirds
-(docs/paper_claims.md, ``placement``). The estimate's
+(docs/results/paper_claims.md, ``placement``). The estimate's
 kinematics errors are what limit it: fitted to the true kinematics the same problem lands within
 about 0.3–0.7 cm (thighs and shanks); of the estimate's motion, the walking thighs' angular
 acceleration costs the most (the benchmark's ``--decompose``).

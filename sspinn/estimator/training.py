@@ -514,7 +514,7 @@ def denormals_flushed() -> Iterator[None]:
     Why: as training converges, Adam's second moments and the LSTM's small gradients fall below
     1.2e-38 (float32's smallest normal number), where x86 arithmetic takes a slow path: a demo
     model's steps ran at 18–21 steps/s after 12,000 steps against 26–28 with the flush, the losses
-    equal to three digits (2-CPU Intel Xeon; ``docs/estimator_results.md``). Values that small are
+    equal to three digits (2-CPU Intel Xeon; ``docs/results/estimator.md``). Values that small are
     far below the resolution of anything a loss or an estimate holds. The flag belongs to a
     thread: torch's worker threads started inside inherit it (``pthread_create`` copies the
     floating-point environment) and keep it; the calling thread's is restored, so NumPy code run
