@@ -177,3 +177,31 @@ def test_hamner_running_passes_the_running_ranges() -> None:
     report = check_gait_norms(vertical, 3.5, "run", rate_hz=rate)  # the running ranges are one row for 2.5–4.5 m/s
     assert report.passed and report.fraction_inside >= 0.9 and len(report.stances) >= 20, report.summary()
     assert not check_gait_norms(vertical, 1.8, "walk", rate_hz=rate).passed
+
+
+def test_slow_treadmill_walking_of_real_adults_passes() -> None:
+    """CMU Sub01's normal walking at 0.77 m/s (100 Hz treadmill GRF): the slow row of the ranges."""
+    path = SHARED / "cmu_treadmill_imu_grf" / "Sub01" / "CSBaseline" / "OpenSim_Sub01_CSBaseline_GRF.mot.gz"
+    if not path.exists():
+        pytest.skip("../shared/data/cmu_treadmill_imu_grf is not available")
+    from sspinn.data.opensim_files import read_opensim_columns
+
+    grf = read_opensim_columns(path)
+    vertical = np.stack([grf.column("rFy"), grf.column("lFy")], axis=1) / (66.7 * 9.81)  # subjects.csv: 66.7 kg
+    report = check_gait_norms(vertical, 0.77, rate_hz=100.0, settle_s=2.0)
+    assert report.passed and report.fraction_inside >= 0.75 and report.taps == 0, report.summary()
+    assert 0.95 <= report.peak_bw <= 1.1 and report.flight_percent == 0.0
+
+
+def test_the_reference_table_command_runs(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    """``benchmarks/gait_norms_references.py`` (the figures of docs/results/gait_norms_references.md)."""
+    if not all((SHARED / name).is_dir() for name in ("winter_walking", "opensim_hamner_run")):
+        pytest.skip("../shared/data (winter_walking, opensim_hamner_run) is not available")
+    import runpy
+
+    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "gait_norms_references.py"))
+    assert bench["main"](["--data", str(SHARED), "--json", str(tmp_path / "norms.json")]) == 0
+    out = capsys.readouterr().out
+    assert "| Winter, averaged stride (×8) | walk | 15 (100 %) | 1.10 | 0.72 | 60.0 | 20.0 | 0.0 | 105 | 0 | – | pass |" in out
+    assert "Hamner subject02" in out and (tmp_path / "norms.json").stat().st_size > 1000
+    assert bench["main"](["--data", str(SHARED), "--json", str(tmp_path / "norms.json")]) == 2  # never replaced

@@ -232,15 +232,21 @@ class FootStances:
     taps: tuple[tuple[int, int], ...]
 
 
+#: Contacts longer than this are standing, not steps, and do not vote for the typical contact, s
+#: (:func:`strides`' longest stride).
+MAX_STEP_CONTACT_S: Final = 3.0
+
+
 def typical_contact_s(contacts: list[np.ndarray], rate_hz: float) -> float:
-    """The time-weighted median duration (s) of the contact runs of the masks (every contact
-    sample votes for the length of its run, so a few long stances outweigh many short taps; runs
-    cut by the recording's edges count with their visible length); NaN without contact."""
-    lengths = [stop - start for mask in contacts for start, stop in true_runs(mask)]
+    """The time-weighted median duration (s) of the contact runs of the masks: every contact
+    sample votes for the length of its run, so a few long stances outweigh many short taps. Runs
+    cut by the recording's first or last sample (unknown length) and runs longer than
+    :data:`MAX_STEP_CONTACT_S` (standing, a dragging foot) do not vote; NaN when no run does."""
+    lengths = [stop - start for mask in contacts for start, stop in true_runs(mask)
+               if start > 0 and stop < len(mask) and stop - start <= MAX_STEP_CONTACT_S * rate_hz]
     if not lengths:
         return float("nan")
-    weighted = np.repeat(lengths, lengths)
-    return float(np.median(weighted)) / rate_hz
+    return float(np.median(np.repeat(lengths, lengths))) / rate_hz
 
 
 def split_taps(contacts: list[np.ndarray], rate_hz: float, tap_fraction: float = TAP_FRACTION) -> list[FootStances]:
