@@ -16,6 +16,12 @@ Recordings (``$SSPINN_SHARED_DATA`` or ``--data``; a missing folder is skipped w
 
 Usage: ``python benchmarks/gait_norms_references.py [--data ../shared/data] [--json out.json]``.
 Prints one Markdown table (the figures of ``docs/results/gait_norms_references.md``).
+
+``--solution PATH [PATH …]`` scores periodic gait cycles written by ``python -m predictive solve``
+(``PATH.npz`` + ``PATH.json``; speed, stride duration and body from the file) the same way:
+the cycle repeated :data:`REPEATS` times, its :func:`sspinn.data.gait_metrics.gait_metrics`, the
+walking targets it misses (:data:`sspinn.data.gait_metrics.WALKING_TARGETS`; falls and distance
+do not apply to a cycle) and its norms, beside the rows of the human recordings.
 """
 
 from __future__ import annotations
@@ -111,6 +117,36 @@ def _cmu(data: Path) -> list[tuple[str, Any]]:
     return out
 
 
+#: Cycles a periodic solution is repeated for scoring.
+REPEATS = 8
+
+
+def _solution(path: Path, data: Path | None) -> tuple[str, Any, Any, list[str]]:
+    """(row name, norms report, gait metrics, target misses) of a periodic solution repeated
+    :data:`REPEATS` times (the samples of one period: time < duration; the pelvis advanced by
+    speed × duration per cycle)."""
+    from predictive.ocp.solution import GaitSolution
+    from sspinn.data.gait_metrics import WALKING_TARGETS, gait_metrics, winter_or_none
+    from sspinn.data.gait_norms import check_gait_norms
+    from sspinn.model.trajectory import Trajectory
+
+    cycle = GaitSolution.load(path)
+    dt = float(np.median(np.diff(cycle.time)))
+    n = int(np.sum(cycle.time < cycle.duration - 0.5 * dt))
+    if abs(n * dt - cycle.duration) > 0.5 * dt:
+        raise ValueError(f"{path}: nodes not on a uniform grid over the stride ({n} × {dt:.4f} s ≠ {cycle.duration} s)")
+    q = np.concatenate([cycle.q[:n] + np.eye(9)[0] * cycle.speed * cycle.duration * k for k in range(REPEATS)])
+    tile = {name: np.tile(getattr(cycle, name)[:n], (REPEATS, 1)) for name in ("u", "qdd", "tau", "grf", "w")}
+    walk = Trajectory(time=np.arange(REPEATS * n) * dt, q=q, **tile)
+    reference = winter_or_none(data)
+    body = cycle.body
+    metrics = gait_metrics(walk, body, reference=reference)
+    mode = "walk" if cycle.speed < 2.0 else "run"
+    norms = check_gait_norms(walk, cycle.speed, mode, body_weight_n=body.body_weight, reference=reference if mode == "walk" else None)
+    misses = WALKING_TARGETS.misses(metrics) if mode == "walk" else []
+    return f"{path} ({cycle.speed:g} m/s, {cycle.status})", norms, metrics, misses
+
+
 def _cell(value: float, digits: int) -> str:
     return "–" if not math.isfinite(value) else f"{value:.{digits}f}"
 
@@ -119,6 +155,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=None, help="the shared data folder (default $SSPINN_SHARED_DATA)")
     parser.add_argument("--json", type=Path, default=None, help="also write the reports as JSON (a new file)")
+    parser.add_argument("--solution", type=Path, nargs="+", default=[], help="periodic solutions (predictive solve) to score too")
     args = parser.parse_args(argv)
 
     from sspinn.data.shared_data import shared_data_dir
@@ -135,6 +172,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"(skipped: {data / name} not found)")
             continue
         rows += reader(data)
+    scored = [_solution(path, data) for path in args.solution]
+    rows += [(name, norms) for name, norms, _, _ in scored]
 
     print("| recording | mode | stances (inside all ranges) | vertical peak BW | valley BW | stance % | double support % "
           "| flight % | cadence steps/min | taps | RMSD hip/knee/ankle ° | verdict |")
@@ -148,6 +187,17 @@ def main(argv: list[str] | None = None) -> int:
               f"{_cell(r.valley_bw, 2) if r.ranges.valley_bw else '–'} | {_cell(r.stance_percent, 1)} | "
               f"{_cell(r.double_support_percent, 1)} | {_cell(r.flight_percent, 1)} | {_cell(r.cadence_steps_per_min, 0)} | "
               f"{r.taps} | {rmsd} | {verdict} |")
+    if scored:
+        print("\n| solution | cadence steps/min | step time r / l s | heel strikes r / l | taps | flight % of time "
+              "| double support % of stride | distance per step m | step length r / l m | impact BW | slide cm/step "
+              "| walking targets missed |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+        for name, _, m, misses in scored:
+            print(f"| {name} | {_cell(m.cadence_steps_per_min, 0)} | {_cell(m.step_time_r, 3)} / {_cell(m.step_time_l, 3)} | "
+                  f"{m.heel_strikes_r} / {m.heel_strikes_l} | {m.taps_r + m.taps_l} | {_cell(m.flight_percent, 1)} | "
+                  f"{_cell(m.double_support_percent, 1)} | {_cell(m.distance_per_step_m, 3)} | "
+                  f"{_cell(m.step_length_r, 3)} / {_cell(m.step_length_l, 3)} | {_cell(m.peak_impact_bw, 2)} | "
+                  f"{_cell(m.foot_slide_per_step_cm, 1)} | {'; '.join(misses) if misses else 'none'} |")
     if args.json is not None:
         from sspinn.run_folder import atomic_write_json
 

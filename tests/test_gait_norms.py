@@ -205,3 +205,26 @@ def test_the_reference_table_command_runs(capsys: pytest.CaptureFixture[str], tm
     assert "| Winter, averaged stride (×8) | walk | 15 (100 %) | 1.10 | 0.72 | 60.0 | 20.0 | 0.0 | 105 | 0 | – | pass |" in out
     assert "Hamner subject02" in out and (tmp_path / "norms.json").stat().st_size > 1000
     assert bench["main"](["--data", str(SHARED), "--json", str(tmp_path / "norms.json")]) == 2  # never replaced
+
+
+def test_a_periodic_solution_is_scored_beside_the_references(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    """``--solution``: the stored 1.3 m/s optimal-control cycle (configs/agents/gaits/walk_1.3.npz)
+    as a solution file, repeated and scored with the gait metrics, the walking targets and the norms."""
+    import runpy
+
+    from predictive.ocp.solution import GaitSolution
+    from sspinn.model.body import BodyParameters
+
+    root = Path(__file__).resolve().parents[1]
+    with np.load(root / "configs" / "agents" / "gaits" / "walk_1.3.npz") as gait:
+        arrays = {k: gait[k] for k in ("time", "q", "u", "qdd", "tau", "grf", "w")}
+    duration = float(arrays["time"][-1])  # the last sample is the next cycle's first
+    GaitSolution(**arrays, speed=(arrays["q"][-1, 0] - arrays["q"][0, 0]) / duration, duration=duration,
+                 body_parameters=BodyParameters.from_anthropometry(1.75, 70.0).to_dict(), status="Solve_Succeeded").save(tmp_path / "walk")
+    (tmp_path / "data").mkdir()
+    bench = runpy.run_path(str(root / "benchmarks" / "gait_norms_references.py"))
+    assert bench["main"](["--data", str(tmp_path / "data"), "--solution", str(tmp_path / "walk")]) == 0
+    out = capsys.readouterr().out
+    norms, metrics = [line for line in out.splitlines() if line.startswith(f"| {tmp_path / 'walk'}")]
+    assert "FAIL: peak, valley, stance, double_support" in norms  # 1.70 BW, 0.52 BW valley, 54 % stance, 8.8 % double support
+    assert "| 8 / 8 | 0 |" in metrics and "double_support_percent" in metrics  # 8 cycles, no taps, too little double support

@@ -85,7 +85,7 @@ CYCLE_POINTS = 100
 SETTLE_S = 2.0
 #: Gait-quality metrics (:class:`sspinn.data.gait_metrics.GaitMetrics`) averaged over the episodes.
 GAIT_KEYS = ("step_time_asymmetry", "step_length_asymmetry", "stance_asymmetry", "foot_slide_per_step_cm",
-             "peak_impact_bw")
+             "peak_impact_bw", "cadence_steps_per_min", "flight_percent", "double_support_percent", "taps_per_step")
 #: ``env.reset`` options a disturbance condition may set (:class:`envs.disturbances.Disturbances`).
 CONDITION_OPTIONS = ("reset_noise_scale", "disturbances")
 
@@ -606,7 +606,9 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
             ("jitter_rad_s3", "jitter (rad/s³)", "{:.0f}"),
             ("step_time_asymmetry", "asym. step time (%)", "{:.1f}"), ("step_length_asymmetry", "asym. step length (%)", "{:.1f}"),
             ("stance_asymmetry", "asym. stance (%)", "{:.1f}"), ("foot_slide_per_step_cm", "slide/step (cm)", "{:.1f}"),
-            ("peak_impact_bw", "impact (BW)", "{:.2f}"), ("setup_time_s", "one-off time (s)", "{:.0f}"),
+            ("peak_impact_bw", "impact (BW)", "{:.2f}"), ("cadence_steps_per_min", "cadence (steps/min)", "{:.0f}"),
+            ("flight_percent", "flight (% of time)", "{:.1f}"), ("double_support_percent", "double support (% of stride)", "{:.1f}"),
+            ("taps_per_step", "taps/step", "{:.2f}"), ("setup_time_s", "one-off time (s)", "{:.0f}"),
             ("per_speed_time_s", "time per speed (s)", "{:.1f}")]
     lines = [f"# Predictive simulation comparison ({config.height} m, {config.mass} kg; seeds {config.seeds})", "",
              "| method | speed (m/s) | " + " | ".join(c[1] for c in cols) + " | note |",
