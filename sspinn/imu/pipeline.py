@@ -58,7 +58,14 @@ from sspinn.imu.cross_sensor_checks import check_mounting, pelvis_candidate_warn
 from sspinn.imu.grf_checks import check_vertical_force, unloaded_share_warning
 from sspinn.imu.sensor_map import SensorMap
 from sspinn.imu.stream import ANTI_ALIAS_HZ, DEFAULT_MAX_GAP_S, RATE_HZ, IMUImportError, IMUStream, resample
-from sspinn.imu.time_alignment import CLOCK_SOURCES, Alignment, align_to_grf, files_share_clock, walking_direction_sign
+from sspinn.imu.time_alignment import (
+    CLOCK_SOURCES,
+    Alignment,
+    align_to_grf,
+    files_share_clock,
+    imu_signals,
+    walking_direction_sign,
+)
 from sspinn.imu.vendor_readers import read_imu_files, read_treadmill_grf_columns
 from sspinn.model.conventions import GRF
 from sspinn.run_folder import atomic_write_text
@@ -239,17 +246,12 @@ def _grf_labels(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], c
     on_grid = {s: np.column_stack([np.interp(grid, t_grf, f[:, k]) for k in range(2)]) for s, f in forces.items()}
     unloaded = unloaded_share_warning(path, on_grid["r"][:, 1], on_grid["l"][:, 1], mass)
     warnings += [unloaded] if unloaded else []
-    feet = {s[-1]: s for s in signals if s.startswith("foot")}
-    shanks = {s[-1]: s for s in signals if s.startswith("tibia")}
-    still, hit = (feet or shanks), (shanks or feet)
-    if not still:
+    inputs = imu_signals(signals)
+    if inputs is None:
         raise IMUImportError(f"{path}: aligning the GRF needs a foot or shank sensor on each side with a force plate; the map has none")
-    names = ("foot" if feet else "shank", "shank" if shanks else "foot")
-    activity = sum(np.linalg.norm(g, axis=1) for _, g in signals.values())
-    alignment = align_to_grf({s: np.linalg.norm(signals[seg][1], axis=1) for s, seg in still.items()},
-                             {s: signals[seg][0] for s, seg in hit.items()}, {s: f[:, 1] for s, f in on_grid.items()},
-                             activity, cal.stride_period_s, RATE_HZ, max_lag_s=max(grid[-1], times[-1] - times[0]) + 1.0,
-                             names=names, clock_lag_s=clock_lag, clock_source="files" if same_clock is None else "given",
+    still, hit, activity, names = inputs
+    alignment = align_to_grf(still, hit, {s: f[:, 1] for s, f in on_grid.items()}, activity, cal.stride_period_s, RATE_HZ,
+                             max_lag_s=max(grid[-1], times[-1] - times[0]) + 1.0, names=names, clock_lag_s=clock_lag, clock_source="files" if same_clock is None else "given",
                              per_foot=align == "per-foot")
     warnings += [f"{path}: {w}" for w in alignment.warnings]
     # the alignment's lag is between the two grids' first samples: grid time = (IMU sample time − first IMU time) + lag

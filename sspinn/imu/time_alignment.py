@@ -36,8 +36,9 @@ after the right what the right did), so the swapped assignment has a good fit ha
 from the true lag. A window of ±¼ stride holds the true lag or its half-stride alias, never both
 (the border aside), so **both assignments are scored at every candidate lag** in the same window
 and compared fairly: the exchanged assignment fitting better (its loading + impact correlations
-above the labelled ones' at their best lags in the window, :data:`SWAPPED_SIDES_RATIO`) is the
-"sides look swapped" warning. A wider window lets the half-stride alias of a swap win (what an
+above the labelled ones' at their best lags in the window, :data:`SWAPPED_SIDES_RATIO`, at a
+peak inside the window rather than on its border, :data:`BORDER_SAMPLES`) is the "sides look
+swapped" warning. A wider window lets the half-stride alias of a swap win (what an
 unbounded search did: a lag of half a stride that makes swapped sides line up), a narrower one
 cuts into the correlations' own biases (up to 0.14 s of the loading peak, 0.07 s of the
 impact peak on the CMU trials, against a quarter stride of 0.26–0.34 s there).
@@ -100,6 +101,10 @@ SIDE_LAG_TOLERANCE_S: Final = 0.08
 #: a shared clock (there the activity pair decides and 1.03 keeps a margin). CMU Sub01–Sub04 in
 #: the window: 0.07–0.49 as recorded, 2.0–14 with the sides exchanged.
 SWAPPED_SIDES_RATIO: Final = 1.0
+#: A fit this close to its window's border (samples) is the flank of a peak beyond it:
+#: no verdict on the sides from it (CMU Sub02 CSStiffKnee with the left channel 0.15 s late: the
+#: exchanged sides' best lay on the border, 1.06 × the labelled fit).
+BORDER_SAMPLES: Final = 2
 #: Without a shared clock: the exchanged assignment's best score over the labelled one's above
 #: which "sides swapped, or the lag off by half a stride" is warned.
 SWAPPED_GLOBAL_RATIO: Final = 1.03
@@ -138,7 +143,8 @@ def files_share_clock(imu_start_s: float, imu_end_s: float, grf_start_s: float, 
 @dataclass(frozen=True)
 class Candidate:
     """One lag (s) with the correlations of the three pairs there and their sum; ``sides``:
-    ``"labelled"`` or ``"exchanged"`` (each foot's IMU against the other foot's force)."""
+    ``"labelled"`` or ``"exchanged"`` (each foot's IMU against the other foot's force);
+    ``at_border``: its lag lies on its window's border (a peak beyond the window)."""
 
     lag_s: float
     activity: float
@@ -146,6 +152,7 @@ class Candidate:
     impact: float
     use_activity: bool = True
     sides: str = "labelled"
+    at_border: bool = False
 
     @property
     def score(self) -> float:
@@ -166,6 +173,11 @@ class WindowFit:
     centre_s: float
     labelled: Candidate
     exchanged: Candidate | None
+
+    @property
+    def looks_swapped(self) -> bool:
+        """The exchanged sides fit better (:data:`SWAPPED_SIDES_RATIO`) at a peak inside the window."""
+        return self.exchanged is not None and not self.exchanged.at_border and self.sides_ratio > SWAPPED_SIDES_RATIO
 
     @property
     def sides_ratio(self) -> float:
@@ -224,7 +236,11 @@ class Alignment:
                 f"{b.activity:.3f}, loading {b.loading:.3f}, impact {b.impact:.3f} (score {b.score:.3f})")
         if self.measured_lag_s is not None and self.clock in ("files", "given"):
             text += f"; measured {self.measured_lag_s:+.2f} s within ±{self.window_s:.2f} s"
-        if r is not None:
+        if r is not None and self.clock in ("files", "given") and self.fit is not None:
+            inside = max(self.fit.labelled.score, self.fit.exchanged.score if self.fit.exchanged else -np.inf)
+            text += (f"; best beyond the window {r.lag_s:+.2f} s (score {r.score:.3f}, {r.score / inside:.2f} × the window's best; "
+                     f"{CLOCK_OVERRULE_RATIO:g} would overrule the clock)")
+        elif r is not None:
             text += f"; runner-up {r.lag_s:+.2f} s (score {r.score:.3f}, ratio {self.ratio:.3f})"
         if len(self.side_lags) == 2:
             used = " (used per foot)" if self.per_foot else ""
@@ -342,8 +358,9 @@ class _Scorer:
             a, b = max(lo, p - self.refine), min(hi, p + self.refine + 1)
             near = np.where(self.valid[a:b], impact[a:b], -np.inf)
             k = a + int(np.argmax(near)) if np.isfinite(near).any() else p
+        border = min(k - lo, hi - 1 - k) <= BORDER_SAMPLES
         return Candidate(self.lags[k] / self.rate_hz, float(self.activity[k]), float(loading[p]),
-                         float(impact[k]) if impact is not None else 0.0, self.informative, sides)
+                         float(impact[k]) if impact is not None else 0.0, self.informative, sides, border)
 
     def at(self, loading: np.ndarray, impact: np.ndarray | None, k: int, sides: str) -> Candidate:
         """The correlations at lag index ``k`` itself."""
@@ -447,8 +464,8 @@ def align_to_grf(
         outside = next((f for f in fits if abs(f.labelled.lag_s - clock_lag_s) > half / rate_hz), None)
         feet = own_lags(k_clock)
         off = [v - clock_lag_s for v in feet.values()]
-        interior = all(abs(v) < (half - 2) / rate_hz for v in off)  # a peak, not the window's border
-        swapped_here = at_clock.sides_ratio > SWAPPED_SIDES_RATIO  # then the labelled fit means nothing
+        interior = all(abs(v) < (half - BORDER_SAMPLES) / rate_hz for v in off)  # a peak, not the window's border
+        swapped_here = at_clock.looks_swapped  # then the labelled fit means nothing
         if outside is not None and inside > 0 and outside.labelled.score >= CLOCK_OVERRULE_RATIO * inside:
             clock, k_used = "overruled", index(outside.labelled.lag_s)
             warnings.append(
@@ -488,10 +505,10 @@ def align_to_grf(
                 "the start or end of walking, give --same-clock if the files share a clock, or check the lag")
     lag_s = best.lag_s
     side_lags = own_lags(k_used)  # for "overruled" by the feet: the window around the clock, as measured
-    swapped = fit.sides_ratio > SWAPPED_SIDES_RATIO  # then the labelled sides' own lags and local lags mean nothing
+    swapped = fit.looks_swapped  # then the labelled sides' own lags and local lags mean nothing
     if swapped:
         notes.append("the sides look swapped: the checks of the channels' offset and of lag jumps were skipped (they "
-                     "assume the sides as labelled)")
+                     "assume the sides as labelled)" + ("; both feet labelled with the common lag" if per_foot else ""))
     elif per_foot:
         notes.append("per-foot alignment: each foot's force labelled with its own lag (" +
                      ", ".join(f"{s} {v:+.2f} s" for s, v in side_lags.items()) + f"; common lag {lag_s:+.2f} s)")
@@ -537,8 +554,24 @@ def align_to_grf(
              "loading": f"vertical GRF vs {names[0]} stillness −|ω|",
              "impact": f"{names[1]} jerk |Δacc| vs rise of the vertical GRF" if has_impact else "none"}
     return Alignment(lag_s, best, runner_c, candidates, pairs, tuple(notes), side_lags, tuple(warnings), swapped_score,
-                     tuple(jumps), clock, clock_lag_s, measured, half / rate_hz, per_foot, fit,
+                     tuple(jumps), clock, clock_lag_s, measured, half / rate_hz, per_foot and not swapped, fit,
                      tuple(fits))
+
+
+def imu_signals(signals: dict[str, tuple[np.ndarray, np.ndarray]]) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], np.ndarray,
+                                                                            tuple[str, str]] | None:
+    """The IMU arguments of :func:`align_to_grf` from calibrated segments' sensor-frame signals
+    (segment → (acc (n, 3) m/s², gyr (n, 3) rad/s)): (stillness |ω| of the feet, else the shanks;
+    impact specific force of the shanks, else the feet; the summed rate norms; their segment
+    names), or None without a foot or shank sensor."""
+    feet = {s[-1]: s for s in signals if s.startswith("foot")}
+    shanks = {s[-1]: s for s in signals if s.startswith("tibia")}
+    still, hit = (feet or shanks), (shanks or feet)
+    if not still:
+        return None
+    activity = sum(np.linalg.norm(g, axis=1) for _, g in signals.values())
+    return ({s: np.linalg.norm(signals[seg][1], axis=1) for s, seg in still.items()}, {s: signals[seg][0] for s, seg in hit.items()},
+            activity, ("foot" if feet else "shank", "shank" if shanks else "foot"))
 
 
 def event_signals(stillness: dict[str, np.ndarray], impact: dict[str, np.ndarray], grf_vertical: dict[str, np.ndarray],
@@ -566,9 +599,9 @@ def lag_jumps(pairs: Sequence[tuple[np.ndarray, np.ndarray]], lag: int, stride: 
     n = min(len(imu) for _, imu in pairs)
     half = max(1, int(round(LAG_WINDOW_STRIDES * stride))) if half is None else max(1, half)
     window, step = int(LOCAL_WINDOW_S * rate_hz), int(LOCAL_STEP_S * rate_hz)
-    if n < window + step:
+    if n < window + step + max(0, half - lag):
         return []
-    starts = np.arange(0, n - window + 1, step)
+    starts = np.arange(max(0, half - lag), n - window + 1, step)  # from the first window the GRF covers at every shift
     shifts = np.arange(lag - half, lag + half + 1)
     local = np.full(len(starts), np.nan)
     for w, a in enumerate(starts):
@@ -576,7 +609,7 @@ def lag_jumps(pairs: Sequence[tuple[np.ndarray, np.ndarray]], lag: int, stride: 
         # NaN where ref does not hold the whole window
         reach = int(max(abs(a + shifts[0]), abs(a + shifts[-1])))
         score = sum(normalized_xcorr(ref, imu[a:a + window], reach, window)[1][a + shifts + reach] for ref, imu in pairs)
-        if np.isfinite(score).any():
+        if np.isfinite(score).all():  # a window the GRF covers at only some shifts would peak on its edge
             local[w] = shifts[int(np.nanargmax(score))]
     if not np.isfinite(local).any():
         return []
