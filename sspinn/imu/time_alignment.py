@@ -115,6 +115,9 @@ SWAPPED_GLOBAL_RATIO: Final = 1.03
 #: A candidate beyond the lag window must score this many times the best fit in the window to
 #: overrule a shared clock. CMU Sub01–Sub04: at most 0.95 (benchmarks/alignment_checks.py).
 CLOCK_OVERRULE_RATIO: Final = 1.25
+#: ... and must overlap the IMU stream over at least this share of the clock's overlap (CMU
+#: Sub05 CSStiffKnee with a GRF clock jump: a lag of −92 s sharing 20 of its 112 s fitted better).
+OVERRULE_MIN_OVERLAP: Final = 0.5
 #: Both feet's own lags further than this from a shared clock's lag, on the same side, overrule
 #: it, s. CMU Sub01–Sub04: within 0.04 s of it.
 CLOCK_TOLERANCE_S: Final = 0.1
@@ -468,7 +471,15 @@ def align_to_grf(
         at_clock = window_fit(k_clock)
         measured = at_clock.labelled.lag_s
         inside = max(at_clock.labelled.score, at_clock.exchanged.score if at_clock.exchanged else -np.inf)
-        outside = next((f for f in fits if abs(f.labelled.lag_s - clock_lag_s) > half / rate_hz), None)
+        n_imu, n_grf = len(activity), len(next(iter(grf_vertical.values())))
+
+        def overlap(lag: float) -> int:  # samples the two streams share at this lag
+            k = int(round(lag * rate_hz))
+            return max(0, min(n_imu, n_grf - k) - max(0, -k))
+
+        # a candidate on a much shorter overlap is not evidence against the clock (short overlaps fit by chance)
+        outside = next((f for f in fits if abs(f.labelled.lag_s - clock_lag_s) > half / rate_hz
+                        and overlap(f.labelled.lag_s) >= OVERRULE_MIN_OVERLAP * overlap(clock_lag_s)), None)
         feet = own_lags(k_clock)
         off = [v - clock_lag_s for v in feet.values()]
         interior = all(abs(v) < (half - BORDER_SAMPLES) / rate_hz for v in off)  # a peak, not the window's border
