@@ -221,7 +221,7 @@ def main(argv: list[str] | None = None) -> str:
              f"{a.side_lags['r']:+.2f} / {a.side_lags['l']:+.2f} | {a.fit.sides_ratio:.2f} | {beyond / inside:.2f} | {b.lag_s:+.2f} | "
              f"{'; '.join(kinds(a)) or '–'} |")
     emit("", "## Heel strikes of the aligned GRF against the foot IMUs' own (bias / mean |error|, ms; right, left)", "",
-         "| trial | shared clock (lag 0) r | l | searched lag r | l | per-foot lags r | l |", "|---|---:|---:|---:|---:|---:|---:|")
+         "| trial | shared clock r | l | searched lag r | l | per-foot lags r | l |", "|---|---:|---:|---:|---:|---:|---:|")
     sums: dict[str, list[float]] = {}
     for t in trials:
         a, b = align(t, t.vertical, True), align(t, t.vertical, False)
@@ -231,7 +231,7 @@ def main(argv: list[str] | None = None) -> str:
             for s in "rl":
                 cells.append(f"{err[s][0]:+.0f} / {err[s][1]:.0f}")
                 sums.setdefault(f"{key} {'held' if t.subject in HELD_OUT else 'train'}", []).append(err[s][1])
-        emit(f"| {t.name} | " + " | ".join(cells) + " |")
+        emit(f"| {t.name}{' (held out)' if t.subject in HELD_OUT else ''} | " + " | ".join(cells) + " |")
     emit("", "Mean |error| over feet and trials (ms): " + "; ".join(f"{k} {np.mean(v):.1f}" for k, v in sums.items()), "")
     emit("## Warnings per condition (training Sub01–Sub04: of 8 trials; held out Sub05–Sub06: of 4)", "",
          "| condition | expected | fired as expected (train / held out) | other warnings (train / held out) | "
@@ -250,7 +250,7 @@ def main(argv: list[str] | None = None) -> str:
                     other.setdefault(k, {"train": 0, "held": 0})[group] += 1
             errors.append(abs(a.lag_s - c.shift_s(t)))
         others = "; ".join(f"{k} {v['train']} / {v['held']}" for k, v in other.items()) or "–"
-        emit(f"| {c.name} | {' or '.join(c.expected) or 'no warning'} | {hit['train']} / {hit['held']} | {others} | {np.median(errors):.2f} |")
+        emit(f"| {c.name} | {', or '.join(c.expected) or 'no warning'} | {hit['train']} / {hit['held']} | {others} | {np.median(errors):.2f} |")
     if args.imports:
         emit("", "## Every warning of a whole default import (trials warned, training / held out)", "")
         counts: dict[str, dict[str, list[str]]] = {}
