@@ -242,3 +242,11 @@ def test_real_cmu_trial_alignment() -> None:
     assert result.best.activity > 0.9 and result.best.loading > 0.8 and result.best.impact > 0.5
     assert abs(abs(result.runner_up.lag_s) - 1.3) < 0.2 and not result.warnings
     assert abs(result.side_lags["r"] - result.side_lags["l"]) <= 0.05
+    # the files start together and last equally long: their clock is kept, and a swap is caught at it
+    args = ({s: np.linalg.norm(sig[f"foot_{s}"][1], axis=1) for s in "rl"}, {s: sig[f"tibia_{s}"][0] for s in "rl"})
+    activity = sum(np.linalg.norm(g, axis=1) for _, g in sig.values())
+    kept = align_to_grf(*args, {s: forces[s][:, 1] for s in "rl"}, activity, cal.stride_period_s, clock_lag_s=0.0)
+    assert kept.lag_s == 0.0 and kept.clock == "files" and not kept.warnings and abs(kept.measured_lag_s) <= 0.05
+    swapped = align_to_grf(*args, {"r": forces["l"][:, 1], "l": forces["r"][:, 1]}, activity, cal.stride_period_s, clock_lag_s=0.0)
+    assert swapped.lag_s == 0.0 and swapped.fit.looks_swapped and swapped.fit.sides_ratio > 1.5
+    assert [w for w in swapped.warnings if "look swapped" in w] == list(swapped.warnings) and len(swapped.warnings) == 1
