@@ -508,8 +508,8 @@ def align_to_grf(
             best = fit.labelled
         else:
             best = scorer.at(c_loading, imp, k_used, "labelled")
-        runner = outside
-        runner_c = runner.labelled if runner is not None else None
+        # the runner-up: the best beyond the window, or (the clock overruled by it) the clock's window
+        runner_c = at_clock.labelled if clock == "overruled" and k_used != k_clock else (outside.labelled if outside else None)
     else:
         fit = fits[0]
         best = fit.labelled
@@ -553,7 +553,8 @@ def align_to_grf(
                 f"{fit.labelled.impact:.3f}); ratio {fit.sides_ratio:.3f}")
         swapped_score = ex.score
         if swapped:
-            warnings.append(f"right and left look swapped between the GRF file and the IMUs: {text} (above {SWAPPED_SIDES_RATIO:g}); "
+            bar = BORDER_SIDES_RATIO if ex.at_border else SWAPPED_SIDES_RATIO
+            warnings.append(f"right and left look swapped between the GRF file and the IMUs: {text} (above {bar:g}); "
                             "check the GRF file's r/l columns and the sensor map's sides")
         else:
             notes.append(f"side check: {text}")
