@@ -34,14 +34,14 @@ CMU_MAP = REPO / "configs" / "sensor_maps" / "cmu_treadmill.yaml"
 GAIN = "sensor 'toes_l_imu_offset_imu' (foot_l): |specific force|"
 
 
-def _import(trial: Path, grf: Path, out: Path, mass: str = "66.7", end: str = "10") -> tuple[int, str, str]:
+def _import(trial: Path, grf: Path, out: Path, mass: str = "66.7", end: str = "10", extra: list[str] | None = None) -> tuple[int, str, str]:
     """Import the first ``end`` s of the trial's IMU export with ``grf`` (no figure): (status, stdout, stderr)."""
     stem = trial.name.replace("_Accel.trc.gz", "")
     out_text, err_text = io.StringIO(), io.StringIO()
     with pytest.MonkeyPatch.context() as patch, contextlib.redirect_stdout(out_text), contextlib.redirect_stderr(err_text):
         patch.setattr(imu_import, "plot_calibration", lambda path, *args, **kwargs: Path(path))
         status = main(["import", "--imu", str(trial), "--sensor-map", str(CMU_MAP), "--height", "1.75", "--mass", mass,
-                       "--grf", str(grf), "--end", end, "--out", str(out), "--name", stem])
+                       "--grf", str(grf), "--end", end, "--out", str(out), "--name", stem, *(extra or [])])
     return status, out_text.getvalue(), err_text.getvalue()
 
 
@@ -59,7 +59,8 @@ def sub01() -> tuple[Path, Path]:
 @pytest.mark.parametrize("edit, mass, expected", [
     (None, "66.7", None),
     (grf_sides_swapped, "66.7", r"\S+grf\.mot: right and left look swapped between the GRF file and the IMUs: with the force "
-                                r"channels' sides exchanged the alignment scores .* ratio 1\.\d+ \(above 1\.03\)"),
+                                r"channels' sides exchanged the best fit within ±0\.\d\d s of \+0\.00 s is at .* ratio \d+\.\d+ "
+                                r"\(above 1\)"),
     (grf_side_delayed("l", 0.15), "66.7", r"\S+grf\.mot: the right and left force channels look offset in time: the right "
                                           r"foot's stance aligns at lag -0\.0\d s, the left at \+0\.1\d s"),
     (grf_unloaded(15.0, 10.0), "66.7", r"\S+grf\.mot: both feet carry less than 5% of body weight \(33 N\) in 17% of the 5950 "
@@ -111,9 +112,19 @@ def test_grf_sign_and_unit_errors_are_one_line(sub01, tmp_path, factor, message)
 
 
 def test_ambiguous_real_lag_is_warned_on_screen_and_in_the_provenance(tmp_path) -> None:
+    """Sub05 CSBaseline's files start together and last equally long: imported as they are, the
+    shared clock pins the lag (no warning, the clock named on a NOTE line); with
+    ``--separate-clocks`` the search finds no change of activity that tells whole strides apart."""
     folder = shared_data("cmu_treadmill_imu_grf") / "Sub05" / "CSBaseline"
-    status, out, err = _import(folder / "OpenSim_Sub05_CSBaseline_Accel.trc.gz", folder / "OpenSim_Sub05_CSBaseline_GRF.mot.gz",
-                               tmp_path / "out", mass="73.0", end="20")
+    files = (folder / "OpenSim_Sub05_CSBaseline_Accel.trc.gz", folder / "OpenSim_Sub05_CSBaseline_GRF.mot.gz")
+    status, out, err = _import(*files, tmp_path / "clock", mass="73.0", end="20")
+    assert status == 0 and _warnings(out) == [], (err, out)
+    assert re.search(r"NOTE: time alignment: GRF OpenSim_Sub05_CSBaseline_GRF\.mot\.gz: lag \+0\.000 s between the files' starts "
+                     r"\(t_GRF = t_IMU \+ lag\), from the files' shared clock \(same start and duration\); measured \+0\.0\d+ s", out), out
+    assert Recording.load(tmp_path / "clock" / "OpenSim_Sub05_CSBaseline.csv").provenance["grf_alignment"]["clock"] == "files"
+    assert "**Lag from: the files' shared clock (same start and duration)**" in (
+        tmp_path / "clock" / "OpenSim_Sub05_CSBaseline_calibration.md").read_text()
+    status, out, err = _import(*files, tmp_path / "out", mass="73.0", end="20", extra=["--separate-clocks"])
     assert status == 0, err
     (warned,) = [w for w in _warnings(out) if "ambiguous" in w]
     alignment = Recording.load(tmp_path / "out" / "OpenSim_Sub05_CSBaseline.csv").provenance["grf_alignment"]
@@ -144,3 +155,36 @@ def test_vertical_force_checks_on_synthetic_forces() -> None:
     message = unloaded_share_warning("f.mot", forces["r"][:, 1] * lifted, forces["l"][:, 1] * lifted, mass)
     assert message is not None and re.match(r"f\.mot: both feet carry less than 5% of body weight \(34 N\) in 22% of the 89\d "
                                             r"samples with the subject on the treadmill", message)
+
+
+def test_per_foot_alignment_undoes_a_late_channel(sub01, tmp_path) -> None:
+    """The left channel 0.15 s late, imported with ``--align per-foot``: no channels-offset
+    warning, each foot's own lag in the provenance (0.15 s apart) and the left foot's heel
+    strikes where the file as recorded puts them."""
+    from sspinn.data.gait_events import detect_events
+
+    accel, grf = sub01
+    late = write_grf_edited(grf, tmp_path / "grf.mot", grf_side_delayed("l", 0.15))
+    recs = {}
+    for name, path in (("late", late), ("recorded", grf)):
+        status, out, err = _import(accel, path, tmp_path / name, extra=["--align", "per-foot"])
+        assert status == 0 and _warnings(out) == [], (err, out)
+        assert "NOTE: time alignment: GRF " in out and "lags per foot r " in out
+        recs[name] = Recording.load(tmp_path / name / "OpenSim_Sub01_CSBaseline.csv")
+    lags = recs["late"].provenance["grf_alignment"]["label_lags_s"]
+    assert recs["late"].provenance["grf_alignment"]["align"] == "per-foot"
+    assert lags["l"] - lags["r"] == pytest.approx(0.15, abs=0.04)
+    strikes = {}
+    for name, rec in recs.items():
+        t0 = rec.provenance["start_s_in_files"]
+        strikes[name] = t0 + detect_events(rec.labels.column("grf_y_l"), 66.7 * GRAVITY, 100.0).heel_strikes / 100.0
+    assert len(strikes["late"]) == len(strikes["recorded"]) >= 5
+    assert np.abs(strikes["late"] - strikes["recorded"]).max() <= 0.04
+
+
+def test_clock_options_exclude_each_other(sub01, tmp_path, capsys) -> None:
+    accel, grf = sub01
+    with pytest.raises(SystemExit) as exit_info:
+        main(["import", "--imu", str(accel), "--sensor-map", str(CMU_MAP), "--height", "1.75", "--mass", "66.7",
+              "--grf", str(grf), "--out", str(tmp_path), "--same-clock", "--separate-clocks"])
+    assert exit_info.value.code == 2 and "not allowed with argument" in capsys.readouterr().err

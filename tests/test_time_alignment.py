@@ -14,6 +14,7 @@ from sspinn.imu.time_alignment import (
     SWAPPED_SIDES_RATIO,
     AlignmentError,
     align_to_grf,
+    files_share_clock,
     normalized_xcorr,
     walking_direction_sign,
 )
@@ -123,10 +124,92 @@ def test_force_channels_offset_or_swapped_are_warned(rng) -> None:
     assert any(w.startswith(f"the right and left force channels look offset in time: the right foot's stance aligns at lag "
                             f"{result.side_lags['r']:+.2f} s, the left at {result.side_lags['l']:+.2f} s") for w in result.warnings)
     swapped = _align_crop(foot, shank, {"r": vertical["l"], "l": vertical["r"]}, activity)
-    assert swapped.swapped_sides_score > SWAPPED_SIDES_RATIO * swapped.best.score
-    (warning,) = [w for w in swapped.warnings if w.startswith("right and left look swapped between the GRF file and the IMUs: "
-                                                              "with the force channels' sides exchanged the alignment scores")]
-    assert "lag +2.37 s" in warning  # exchanged back: the true lag
+    # without a shared clock a swap hides as half a stride of lag: warned as either
+    assert abs(abs(swapped.lag_s - 2.37) - 0.57) < 0.05
+    (warning,) = [w for w in swapped.warnings if w.startswith("right and left may be swapped between the GRF file and the IMUs, "
+                                                              "or the lag off by half a stride")]
+    assert "+2.37 s" in warning  # exchanged back: the true lag
+
+
+def _crop(foot, shank, activity, a: int = 237):
+    crop = slice(a, a + len(activity) - 400)
+    return {s: v[crop] for s, v in foot.items()}, {s: v[crop] for s, v in shank.items()}, activity[crop]
+
+
+@pytest.mark.parametrize("shift", [0.0, -0.2, 0.2], ids=["at the clock", "0.2 stride early", "0.2 stride late"])
+def test_swapped_sides_are_caught_where_half_a_stride_of_lag_would_hide_them(rng, shift) -> None:
+    """The GRF's sides exchanged: a lag search finds the half-stride alias (the exchanged forces
+    line up there); with the files' shared clock both assignments are fitted in the same window
+    of ±¼ stride around it, the exchanged one wins, the warning fires and the clock is kept —
+    also with the truth anywhere in the window (the GRF shifted by ±0.2 stride)."""
+    foot, shank, vertical, activity, _ = synthetic_pair(rng)
+    f, s, act = _crop(foot, shank, activity)
+    k = int(round(shift * 114))
+    exchanged = {side: np.roll(v, k) for side, v in {"r": vertical["l"], "l": vertical["r"]}.items()}
+    searched = align_to_grf(f, s, exchanged, act, 1.14, max_lag_s=10.0)
+    assert abs(abs(searched.lag_s - (2.37 + k / 100)) - 0.57) < 0.05  # the half-stride alias
+    result = align_to_grf(f, s, exchanged, act, 1.14, max_lag_s=10.0, clock_lag_s=2.37)
+    assert result.lag_s == 2.37 and result.clock == "files"
+    assert result.fit.sides_ratio > SWAPPED_SIDES_RATIO and result.fit.exchanged.lag_s == pytest.approx(2.37 + k / 100, abs=0.03)
+    [warning] = result.warnings
+    assert warning.startswith("right and left look swapped between the GRF file and the IMUs: with the force channels' sides "
+                              "exchanged the best fit within ±0.28 s of +2.37 s")
+    assert not any("swapped" in w for w in align_to_grf(f, s, vertical, act, 1.14, max_lag_s=10.0, clock_lag_s=2.37).warnings)
+
+
+def test_a_shared_clock_is_kept_unless_the_evidence_is_decisive(rng) -> None:
+    """The clock within the correlations' tolerance of the measured lag: kept as it is, and said
+    so; 0.15 s off for both feet, or whole seconds off where another lag fits far better:
+    overruled with a warning naming both."""
+    foot, shank, vertical, activity, _ = synthetic_pair(rng)
+    f, s, act = _crop(foot, shank, activity)
+    kept = align_to_grf(f, s, vertical, act, 1.14, max_lag_s=10.0, clock_lag_s=2.42, clock_source="given")
+    assert kept.lag_s == 2.42 and kept.clock == "given" and kept.measured_lag_s == pytest.approx(2.37, abs=0.011)
+    assert not kept.warnings and any(n.startswith("the shared clock's lag +2.420 s is kept (measured +2.37 s") for n in kept.notes)
+    assert "the shared clock (--same-clock)" in kept.describe() and kept.to_dict()["clock"] == "given"
+    for clock, phrase in ((2.52, "both feet's stances align away from the files' shared clock (+2.52 s)"),
+                          (7.37, "the lag +2.37 s fits the GRF to the IMUs")):
+        result = align_to_grf(f, s, vertical, act, 1.14, max_lag_s=10.0, clock_lag_s=clock)
+        assert result.clock == "overruled" and result.lag_s == pytest.approx(2.37, abs=0.011)
+        [warning] = result.warnings
+        assert warning.startswith(phrase)
+
+
+def test_per_foot_alignment_labels_each_foot_with_its_own_lag(rng) -> None:
+    """The left channel 0.2 s late: one common lag warns that the channels are offset; per foot,
+    each foot's force is labelled with its own lag (both reported), no warning."""
+    foot, shank, vertical, activity, _ = synthetic_pair(rng)
+    f, s, act = _crop(foot, shank, activity)
+    late = {"r": vertical["r"], "l": np.concatenate([np.full(20, vertical["l"][0]), vertical["l"][:-20]])}
+    common = align_to_grf(f, s, late, act, 1.14, max_lag_s=10.0, clock_lag_s=2.37)
+    assert common.label_lags == {"r": 2.37, "l": 2.37} and any("look offset in time" in w for w in common.warnings)
+    per_foot = align_to_grf(f, s, late, act, 1.14, max_lag_s=10.0, clock_lag_s=2.37, per_foot=True)
+    assert per_foot.label_lags["r"] == pytest.approx(2.37, abs=0.011) and per_foot.label_lags["l"] == pytest.approx(2.57, abs=0.021)
+    assert not per_foot.warnings and per_foot.to_dict()["align"] == "per-foot" and "(used per foot)" in per_foot.describe()
+    assert per_foot.lag_s == 2.37  # the common lag is still reported
+
+
+@pytest.mark.parametrize("clock", [None, 2.37])
+def test_the_lag_search_stays_within_a_quarter_stride_of_its_centre(rng, clock) -> None:
+    """Every fit (lag used, per-foot lags, the exchanged sides' fit) lies within ±¼ stride of its
+    window's centre: the clock, or the candidate a search chose."""
+    foot, shank, vertical, activity, _ = synthetic_pair(rng)
+    f, s, act = _crop(foot, shank, activity)
+    exchanged = {"r": vertical["l"], "l": vertical["r"]}
+    for forces in (vertical, exchanged):
+        result = align_to_grf(f, s, forces, act, 1.14, max_lag_s=10.0, clock_lag_s=clock, per_foot=True)
+        assert result.window_s == pytest.approx(0.25 * 1.14, abs=0.006)
+        centre = result.fit.centre_s
+        for lag in (result.lag_s, *result.side_lags.values(), result.fit.exchanged.lag_s, result.fit.labelled.lag_s):
+            assert abs(lag - centre) <= result.window_s + 1e-9
+        for window in result.window_fits:
+            assert abs(window.labelled.lag_s - window.centre_s) <= result.window_s + 1e-9
+            assert abs(window.exchanged.lag_s - window.centre_s) <= result.window_s + 1e-9
+
+
+def test_files_share_a_clock_when_they_start_and_end_together() -> None:
+    assert files_share_clock(0.0, 59.49, 0.0, 59.49) and files_share_clock(0.0, 59.49, 0.01, 59.5)
+    assert not files_share_clock(0.0, 59.49, 0.0, 60.0) and not files_share_clock(1.0, 60.49, 0.0, 59.49)
 
 
 def test_walking_direction_of_the_force_axis(rng) -> None:
@@ -159,3 +242,11 @@ def test_real_cmu_trial_alignment() -> None:
     assert result.best.activity > 0.9 and result.best.loading > 0.8 and result.best.impact > 0.5
     assert abs(abs(result.runner_up.lag_s) - 1.3) < 0.2 and not result.warnings
     assert abs(result.side_lags["r"] - result.side_lags["l"]) <= 0.05
+    # the files start together and last equally long: their clock is kept, and a swap is caught at it
+    args = ({s: np.linalg.norm(sig[f"foot_{s}"][1], axis=1) for s in "rl"}, {s: sig[f"tibia_{s}"][0] for s in "rl"})
+    activity = sum(np.linalg.norm(g, axis=1) for _, g in sig.values())
+    kept = align_to_grf(*args, {s: forces[s][:, 1] for s in "rl"}, activity, cal.stride_period_s, clock_lag_s=0.0)
+    assert kept.lag_s == 0.0 and kept.clock == "files" and not kept.warnings and abs(kept.measured_lag_s) <= 0.05
+    swapped = align_to_grf(*args, {"r": forces["l"][:, 1], "l": forces["r"][:, 1]}, activity, cal.stride_period_s, clock_lag_s=0.0)
+    assert swapped.lag_s == 0.0 and swapped.fit.looks_swapped and swapped.fit.sides_ratio > 1.5
+    assert [w for w in swapped.warnings if "look swapped" in w] == list(swapped.warnings) and len(swapped.warnings) == 1

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from sspinn.imu.calibration import SIGN_MARGIN_WARN, Calibration
-from sspinn.imu.time_alignment import Alignment
+from sspinn.imu.time_alignment import CLOCK_SOURCES, Alignment
 from sspinn.model.drawing import save_figure
 
 
@@ -58,12 +58,18 @@ def calibration_markdown(title: str, calibration: Calibration, alignment: Alignm
     lines += ["Methods: " + "; ".join(sorted({f"axis — {c.axis_method}" for c in cal.sensors.values()}
                                             | {f"angle — {c.angle_method}" for c in cal.sensors.values()})), ""]
     if alignment is not None:
-        lines += ["## Time alignment with the GRF", "", alignment.describe(), "",
-                  "Candidates (peaks of the loading correlation, refined to the impact peak; the score sums the correlations):", "",
-                  "| lag (s) | activity | loading | impact | score |", "|---:|---:|---:|---:|---:|"]
-        for c in alignment.candidates[:4]:
+        lines += ["## Time alignment with the GRF", "", f"**Lag from: {CLOCK_SOURCES[alignment.clock]}**"
+                  + (" — each foot labelled with its own lag (--align per-foot)." if alignment.per_foot else "."), "",
+                  alignment.describe(), "",
+                  f"Candidates (peaks of the loading correlation, each fitted within ±{alignment.window_s:.2f} s — a quarter "
+                  "stride — refined to the impact peak; the score sums the correlations; exchanged: the best fit in the same "
+                  "window with the force channels' sides exchanged, loading + impact over the labelled sides'):", "",
+                  "| lag (s) | activity | loading | impact | score | exchanged / labelled |", "|---:|---:|---:|---:|---:|---:|"]
+        for f in alignment.window_fits[:4]:
+            c = f.labelled
             activity = f"{c.activity:.3f}" + ("" if c.use_activity else " (not scored)")
-            lines.append(f"| {c.lag_s:+.2f} | {activity} | {c.loading:.3f} | {c.impact:.3f} | {c.score:.3f} |")
+            exchanged = f"{f.sides_ratio:.3f}" if np.isfinite(f.sides_ratio) else "–"
+            lines.append(f"| {c.lag_s:+.2f} | {activity} | {c.loading:.3f} | {c.impact:.3f} | {c.score:.3f} | {exchanged} |")
         lines += ["", "Pairs: " + "; ".join(f"{k}: {_cell(v)}" for k, v in alignment.pairs.items()), ""]
         lines += [f"- {n}" for n in alignment.notes] + ([""] if alignment.notes else [])
     all_notes = list(cal.notes) + list(notes or [])

@@ -21,8 +21,10 @@ Pipeline (:func:`import_imu`):
    above 100 Hz low-pass filtered at 40 Hz first), check it against the subject
    (:mod:`sspinn.imu.grf_checks`: the vertical force's sign and unit are errors, a mean away from body
    weight and both feet unloaded for long are warnings), align it
-   (:func:`sspinn.imu.time_alignment.align_to_grf`; an ambiguous lag, force channels offset in time
-   and sides swapped against the IMUs are warnings), orient its horizontal axis along the walking
+   (:func:`sspinn.imu.time_alignment.align_to_grf`: files that start together and last equally
+   long, or ``same_clock=True``, keep their shared clock unless the evidence against it is
+   decisive; ``align="per-foot"`` labels each foot's force with its own lag; an ambiguous lag,
+   force channels offset in time, sides swapped against the IMUs and lag jumps are warnings), orient its horizontal axis along the walking
    direction (:func:`sspinn.imu.time_alignment.walking_direction_sign`), resample it onto the IMU
    samples (linear) and store ``grf_x_r, grf_y_r, grf_x_l, grf_y_l`` (N) as labels — the
    recording is cropped to the samples the GRF covers; the lag is in the provenance;
@@ -56,13 +58,22 @@ from sspinn.imu.cross_sensor_checks import check_mounting, pelvis_candidate_warn
 from sspinn.imu.grf_checks import check_vertical_force, unloaded_share_warning
 from sspinn.imu.sensor_map import SensorMap
 from sspinn.imu.stream import ANTI_ALIAS_HZ, DEFAULT_MAX_GAP_S, RATE_HZ, IMUImportError, IMUStream, resample
-from sspinn.imu.time_alignment import Alignment, align_to_grf, walking_direction_sign
+from sspinn.imu.time_alignment import (
+    CLOCK_SOURCES,
+    Alignment,
+    align_to_grf,
+    files_share_clock,
+    imu_signals,
+    walking_direction_sign,
+)
 from sspinn.imu.vendor_readers import read_imu_files, read_treadmill_grf_columns
 from sspinn.model.conventions import GRF
 from sspinn.run_folder import atomic_write_text
 
 #: Version of the import procedure, stored in the provenance.
-IMPORTER_VERSION: Final = 6
+IMPORTER_VERSION: Final = 7
+#: ``align`` modes of :func:`import_imu`: one lag for both feet, or each foot's own.
+ALIGN_MODES: Final = ("common", "per-foot")
 
 
 @dataclass
@@ -119,9 +130,15 @@ def import_imu(
     max_gap_s: float = DEFAULT_MAX_GAP_S,
     split: str = "all",
     imu_rate_hz: float | None = None,
+    same_clock: bool | None = None,
+    align: str = "common",
 ) -> ImportResult:
     """Import one trial (module docstring). ``height`` m, ``mass`` kg, ``speed`` m/s, times s;
-    ``imu_rate_hz``: the update rate of Xsens files whose header lacks one (Hz)."""
+    ``imu_rate_hz``: the update rate of Xsens files whose header lacks one (Hz); ``same_clock``:
+    True if the IMU and GRF files share a clock, False if not, None to tell from their starts and
+    durations; ``align``: ``"common"`` (one lag) or ``"per-foot"`` (each foot's own lag)."""
+    if align not in ALIGN_MODES:
+        raise IMUImportError(f"align must be one of {list(ALIGN_MODES)}, got {align!r}")
     files = [Path(f) for f in imu_files]
     smap = sensor_map if isinstance(sensor_map, SensorMap) else SensorMap.from_yaml(sensor_map)
     if split not in (*SPLITS, "all"):
@@ -132,6 +149,7 @@ def import_imu(
     ignored = IMUStream({s: stream.sensors[s] for s in stream.names if s in smap.ignore}, stream.source)
     stream.sensors = {s: stream.sensors[s] for s in stream.names if s in smap.assignments}
     t_file0 = min(float(s.time[0]) for s in stream.sensors.values())
+    t_file1 = max(float(s.time[-1]) for s in stream.sensors.values())
     if start_s is not None or end_s is not None:
         stream = stream.crop(start_s, end_s)
     grid, stream = resample(stream, max_gap_s=max_gap_s)
@@ -150,7 +168,8 @@ def import_imu(
     alignment = None
     notes = list(stream.notes)
     if grf is not None:
-        alignment, grf_labels, keep, grf_notes, grf_warnings = _grf_labels(Path(grf), signals, cal, times, mass)
+        alignment, grf_labels, keep, grf_notes, grf_warnings = _grf_labels(Path(grf), signals, cal, times, mass,
+                                                                           (t_file0, t_file1), same_clock, align)
         labels.update(grf_labels)
         notes += grf_notes
         cal.warnings += grf_warnings
@@ -205,12 +224,18 @@ def import_imu(
 
 
 def _grf_labels(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], cal: Calibration, times: np.ndarray,
-                mass: float) -> tuple[Alignment, dict[str, np.ndarray], np.ndarray, list[str], list[str]]:
+                mass: float, imu_span: tuple[float, float], same_clock: bool | None = None,
+                align: str = "common") -> tuple[Alignment, dict[str, np.ndarray], np.ndarray, list[str], list[str]]:
     """(alignment, GRF label columns on the IMU samples, mask of the samples the GRF covers, notes,
-    warnings: :mod:`sspinn.imu.grf_checks` and the alignment's)."""
+    warnings: :mod:`sspinn.imu.grf_checks` and the alignment's); ``imu_span``: the IMU files' first
+    and last times (s, before any crop), for the shared-clock test."""
     t_grf, forces, columns = read_treadmill_grf_columns(path)
     warnings = check_vertical_force(path, forces, columns, mass)
-    t_grf = t_grf - t_grf[0]
+    t_grf0 = float(t_grf[0])
+    shared = files_share_clock(imu_span[0], imu_span[1], t_grf0, float(t_grf[-1])) if same_clock is None else same_clock
+    # on a shared clock the GRF grid (from its first sample) reads the IMU grid's first time + this
+    clock_lag = float(times[0]) + imu_span[0] - t_grf0 if shared else None
+    t_grf = t_grf - t_grf0
     rate = 1.0 / float(np.median(np.diff(t_grf)))
     notes = []
     if rate > 1.01 * RATE_HZ:  # force plates often run at 1 kHz: anti-alias before going to 100 Hz
@@ -221,33 +246,43 @@ def _grf_labels(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], c
     on_grid = {s: np.column_stack([np.interp(grid, t_grf, f[:, k]) for k in range(2)]) for s, f in forces.items()}
     unloaded = unloaded_share_warning(path, on_grid["r"][:, 1], on_grid["l"][:, 1], mass)
     warnings += [unloaded] if unloaded else []
-    feet = {s[-1]: s for s in signals if s.startswith("foot")}
-    shanks = {s[-1]: s for s in signals if s.startswith("tibia")}
-    still, hit = (feet or shanks), (shanks or feet)
-    if not still:
+    inputs = imu_signals(signals)
+    if inputs is None:
         raise IMUImportError(f"{path}: aligning the GRF needs a foot or shank sensor on each side with a force plate; the map has none")
-    names = ("foot" if feet else "shank", "shank" if shanks else "foot")
-    activity = sum(np.linalg.norm(g, axis=1) for _, g in signals.values())
-    alignment = align_to_grf({s: np.linalg.norm(signals[seg][1], axis=1) for s, seg in still.items()},
-                             {s: signals[seg][0] for s, seg in hit.items()}, {s: f[:, 1] for s, f in on_grid.items()},
-                             activity, cal.stride_period_s, RATE_HZ, max_lag_s=max(grid[-1], times[-1] - times[0]) + 1.0,
-                             names=names)
+    still, hit, activity, names = inputs
+    alignment = align_to_grf(still, hit, {s: f[:, 1] for s, f in on_grid.items()}, activity, cal.stride_period_s, RATE_HZ,
+                             max_lag_s=max(grid[-1], times[-1] - times[0]) + 1.0, names=names, clock_lag_s=clock_lag, clock_source="files" if same_clock is None else "given",
+                             per_foot=align == "per-foot")
     warnings += [f"{path}: {w}" for w in alignment.warnings]
     # the alignment's lag is between the two grids' first samples: grid time = (IMU sample time − first IMU time) + lag
-    t_on_grf = times - times[0] + alignment.lag_s
-    file_lag = alignment.lag_s - float(times[0])
-    keep = (t_on_grf >= 0) & (t_on_grf <= grid[-1])
-    notes.append(f"GRF {path.name}: lag {file_lag:+.3f} s between the files' starts (t_GRF = t_IMU + lag); "
+    t_on_grf = {side: times - times[0] + lag for side, lag in alignment.label_lags.items()}
+    keep = np.logical_and.reduce([(t >= 0) & (t <= grid[-1]) for t in t_on_grf.values()])
+    notes.append(f"GRF {path.name}: {alignment_note(alignment, float(times[0]) + imu_span[0] - t_grf0)}; "
                  f"{int((~keep).sum())} IMU samples outside the GRF dropped")
     labels = {}
     for side in ("r", "l"):
         sign = walking_direction_sign(on_grid[side][:, 0], on_grid[side][:, 1], RATE_HZ)
         if sign < 0:
             notes.append(f"GRF {path.name}, side {side}: the force x axis points against the walking direction; flipped")
-        labels[f"grf_x_{side}"] = sign * np.interp(t_on_grf, grid, on_grid[side][:, 0])
-        labels[f"grf_y_{side}"] = np.interp(t_on_grf, grid, on_grid[side][:, 1])
+        labels[f"grf_x_{side}"] = sign * np.interp(t_on_grf[side], grid, on_grid[side][:, 0])
+        labels[f"grf_y_{side}"] = np.interp(t_on_grf[side], grid, on_grid[side][:, 1])
     assert set(labels) == set(GRF)
     return alignment, labels, keep, notes, warnings
+
+
+def alignment_note(alignment: Alignment, grid_offset_s: float) -> str:
+    """One line on the lag used between the files' starts (t_GRF = t_IMU + lag, s) and where it
+    came from: the shared clock kept, overruled, or measured; per foot with ``--align per-foot``.
+    ``grid_offset_s``: the alignment's lag minus the files' lag (the import's crop)."""
+    lags = alignment.label_lags
+    used = (f"lag {alignment.lag_s - grid_offset_s:+.3f} s" if not alignment.per_foot else
+            "lags per foot " + ", ".join(f"{s} {v - grid_offset_s:+.3f} s" for s, v in lags.items())
+            + f" (common {alignment.lag_s - grid_offset_s:+.3f} s)")
+    text = f"{used} between the files' starts (t_GRF = t_IMU + lag), from {CLOCK_SOURCES[alignment.clock]}"
+    if alignment.clock in ("files", "given") and alignment.measured_lag_s is not None:
+        text += (f"; measured {alignment.measured_lag_s - grid_offset_s:+.3f} s within ±{alignment.window_s:.2f} s "
+                 "(--separate-clocks to use it)")
+    return text
 
 
 def add_to_index(folder: Path, rec: Recording, split: str) -> Path:
@@ -285,6 +320,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-standing", action="store_true", help="ignore quiet standing (in-plane angles from walking alone)")
     p.add_argument("--max-gap", type=bounded(float, 0.0, 10.0, " s"), default=DEFAULT_MAX_GAP_S, help="longest gap interpolated, s")
     p.add_argument("--split", default="all", choices=[*SPLITS, "all"], help="split of dataset.json (all: train, val and test)")
+    clock = p.add_mutually_exclusive_group()
+    clock.add_argument("--same-clock", dest="same_clock", action="store_const", const=True, default=None,
+                       help="the IMU and GRF files share a clock: keep it unless the evidence against it is decisive "
+                       "(default: when they start together and last equally long)")
+    clock.add_argument("--separate-clocks", dest="same_clock", action="store_const", const=False,
+                       help="the files' clocks are unrelated: search the lag (ambiguous by whole strides without a change of activity)")
+    p.add_argument("--align", choices=ALIGN_MODES, default="common",
+                   help="GRF alignment: one lag for both feet (common) or each foot's own (per-foot: force plates on separate clocks)")
     p.add_argument("--imu-rate", type=bounded(float, 1.0, 2000.0, " Hz"), default=None,
                    help="update rate of the Xsens files, Hz: needed where PacketCounter times the samples and no "
                    "'// Update Rate' header line gives it (a header that disagrees is an error)")
@@ -295,7 +338,7 @@ def run(args: argparse.Namespace) -> int:
     result = import_imu(
         args.imu, args.sensor_map, args.height, args.mass, args.out, subject=args.subject, name=args.name, grf=args.grf,
         speed=args.speed, start_s=args.start, end_s=args.end, standing=not args.no_standing, max_gap_s=args.max_gap,
-        split=args.split, imu_rate_hz=args.imu_rate,
+        split=args.split, imu_rate_hz=args.imu_rate, same_clock=args.same_clock, align=args.align,
     )
     rec, cal = result.recording, result.calibration
     print(f"{rec.name}: {rec.n_samples} samples ({rec.duration:.1f} s), IMUs {list(rec.segments)} → {result.csv}")
@@ -303,6 +346,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {c.sensor} → {seg}: out-of-plane {c.out_of_plane_fraction:.1%}, φ {c.angle_deg:+.1f}°, sign margin {c.sign_margin:.2f}")
     if result.alignment is not None:
         print(f"  GRF: {result.alignment.describe()}")
+        line = next((n for n in rec.provenance["notes"] if n.startswith("GRF ") and "between the files' starts" in n), None)
+        if line is not None:
+            print(f"  NOTE: time alignment: {line}")
     if rec.provenance["gaps"]:
         print(f"  {len(rec.provenance['gaps'])} gap(s) interpolated (listed in the report), the first: {rec.provenance['gaps'][0]}")
     for warning in cal.warnings:
