@@ -39,12 +39,9 @@ import numpy as np
 import torch
 import yaml
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from sspinn.data.dataset import Dataset, Labels, Recording  # noqa: E402
-from sspinn.model.conventions import GRF, SEGMENTS  # noqa: E402
-from sspinn.testing import (  # noqa: E402
+from sspinn.data.dataset import Dataset, Labels, Recording
+from sspinn.model.conventions import GRF, SEGMENTS
+from sspinn.testing import (
     OpenSenseEdit,
     axis_constant,
     edit_column,
@@ -58,7 +55,9 @@ from sspinn.testing import (  # noqa: E402
     walking_recording,
     write_opensense,
 )
-from sspinn.testing.perturbations import perturb  # noqa: E402
+from sspinn.testing.perturbations import perturb
+
+ROOT = Path(__file__).resolve().parents[1]
 
 #: The real OpenSense export whose copies the ``sspinn import`` cases edit, and its sensor map.
 #: ../shared/data (or $SSPINN_SHARED_DATA, as for the tests).

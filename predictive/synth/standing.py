@@ -43,7 +43,7 @@ from sspinn.model.conventions import GRAVITY, N_Q, index
 from sspinn.model.dynamics import inverse_dynamics
 from sspinn.model.kinematics import point_index, point_kinematics
 from sspinn.model.trajectory import Trajectory
-from sspinn.validation.inverse_dynamics import grf_inputs
+from sspinn.data.measured_loads import grf_inputs
 
 #: Frequencies of the sway's sinusoids, Hz (quiet standing sways below 1 Hz).
 SWAY_HZ: Final = (0.11, 0.23, 0.37, 0.61)
