@@ -15,6 +15,32 @@ from their files), :mod:`agents.plot_learning_curve`.
 Importing this package imports neither torch nor stable-baselines3.
 """
 
-from agents.config import AgentConfig, ConfigError, config_from_dict, load_config
+from __future__ import annotations
 
-__all__ = ["AgentConfig", "ConfigError", "config_from_dict", "load_config"]
+from agents.config import AgentConfig, ConfigError, config_from_dict, load_config
+from sspinn.lazy_exports import attach
+
+#: public name → the module that defines it (imported on first use)
+_EXPORTS: dict[str, str] = {
+    **dict.fromkeys(("train",), "agents.train"),
+    **dict.fromkeys(("evaluate", "record",), "agents.evaluate"),
+    **dict.fromkeys(("LoadedAgent", "load_agent",), "agents.checkpoints"),
+    **dict.fromkeys(("EpisodeResult", "run_episode",), "agents.rollout"),
+    **dict.fromkeys(("make_env",), "agents.builders"),
+}
+__all__ = [
+    "AgentConfig",
+    "ConfigError",
+    "EpisodeResult",
+    "LoadedAgent",
+    "config_from_dict",
+    "evaluate",
+    "load_agent",
+    "load_config",
+    "make_env",
+    "record",
+    "run_episode",
+    "train",
+]
+
+__getattr__, __dir__ = attach(__name__, _EXPORTS)
