@@ -3,7 +3,9 @@
 Each package's ``__init__`` lists its public names in ``__all__`` and maps each to the module
 that defines it; :func:`attach` gives the ``__getattr__`` and ``__dir__`` that import that module
 when the name is first read, so that ``import sspinn`` (or ``import predictive``) stays fast and
-imports neither torch nor CasADi. A name that maps to ``<package>.<name>`` is that sub-module.
+imports neither torch nor CasADi. A name that maps to ``<package>.<name>`` is that sub-module;
+``"module:attribute"`` exports the attribute under another name (a public name must not be the
+name of a sub-module: importing the sub-module would replace it on the package).
 
 Why by hand: ``lazy_loader`` (scientific-python) does the same in about as many lines but would be
 one more dependency for these few.
@@ -27,7 +29,8 @@ def attach(package: str, exports: Mapping[str, str]) -> tuple[Callable[[str], An
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
         if module == f"{package}.{name}":
             return import_module(module)
-        return getattr(import_module(module), name)
+        module, _, attribute = module.partition(":")
+        return getattr(import_module(module), attribute or name)
 
     def __dir__() -> list[str]:
         return sorted(set(vars(sys.modules[package])) | set(exports))

@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -24,6 +25,18 @@ def test_every_name_in_all_resolves(package: str) -> None:
     missing = [name for name in names if getattr(module, name, None) is None]
     assert not missing, f"{package}.__all__ names that do not resolve: {missing}"
     assert set(names) <= set(dir(module))
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_no_public_name_is_shadowed_by_a_sub_module(package: str) -> None:
+    """Importing ``package.x`` sets the attribute ``x`` of the package to that module: a public
+    name ``x`` that is not that module would change meaning once anything imports it."""
+    module = importlib.import_module(package)
+    folder = Path(module.__file__).parent
+    submodules = {p.stem for p in folder.glob("*.py")} | {p.parent.name for p in folder.glob("*/__init__.py")}
+    shadowed = [name for name in module.__all__ if name in submodules
+                and getattr(module, name) is not importlib.import_module(f"{package}.{name}")]
+    assert not shadowed, f"{package}.__all__ names that are also sub-modules: {shadowed}"
 
 
 def test_an_unknown_name_is_an_attribute_error() -> None:
