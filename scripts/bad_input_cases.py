@@ -329,11 +329,11 @@ def main() -> None:
 
     def generator() -> Path:
         """An untrained gait generator whose file says it was trained on 1–1.5 m/s."""
-        from predictive.generator.gait_generator import GaitGenerator, GeneratorConfig, save_generator
+        from predictive.generator.gait_generator import GaitGeneratorNet, GeneratorConfig, save_generator
 
         path = tmp / "generator.pt"
         if not path.exists():
-            save_generator(GaitGenerator(2, 8, 1).double(), path, GeneratorConfig(speeds=(1.0, 1.5), harmonics=2, hidden=8, layers=1))
+            save_generator(GaitGeneratorNet(2, 8, 1).double(), path, GeneratorConfig(speeds=(1.0, 1.5), harmonics=2, hidden=8, layers=1))
         return path
 
     # signal checks: edited copies of the real CMU excerpt imported to a recording CSV + sidecar

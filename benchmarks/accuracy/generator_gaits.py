@@ -1,7 +1,7 @@
 """Properties of generated gaits (one forward pass): Kane residual and swing-foot clearance.
 
 For every generator and speed: the cycle's RMS pelvis residual (BW, translational rows, analytic
-q̈ — :func:`predictive.generator.gait_generator.generate`'s ``kane_rms_bw``) and the lowest point
+q̈ — :meth:`predictive.generator.GaitGenerator.predict`'s ``kane_rms_bw``) and the lowest point
 (heel or toe, m above the ground) of the right foot while it swings — while its contact point
 moves forward more than 0.5 m/s faster than the pelvis. No simulation, no controller.
 
@@ -23,7 +23,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--speeds", type=float, nargs="+", default=[1.3, 2.2, 3.5])
     args = parser.parse_args(argv)
 
-    from predictive.generator.gait_generator import generate, load_generator
+    from predictive.generator.gait_generator import GaitGenerator
     from sspinn.model import dynamics, kinematics
     from sspinn.model.body import BodyParameters
     from sspinn.model.contact import ContactParameters
@@ -32,10 +32,10 @@ def main(argv: list[str] | None = None) -> int:
     print("| generator | " + " | ".join(f"{v} m/s: Kane (BW), clearance (mm)" for v in args.speeds) + " |")
     print("|---|" + "---|" * len(args.speeds))
     for path in args.generators:
-        model, config = load_generator(path)
+        generator = GaitGenerator.load(path)
         cells = []
         for speed in args.speeds:
-            gait = generate(model, speed, body, config=config)
+            gait = generator.predict(speed, body)
             _, w = dynamics.contact_forces(gait.q, gait.u, body, ContactParameters(**gait.contact))
             points = np.asarray(kinematics.point_kinematics(gait.q, gait.u, gait.qdd, np.asarray(w), body))
             swing = points[:, kinematics.point_index("contact_r"), 2] > gait.u[:, 0] + 0.5

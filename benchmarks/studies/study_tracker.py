@@ -37,13 +37,13 @@ class Case:
     def __init__(self, generator: Path, speed: float, noise: float) -> None:
         from predictive.experiments.robustness import evaluation_env
         from predictive.generator.closed_loop import linearise, resample_cycle
-        from predictive.generator.gait_generator import generate, load_generator
+        from predictive.generator.gait_generator import GaitGenerator
         from sspinn.model.body import BodyParameters
 
-        model, config = load_generator(generator)
+        trained = GaitGenerator.load(generator)
         body = BodyParameters.from_anthropometry()
         self.env = evaluation_env(speed, body, {"reset_noise_scale": noise})
-        gait = generate(model, speed, body, config=config)
+        gait = trained.predict(speed, body)
         self.ref = resample_cycle(gait.time, gait.q, gait.tau, gait.speed, gait.duration, self.env)
         self.A, self.B = linearise(self.env, self.ref)
 

@@ -26,12 +26,16 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from predictive.ocp.limits import MAX_SPEED
 from sspinn.data.dataset import SPLITS
+from sspinn.errors import bounded
 from sspinn.run_folder import OVERWRITE_HELP
 from sspinn.yaml_config import shipped_path
 
 #: Sub-command name.
 COMMAND = "synth-standing"
+#: Longest standing (each end) and steady-walking span of one recording, s.
+MAX_SECONDS = 600.0
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -39,12 +43,14 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     ap = sub.add_parser(COMMAND, help="write quiet-standing (or stand-walk-stand) recordings of a synthetic configuration's subjects")
     ap.add_argument("--config", type=Path, default=shipped_path("configs/synth/default.yaml"), help="synthetic data configuration")
     ap.add_argument("--split", choices=SPLITS, default="test", help="whose subjects stand (default test)")
-    ap.add_argument("--duration", type=float, default=10.0, help="seconds of standing per subject (default 10)")
+    ap.add_argument("--duration", type=bounded(float, 0.0, MAX_SECONDS), default=10.0,
+                    help=f"seconds of standing per subject (> 0, at most {MAX_SECONDS:g}; default 10)")
     ap.add_argument("--with", dest="base", type=Path, help="a dataset of the same configuration whose recordings to write too "
                     "(each subject's standing recording then goes to the subject's split; --split is ignored)")
-    ap.add_argument("--start-stop", dest="start_stop", type=float, metavar="SPEED",
+    ap.add_argument("--start-stop", dest="start_stop", type=bounded(float, 0.0, MAX_SPEED), metavar="SPEED",
                     help="write stand-walk-stand recordings at this walking speed (m/s) instead of standing ones")
-    ap.add_argument("--walk", type=float, default=2.0, help="with --start-stop: seconds of steady walking (default 2)")
+    ap.add_argument("--walk", type=bounded(float, 0.0, MAX_SECONDS), default=2.0,
+                    help=f"with --start-stop: seconds of steady walking (0–{MAX_SECONDS:g}; default 2)")
     ap.add_argument("--out", type=Path, required=True, help="dataset folder to write")
     ap.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     return ap
