@@ -71,7 +71,8 @@ from sspinn.estimator.evaluation import finite_or_null
 from sspinn.estimator.inference import GaitEstimate, estimate_recording
 from sspinn.estimator.load_transfer import linear_load_transfer
 from sspinn.estimator.model_store import load_model
-from sspinn.estimator.training import TrainConfig, Trainer, adaptation_config
+from sspinn.estimator.sspinnpose import SSPINNpose
+from sspinn.estimator.training import TrainConfig, adaptation_config
 from sspinn.estimator.trivial_predictors import GRFProfilePredictor, TrivialPredictor
 from sspinn.imu.pipeline import IMPORTER_VERSION, import_imu
 from sspinn.imu.turns import turning_mask
@@ -232,9 +233,16 @@ def train_arm(arm: str, train: list[Recording], out: Path, config_path: Path, st
     if summary.exists() and json.loads(summary.read_text())["steps"] >= config.steps:
         return run / "model.pt"
     resume = (run / "checkpoint.pt").exists()
-    trainer = Trainer(config, run)
-    trainer.fit(train, resume=resume, init_from=None if resume or arm == "scratch" else pretrained)
-    print(f"{arm}: {trainer.step} steps ({trainer.stopped_by}) → {run / 'model.pt'}", flush=True)
+    if arm == "scratch":
+        estimator = SSPINNpose(config).fit(train, out=run, resume=resume)
+    elif arm in ("adapted", "adapted_all"):  # the configuration above, from the pretrained weights
+        estimator = SSPINNpose.load(pretrained).adapt(train, out=run, resume=resume, settings=adapt_settings, threads=threads,
+                                                      time_limit_s=config.time_limit_s, steps=config.steps)
+    else:  # finetune: the configuration above (fine-tuning weights), from the pretrained weights
+        estimator = SSPINNpose.load(pretrained)
+        estimator.config = config
+        estimator.finetune(train, out=run, resume=resume)
+    print(f"{arm}: {estimator.steps_} steps ({estimator.stopped_by_}) → {run / 'model.pt'}", flush=True)
     return run / "model.pt"
 
 

@@ -538,7 +538,9 @@ class NonFiniteLossError(RuntimeError):
 
 
 class Trainer:
-    """Trains an :class:`SSPINNposeNet` on recordings, self-supervised.
+    """Trains an :class:`SSPINNposeNet` on recordings, self-supervised: the machinery behind
+    :meth:`SSPINNpose.fit <sspinn.estimator.sspinnpose.SSPINNpose.fit>`, ``adapt`` and ``finetune``
+    (the one way in for users and the project's own code; not a public name).
 
     Args:
         config: the run's configuration.
