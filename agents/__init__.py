@@ -21,6 +21,8 @@ on first use). In Python: ``agents.train_agent(agents.load_config(PATH), OUT)``,
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from agents.config import AgentConfig, ConfigError, config_from_dict, load_config
 from sspinn.lazy_exports import attach
 
@@ -47,5 +49,13 @@ __all__ = [
     "run_episode",
     "train_agent",
 ]
+
+if TYPE_CHECKING:  # the names for type checkers and editors; imported on first use at run time
+    from agents.builders import make_env
+    from agents.checkpoints import LoadedAgent, load_agent
+    from agents.evaluate import evaluate as evaluate_agent
+    from agents.evaluate import record as record_agent
+    from agents.rollout import EpisodeResult, run_episode
+    from agents.train import train as train_agent
 
 __getattr__, __dir__ = attach(__name__, _EXPORTS)

@@ -24,6 +24,8 @@ The batched torch version (differentiable, CPU or GPU) is :class:`envs.batched.B
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from gymnasium.envs.registration import register, registry
 
 from sspinn.lazy_exports import attach
@@ -55,6 +57,12 @@ _EXPORTS: dict[str, str] = {
     "BatchedSagittalWalker": "envs.batched",
     "WalkerConfig": "envs.config",
 }
+if TYPE_CHECKING:  # the names for type checkers and editors; imported on first use at run time
+    from envs.batched import BatchedSagittalWalker
+    from envs.config import WalkerConfig
+    from envs.sagittal_walker import SagittalWalkerEnv
+    from envs.vector import SagittalWalkerVectorEnv
+
 __getattr__, __dir__ = attach(__name__, _EXPORTS)
 
 __all__ = [

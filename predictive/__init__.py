@@ -13,6 +13,8 @@ results are :class:`GaitSolution` objects. Command line:
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from sspinn.lazy_exports import attach
 
 #: public name → the module that defines it (imported on first use)
@@ -40,5 +42,21 @@ __all__ = [
     "solve_predictive",
     "typical_stride_duration",
 ]
+
+if TYPE_CHECKING:  # the names for type checkers and editors; imported on first use at run time
+    from predictive.generator.gait_generator import GaitGenerator, GeneratorConfig
+    from predictive.ocp.collocation import (
+        DEFAULT_STARTS,
+        OCPError,
+        OCPSettings,
+        PredictiveGaitProblem,
+        Start,
+        solve_predictive,
+    )
+    from predictive.ocp.generic_gait import typical_stride_duration
+    from predictive.ocp.settings import default_joint_limits
+    from predictive.ocp.solution import GaitSolution
+    from predictive.synth.config import SynthConfig
+    from predictive.synth.pipeline import generate_dataset
 
 __getattr__, __dir__ = attach(__name__, _EXPORTS)

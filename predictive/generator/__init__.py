@@ -12,6 +12,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from sspinn.lazy_exports import attach
 
 #: public name → the module that defines it (imported on first use)
@@ -30,5 +32,10 @@ __all__ = [
     "OCPControllers",
     "TrackerSettings",
 ]
+
+if TYPE_CHECKING:  # the names for type checkers and editors; imported on first use at run time
+    from predictive.generator.closed_loop import GaitTracker, LQRWeights, TrackerSettings
+    from predictive.generator.controllers import GeneratorControllers, OCPControllers
+    from predictive.generator.gait_generator import GaitGenerator, GeneratorConfig, GeneratorWeights
 
 __getattr__, __dir__ = attach(__name__, _EXPORTS)

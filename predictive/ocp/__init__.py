@@ -16,6 +16,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from sspinn.lazy_exports import attach
 
 #: public name → the module that defines it (imported on first use)
@@ -44,5 +46,22 @@ __all__ = [
     "solve_tracking",
     "typical_stride_duration",
 ]
+
+if TYPE_CHECKING:  # the names for type checkers and editors; imported on first use at run time
+    from predictive.ocp import generic_gait
+    from predictive.ocp.collocation import (
+        DEFAULT_STARTS,
+        OCPError,
+        OCPSettings,
+        PredictiveGaitProblem,
+        Start,
+        solve_predictive,
+    )
+    from predictive.ocp.generic_gait import typical_stride_duration
+    from predictive.ocp.imu_tracking import solve_imu_tracking
+    from predictive.ocp.limits import RequestError
+    from predictive.ocp.settings import default_joint_limits
+    from predictive.ocp.solution import GaitSolution
+    from predictive.ocp.tracking import TrackingSettings, solve_tracking
 
 __getattr__, __dir__ = attach(__name__, _EXPORTS)

@@ -17,6 +17,8 @@ each step lives in its own module:
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from sspinn.lazy_exports import attach
 
 #: public name → the module that defines it (imported on first use)
@@ -33,5 +35,11 @@ __all__ = [
     "standing_recording",
     "start_stop_recording",
 ]
+
+if TYPE_CHECKING:  # the names for type checkers and editors; imported on first use at run time
+    from predictive.synth.config import SynthConfig
+    from predictive.synth.pipeline import SynthWarning, generate_dataset
+    from predictive.synth.standing import standing_recording
+    from predictive.synth.start_stop import start_stop_recording
 
 __getattr__, __dir__ = attach(__name__, _EXPORTS)

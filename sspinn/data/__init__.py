@@ -7,6 +7,8 @@ labels (:mod:`~sspinn.data.plausibility`), the IMU sensor-noise model
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from sspinn.lazy_exports import attach
 
 #: public name → the module that defines it (imported on first use)
@@ -42,5 +44,15 @@ __all__ = [
     "read_averaged_stride",
     "read_csv_recording",
 ]
+
+if TYPE_CHECKING:  # the names for type checkers and editors; imported on first use at run time
+    from sspinn.data.csv_readers import read_averaged_stride, read_csv_recording
+    from sspinn.data.dataset import SAMPLE_RATE_HZ, SPLITS, DataFormatError, Dataset, Labels, Recording
+    from sspinn.data.gait_events import GaitEvents, detect_events
+    from sspinn.data.loading import dataset_recordings, labelled_recordings, open_recordings
+    from sspinn.data.measured_loads import grf_inputs
+    from sspinn.data.plausibility import ImplausibleRecordingError
+    from sspinn.data.sensor_noise import IMUErrorModel, measure_imu
+    from sspinn.data.signal_checks import ImpossibleSignalError, SignalWarning, check_recording
 
 __getattr__, __dir__ = attach(__name__, _EXPORTS)

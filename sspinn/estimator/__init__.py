@@ -7,6 +7,8 @@ and streaming (:mod:`~sspinn.estimator.inference`), evaluation against labels
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from sspinn.lazy_exports import attach
 
 #: public name → the module that defines it (imported on first use)
@@ -41,5 +43,16 @@ __all__ = [
     "load_model",
     "save_model",
 ]
+
+if TYPE_CHECKING:  # the names for type checkers and editors; imported on first use at run time
+    from sspinn.estimator.evaluation import EvaluationError, Metrics, compute_metrics, evaluate
+    from sspinn.estimator.inference import GaitEstimate, StreamingEstimator, estimate_recording
+    from sspinn.estimator.model_store import StoredModel, load_model, save_model
+    from sspinn.estimator.quality import QualityCalibration
+    from sspinn.estimator.sspinnpose import NotFittedError, SSPINNpose
+    from sspinn.estimator.training import TrainConfig, adaptation_config
+    from sspinn.estimator.trivial_predictors import TrivialPredictor
+    from sspinn.estimator.uncertainty import UncertaintyCalibration
+    from sspinn.estimator.zupt import SagittalZuptKalman
 
 __getattr__, __dir__ = attach(__name__, _EXPORTS)

@@ -8,6 +8,8 @@ cross-sensor checks (:mod:`~sspinn.imu.cross_sensor_checks`), GRF time alignment
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from sspinn.lazy_exports import attach
 
 #: public name → the module that defines it (imported on first use)
@@ -34,5 +36,13 @@ __all__ = [
     "import_imu",
     "read_imu_files",
 ]
+
+if TYPE_CHECKING:  # the names for type checkers and editors; imported on first use at run time
+    from sspinn.imu.calibration import Calibration, SensorCalibrationError, calibrate
+    from sspinn.imu.pipeline import ImportResult, import_imu
+    from sspinn.imu.sensor_map import SensorMap, SensorMapError
+    from sspinn.imu.stream import IMUImportError, IMUStream
+    from sspinn.imu.time_alignment import Alignment, AlignmentError, align_to_grf
+    from sspinn.imu.vendor_readers import read_imu_files
 
 __getattr__, __dir__ = attach(__name__, _EXPORTS)

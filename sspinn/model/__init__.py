@@ -12,6 +12,8 @@ model API), :mod:`~sspinn.model.integrators` and :mod:`~sspinn.model.simulation`
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from sspinn.lazy_exports import attach
 
 #: public name → the module that defines it (imported on first use)
@@ -49,5 +51,15 @@ __all__ = [
     "simulation",
     "virtual_imu",
 ]
+
+if TYPE_CHECKING:  # the names for type checkers and editors; imported on first use at run time
+    from sspinn.model import conventions, dynamics, kinematics, simulation
+    from sspinn.model.body import BodyParameters, IMUPlacement, JointLimits, ParameterError
+    from sspinn.model.contact import ContactParameters
+    from sspinn.model.conventions import COORDINATES, GRAVITY, SEGMENTS
+    from sspinn.model.dynamics import StateError, forward_dynamics, inverse_dynamics, kane_residual, mass_matrix
+    from sspinn.model.kinematics import point_kinematics, virtual_imu
+    from sspinn.model.simulation import simulate
+    from sspinn.model.trajectory import Trajectory, TrajectoryError
 
 __getattr__, __dir__ = attach(__name__, _EXPORTS)
