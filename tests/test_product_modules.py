@@ -51,7 +51,7 @@ def imported_names(path: Path) -> set[str]:
             names |= {alias.name for alias in node.names}
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             names |= {node.module} | {f"{node.module}.{alias.name}" for alias in node.names}
-        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value.split(".")[0] in PACKAGES:
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value.split(".")[0] in PACKAGES + ("benchmarks",):
             names.add(node.value.split(":")[0])
     return names
 
@@ -77,6 +77,14 @@ def test_the_allow_list_names_only_modules_that_need_it() -> None:
     files, unused = product_files(), set(unused_modules())
     stale = [name for name in ALLOWED if name not in files or (name not in unused and not files[name].name == "__init__.py")]
     assert not stale, f"ALLOWED entries that are gone or now imported by the product: {stale}"
+
+
+def test_no_package_imports_the_measurements_or_the_tests() -> None:
+    """``benchmarks``, ``scripts``, ``examples`` and ``tests`` are not installed: the packages never import them."""
+    outside = ("benchmarks", "scripts", "examples", "tests")
+    found = [f"{module} imports {name}" for module, path in product_files().items()
+             for name in imported_names(path) if name.split(".")[0] in outside]
+    assert not found, found
 
 
 def test_the_check_sees_a_module_nobody_imports(tmp_path: Path) -> None:
