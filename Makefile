@@ -70,7 +70,7 @@ generate: $(STAMP)
 	$(BIN)/python -m sspinn.model.codegen
 
 bench: $(STAMP)
-	$(BIN)/python benchmarks/bench_dynamics.py
+	$(BIN)/python -m benchmarks.speed.bench_dynamics
 
 # Optimisation tests + the default synthetic dataset (cold) under 12 simulated other machines.
 robustness: $(STAMP)

@@ -13,7 +13,7 @@ Layout of a run directory ``<out>`` written by :mod:`agents.train`::
     <out>/tb/                                  TensorBoard event files
 
 Loading runs no code from the files, for evaluation (:func:`load_agent`) as for ``train
---resume`` (:func:`load_model`, :func:`load_statistics`, :func:`restore_replay_buffer`): SB3
+--resume`` (:func:`load_algorithm`, :func:`load_statistics`, :func:`restore_replay_buffer`): SB3
 stores some attributes of a model (its spaces, policy class and keyword arguments, schedules,
 buffers, exploration noise) with cloudpickle, which would execute whatever a crafted ``.zip``
 holds; :func:`safe_custom_objects` replaces every such attribute by the value rebuilt from the
@@ -175,7 +175,7 @@ def load_agent(checkpoint: str | Path, config: AgentConfig | None = None, device
     from agents.gait_prior import load_prior
 
     prior = load_prior(config) if config.prior.clock else None
-    agent = LoadedAgent(model=load_model(path, config, device=device), config=config, prior=prior)
+    agent = LoadedAgent(model=load_algorithm(path, config, device=device), config=config, prior=prior)
     stats = vecnormalize_path(path)
     if stats.is_file():
         vec_normalize = load_statistics(stats)
@@ -197,7 +197,7 @@ class UnsafeCheckpointError(UserError):
 _ONLY_OURS = "only load agents trained with `python -m agents train`"
 
 
-def load_model(checkpoint: str | Path, config: AgentConfig, env: Any = None, device: str = "cpu", **kwargs: Any) -> Any:
+def load_algorithm(checkpoint: str | Path, config: AgentConfig, env: Any = None, device: str = "cpu", **kwargs: Any) -> Any:
     """The SB3 model saved in ``checkpoint``, loaded without unpickling anything
     (:func:`safe_custom_objects`); ``env`` (a VecEnv, to continue training) and ``kwargs`` go to
     ``<Algorithm>.load``. A file that is not such a checkpoint, or whose network does not fit

@@ -11,6 +11,10 @@ falls / mean speed.
 The environments of a ``DummyVecEnv`` step in lock-step, so the training step count at the end of
 an episode of environment *i* is ``n_envs × (steps done by environment i)``; this also holds
 across ``--resume`` (the Monitor files are appended to).
+
+Why not SB3's ``results_plotter``: its ``load_results``/``ts2xy`` merge the environments'
+episodes in wall-clock order and count steps as the running sum of finished episodes' lengths,
+which lags the steps taken by up to an episode per environment; the lock-step count above is exact.
 """
 
 from __future__ import annotations

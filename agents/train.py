@@ -34,7 +34,7 @@ from agents.checkpoints import (
     LoadedAgent,
     checkpoint_steps,
     latest_checkpoint,
-    load_model,
+    load_algorithm,
     load_statistics,
     replay_buffer_path,
     restore_replay_buffer,
@@ -291,7 +291,7 @@ def _train(config: AgentConfig, out: Path, resume: bool, overwrite: bool) -> Bas
 
     # 3. the model: new, or the latest checkpoint (with its replay buffer, if one was kept)
     if resume:
-        model = load_model(checkpoint, config, env=venv, device="cpu", tensorboard_log=tensorboard_log)
+        model = load_algorithm(checkpoint, config, env=venv, device="cpu", tensorboard_log=tensorboard_log)
         buffer = replay_buffer_path(checkpoint)
         if hasattr(model, "replay_buffer") and buffer.is_file():
             restore_replay_buffer(model, buffer)

@@ -24,9 +24,11 @@ The batched torch version (differentiable, CPU or GPU) is :class:`envs.batched.B
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 from gymnasium.envs.registration import register, registry
+
+from sspinn.lazy_exports import attach
 
 ENV_ID = "sspinn/SagittalWalker-v0"
 #: Episode length of the registration, control steps: ``WalkerConfig().max_episode_steps`` (not
@@ -48,20 +50,22 @@ def register_envs() -> None:
 register_envs()
 
 
-def __getattr__(name: str) -> Any:
-    if name == "SagittalWalkerEnv":
-        from envs.sagittal_walker import SagittalWalkerEnv
+#: public name → the module that defines it (imported on first use)
+_EXPORTS: dict[str, str] = {
+    "SagittalWalkerEnv": "envs.sagittal_walker",
+    "SagittalWalkerVectorEnv": "envs.vector",
+    "BatchedSagittalWalker": "envs.batched",
+    "WalkerConfig": "envs.config",
+}
+if TYPE_CHECKING:  # the names for type checkers and editors; imported on first use at run time
+    from envs.batched import BatchedSagittalWalker
+    from envs.config import WalkerConfig
+    from envs.sagittal_walker import SagittalWalkerEnv
+    from envs.vector import SagittalWalkerVectorEnv
 
-        return SagittalWalkerEnv
-    if name == "SagittalWalkerVectorEnv":
-        from envs.vector import SagittalWalkerVectorEnv
+__getattr__, __dir__ = attach(__name__, _EXPORTS)
 
-        return SagittalWalkerVectorEnv
-    if name == "BatchedSagittalWalker":
-        from envs.batched import BatchedSagittalWalker
-
-        return BatchedSagittalWalker
-    raise AttributeError(f"module 'envs' has no attribute {name!r}")
-
-
-__all__ = ["ENV_ID", "MAX_EPISODE_STEPS", "BatchedSagittalWalker", "SagittalWalkerEnv", "SagittalWalkerVectorEnv", "register_envs"]
+__all__ = [
+    "ENV_ID", "MAX_EPISODE_STEPS", "BatchedSagittalWalker", "SagittalWalkerEnv", "SagittalWalkerVectorEnv", "WalkerConfig",
+    "register_envs",
+]

@@ -47,7 +47,7 @@ class BatchedSagittalWalker(WalkerParameters, gymnasium.vector.VectorEnv):
     ``info`` quantities (speed, distance, cost of transport, ...) refer to the finished step. With
     ``auto_reset=False`` (``DISABLED``) finished rows keep stepping until :meth:`reset` is called.
 
-    **Speed** (``benchmarks/bench_env.py --batched-only``, float32, random actions; docs/environment.md):
+    **Speed** (``benchmarks/speed/bench_env.py --batched-only``, float32, random actions; docs/environment.md):
     on an NVIDIA H200 with ``compile="step-graph"``, 11.8 M environment steps/s at N = 65,536 (542×
     the single environment on that machine's CPU) and 1.4 M at N = 4,096, where the replay of 50
     substeps' kernels, not arithmetic, bounds a step; ``compile=True`` 1.4 M, eager 0.14 M at

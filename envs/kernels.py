@@ -379,7 +379,7 @@ def step_parallel(active, actions, q, u, grf, tau, p, fenv, ienv, strength, nois
 @numba.njit(cache=True, parallel=True)
 def physics_parallel(q, u, tau, passive, p, c, dt, substeps, method, grf, work):  # pragma: no cover - compiled
     """Only the physics of one control interval for every row, in parallel: the roofline of
-    :func:`step_parallel` (``benchmarks/bench_env.py``; ``work`` as there). Returns the number of
+    :func:`step_parallel` (``benchmarks/speed/bench_env.py``; ``work`` as there). Returns the number of
     non-finite rows."""
     failures = 0
     force = np.zeros(N_Q)

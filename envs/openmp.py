@@ -23,7 +23,7 @@ def prefer_passive_openmp() -> bool:
     """Ask for OpenMP threads that wait passively (``OMP_WAIT_POLICY=passive``) if OpenMP is not
     loaded yet and the variable is unset, so that :func:`step_parallel` runs on OpenMP (see
     :func:`_choose_threading_layer`). Call it before anything imports torch (``python -m agents``
-    and ``benchmarks/bench_env.py`` do): the policy then also applies to torch's OpenMP threads, whose
+    and ``benchmarks/speed/bench_env.py`` do): the policy then also applies to torch's OpenMP threads, whose
     multi-threaded operations then wait passively too (the batched torch environment at N = 4,096
     on 2 threads: 12 k instead of 24 k steps/s; on one thread, the agents' default, unchanged).
     Returns whether the policy is passive."""

@@ -171,7 +171,7 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
     Control at 100 Hz; each 0.01 s interval is integrated with **semi-implicit (symplectic)
     Euler, 50 substeps of 0.2 ms**, and the forward-simulation friction uses a slip velocity
     **v_s = 0.2 m/s** (instead of the contact module's 0.05 m/s). Reasons, from
-    ``python benchmarks/bench_env.py --step-study`` on the 1.75 m / 70 kg body:
+    ``python -m benchmarks.speed.bench_env --step-study`` on the 1.75 m / 70 kg body:
 
     * The friction law −μ·tanh(ẋ/v_s)·F_y is stiff: its damping is μ·F_y/v_s, so the largest stable
       explicit step shrinks ∝ v_s / F_y. Landings with forward speed 1.3 m/s and 2.2, 3.5 and 5.9 BW
@@ -195,7 +195,7 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
       blow-up) until the impact is over.
     * Cost: ≈1.1–1.6 µs per model evaluation on the 2-core development machine (load-dependent),
       i.e. 55–80 µs of physics per control step (:func:`sspinn.model.simulation.advance`); a whole ``step``
-      took ≈175 µs (5.7 k steps/s against 2.5 k for Walker2d-v5 in the same run, ``benchmarks/bench_env.py``).
+      took ≈175 µs (5.7 k steps/s against 2.5 k for Walker2d-v5 in the same run, ``benchmarks/speed/bench_env.py``).
 
     ``substeps``, ``method`` ("semi_implicit_euler" or "rk4") and ``slip_velocity`` can be changed;
     keep dt = 0.01 s / substeps below the limit above for the loads you expect.

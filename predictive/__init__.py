@@ -11,26 +11,52 @@ results are :class:`GaitSolution` objects. Command line:
 ``python -m predictive solve --speed 1.3 --out results/ocp/walk_1.3`` (``--help`` lists the others).
 """
 
-from predictive.ocp.collocation import (
-    DEFAULT_STARTS,
-    OCPError,
-    OCPSettings,
-    PredictiveGaitProblem,
-    Start,
-    solve_predictive,
-)
-from predictive.ocp.generic_gait import typical_stride_duration
-from predictive.ocp.settings import default_joint_limits
-from predictive.ocp.solution import GaitSolution
+from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+from sspinn.lazy_exports import attach
+
+#: public name → the module that defines it (imported on first use)
+_EXPORTS: dict[str, str] = {
+    **dict.fromkeys(("DEFAULT_STARTS", "OCPError", "OCPSettings", "PredictiveGaitProblem", "Start", "solve_predictive",), "predictive.ocp.collocation"),
+    **dict.fromkeys(("typical_stride_duration",), "predictive.ocp.generic_gait"),
+    **dict.fromkeys(("default_joint_limits",), "predictive.ocp.settings"),
+    **dict.fromkeys(("GaitSolution",), "predictive.ocp.solution"),
+    **dict.fromkeys(("SynthConfig",), "predictive.synth.config"),
+    **dict.fromkeys(("generate_dataset",), "predictive.synth.pipeline"),
+    **dict.fromkeys(("GaitGenerator", "GeneratorConfig",), "predictive.generator.gait_generator"),
+}
 __all__ = [
     "DEFAULT_STARTS",
+    "GaitGenerator",
     "GaitSolution",
+    "GeneratorConfig",
     "OCPError",
     "OCPSettings",
     "PredictiveGaitProblem",
     "Start",
+    "SynthConfig",
     "default_joint_limits",
+    "generate_dataset",
     "solve_predictive",
     "typical_stride_duration",
 ]
+
+if TYPE_CHECKING:  # the names for type checkers and editors; imported on first use at run time
+    from predictive.generator.gait_generator import GaitGenerator, GeneratorConfig
+    from predictive.ocp.collocation import (
+        DEFAULT_STARTS,
+        OCPError,
+        OCPSettings,
+        PredictiveGaitProblem,
+        Start,
+        solve_predictive,
+    )
+    from predictive.ocp.generic_gait import typical_stride_duration
+    from predictive.ocp.settings import default_joint_limits
+    from predictive.ocp.solution import GaitSolution
+    from predictive.synth.config import SynthConfig
+    from predictive.synth.pipeline import generate_dataset
+
+__getattr__, __dir__ = attach(__name__, _EXPORTS)

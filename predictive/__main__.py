@@ -6,6 +6,8 @@ The dispatcher of ``python -m predictive``; each sub-command lives next to what 
 * ``track-imu`` — IMU tracking of an averaged stride, compared with its labels
   (:mod:`predictive.experiments.cli`);
 * ``synth`` — a physically exact synthetic dataset (:mod:`predictive.synth.cli`);
+* ``synth-standing`` — quiet-standing or stand–walk–stand recordings of a synthetic
+  configuration's subjects (:mod:`predictive.synth.standing_cli`);
 * ``train-generator``, ``generate`` — the self-supervised gait generator (:mod:`predictive.generator.cli`);
 * ``compare`` — generator vs SB3 agents vs OCP on the same environment (:mod:`predictive.experiments.cli`);
 * ``robustness`` — falls of the generator's controllers under disturbances (:mod:`predictive.experiments.cli`).
@@ -20,6 +22,7 @@ from predictive.experiments import cli as experiments_cli
 from predictive.generator import cli as generator_cli
 from predictive.ocp import cli as ocp_cli
 from predictive.synth import cli as synth_cli
+from predictive.synth import standing_cli
 from sspinn.errors import ArgumentParser, run_cli
 
 
@@ -30,6 +33,7 @@ def build_parser() -> argparse.ArgumentParser:
     ocp_cli.add_parser(sub)  # solve
     experiments_cli.add_track_imu_parser(sub)  # track-imu
     synth_cli.add_parser(sub)  # synth
+    standing_cli.add_parser(sub)  # synth-standing
     generator_cli.add_parsers(sub)  # train-generator, generate
     experiments_cli.add_compare_parser(sub)  # compare
     experiments_cli.add_robustness_parser(sub)  # robustness
@@ -48,6 +52,8 @@ def _main(argv: list[str]) -> int:
         return ocp_cli.run(args)
     if args.command == synth_cli.COMMAND:
         return synth_cli.run(args)
+    if args.command == standing_cli.COMMAND:
+        return standing_cli.run(args)
     if args.command in generator_cli.COMMANDS:
         return generator_cli.run(args)
     if args.command in experiments_cli.COMMANDS:

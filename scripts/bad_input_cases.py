@@ -39,12 +39,9 @@ import numpy as np
 import torch
 import yaml
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from sspinn.data.dataset import Dataset, Labels, Recording  # noqa: E402
-from sspinn.model.conventions import GRF, SEGMENTS  # noqa: E402
-from sspinn.testing import (  # noqa: E402
+from sspinn.data.dataset import Dataset, Labels, Recording
+from sspinn.model.conventions import GRF, SEGMENTS
+from sspinn.testing import (
     OpenSenseEdit,
     axis_constant,
     edit_column,
@@ -58,7 +55,9 @@ from sspinn.testing import (  # noqa: E402
     walking_recording,
     write_opensense,
 )
-from sspinn.testing.perturbations import perturb  # noqa: E402
+from sspinn.testing.perturbations import perturb
+
+ROOT = Path(__file__).resolve().parents[1]
 
 #: The real OpenSense export whose copies the ``sspinn import`` cases edit, and its sensor map.
 #: ../shared/data (or $SSPINN_SHARED_DATA, as for the tests).
@@ -330,11 +329,11 @@ def main() -> None:
 
     def generator() -> Path:
         """An untrained gait generator whose file says it was trained on 1–1.5 m/s."""
-        from predictive.generator.gait_generator import GaitGenerator, GeneratorConfig, save_generator
+        from predictive.generator.gait_generator import GaitGeneratorNet, GeneratorConfig, save_generator
 
         path = tmp / "generator.pt"
         if not path.exists():
-            save_generator(GaitGenerator(2, 8, 1).double(), path, GeneratorConfig(speeds=(1.0, 1.5), harmonics=2, hidden=8, layers=1))
+            save_generator(GaitGeneratorNet(2, 8, 1).double(), path, GeneratorConfig(speeds=(1.0, 1.5), harmonics=2, hidden=8, layers=1))
         return path
 
     # signal checks: edited copies of the real CMU excerpt imported to a recording CSV + sidecar

@@ -16,13 +16,14 @@ The names below are imported on first use, so ``import sspinn.model`` stays ligh
 
 from __future__ import annotations
 
-from importlib import import_module
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from sspinn.lazy_exports import attach
 
 __version__ = "0.1.0"
 
-#: public name → the module that defines it
-_EXPORTS = {
+#: public name → the module that defines it (imported on first use)
+_EXPORTS: dict[str, str] = {
     "SSPINNpose": "sspinn.estimator.sspinnpose",
     "GaitEstimate": "sspinn.estimator.inference",
     "load_model": "sspinn.estimator.model_store",
@@ -48,12 +49,4 @@ if TYPE_CHECKING:
     from sspinn.model.body import BodyParameters
     from sspinn.model.trajectory import Trajectory
 
-
-def __getattr__(name: str) -> Any:
-    if name in _EXPORTS:
-        return getattr(import_module(_EXPORTS[name]), name)
-    raise AttributeError(f"module 'sspinn' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(__all__)
+__getattr__, __dir__ = attach(__name__, _EXPORTS)

@@ -71,9 +71,9 @@ def torch_threads():
 def small_generator(tmp_path_factory) -> Path:
     """An untrained gait generator (2 harmonics, 8 units) whose file says it was trained on
     1.0–1.5 m/s, 1.6–1.9 m and 55–90 kg: ``generate`` runs in well under a second."""
-    from predictive.generator.gait_generator import GaitGenerator, GeneratorConfig, save_generator
+    from predictive.generator.gait_generator import GaitGeneratorNet, GeneratorConfig, save_generator
 
     config = GeneratorConfig(speeds=(1.0, 1.5), harmonics=2, hidden=8, layers=1)
     path = tmp_path_factory.mktemp("generator") / "generator.pt"
-    save_generator(GaitGenerator(2, 8, 1).double(), path, config, wall_s=1.0)
+    save_generator(GaitGeneratorNet(2, 8, 1).double(), path, config, wall_s=1.0)
     return path

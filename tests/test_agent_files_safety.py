@@ -26,7 +26,7 @@ pytest.importorskip("stable_baselines3")
 from agents.__main__ import main  # noqa: E402
 from agents.checkpoints import (  # noqa: E402
     UnsafeCheckpointError,
-    load_model,
+    load_algorithm,
     load_replay_buffer,
     load_statistics,
     restore_replay_buffer,
@@ -153,7 +153,7 @@ def test_resume_never_unpickles_a_known_entry(ppo_run, tmp_path, marker, entry) 
     checkpoint = run / "checkpoints" / "model_64_steps.zip"
     _rewrite_data(checkpoint, lambda data: data.update({entry: _serialized(RunsCode(marker))}))
     config = load_config(run / "config.yaml")
-    assert load_model(checkpoint, config).num_timesteps == 64
+    assert load_algorithm(checkpoint, config).num_timesteps == 64
 
 
 def test_resume_refuses_an_unknown_pickled_entry(ppo_run, tmp_path, marker, capsys) -> None:
@@ -196,9 +196,9 @@ def test_resume_refuses_a_checkpoint_of_another_network(ppo_run, tmp_path, capsy
 def test_resume_rebuilds_the_schedules_of_the_configuration(ppo_run, td3_run) -> None:
     from stable_baselines3.common.type_aliases import TrainFreq, TrainFrequencyUnit
 
-    ppo = load_model(ppo_run / "checkpoints" / "model_64_steps.zip", load_config(ppo_run / "config.yaml"))
+    ppo = load_algorithm(ppo_run / "checkpoints" / "model_64_steps.zip", load_config(ppo_run / "config.yaml"))
     assert ppo.clip_range(1.0) == 0.15 and ppo.lr_schedule(1.0) == pytest.approx(3e-4)
-    td3 = load_model(td3_run / "checkpoints" / "model_32_steps.zip", load_config(td3_run / "config.yaml"))
+    td3 = load_algorithm(td3_run / "checkpoints" / "model_32_steps.zip", load_config(td3_run / "config.yaml"))
     assert td3.train_freq == TrainFreq(1, TrainFrequencyUnit.STEP)
     np.testing.assert_allclose(td3.action_noise._sigma, 0.07)
 
@@ -218,7 +218,7 @@ def test_replay_buffers_load_safely_and_must_fit(td3_run, tmp_path) -> None:
     path = td3_run / "checkpoints" / "model_replay_buffer_32_steps.pkl"
     buffer = load_replay_buffer(path)
     assert buffer.size() == 31 and buffer.observations.shape[1:] == (1, 22)
-    model = load_model(td3_run / "checkpoints" / "model_32_steps.zip", load_config(td3_run / "config.yaml"))
+    model = load_algorithm(td3_run / "checkpoints" / "model_32_steps.zip", load_config(td3_run / "config.yaml"))
     restore_replay_buffer(model, path)
     assert model.replay_buffer.size() == 31
     other = ReplayBuffer(10, Box(-1, 1, (3,)), Box(-1, 1, (6,)), device="cpu")

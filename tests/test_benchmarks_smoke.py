@@ -29,7 +29,7 @@ BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
 def run_quick(name: str, json_path: Path) -> tuple[dict[str, Any], Any]:
     """(the benchmark module's globals, what its ``main`` returned) for ``--quick --json``."""
-    bench = runpy.run_path(str(BENCHMARKS / f"{name}.py"), run_name=name)
+    bench = runpy.run_path(str(BENCHMARKS / "speed" / f"{name}.py"), run_name=name)
     return bench, bench["main"](["--quick", "--json", str(json_path)])
 
 
@@ -112,7 +112,7 @@ def test_grf_lowpass(capsys: pytest.CaptureFixture[str], tiny_run, torch_threads
     """The offline low-pass table on the tiny dataset: one row per gait, the estimate's error and the
     labels' spectrum per cut-off; a cut-off above the Nyquist frequency is a one-line error."""
     _, data, _, _, run = tiny_run
-    bench = runpy.run_path(str(BENCHMARKS / "grf_lowpass.py"), run_name="grf_lowpass")
+    bench = runpy.run_path(str(BENCHMARKS / "studies" / "grf_lowpass.py"), run_name="grf_lowpass")
     out = bench["main"](["--data", str(data), "--model", str(run / "model.pt"), "--split", "train", "--cutoffs", "10", "3", "--skip", "10"])
     assert out and all(len(row["grfe"]) == 3 and len(row["share_above"]) == 2 for row in out.values())
     assert all(row["grfe"][1] != row["grfe"][0] for row in out.values())  # the low-pass changes the estimate
@@ -138,7 +138,7 @@ def test_load_transfer(capsys: pytest.CaptureFixture[str], tiny_run, torch_threa
     """The load-transfer table on the tiny dataset: one row per gait with the errors before and
     after, and the share profiles of labels, estimate and transferred estimate."""
     _, data, _, _, run = tiny_run
-    bench = runpy.run_path(str(BENCHMARKS / "load_transfer.py"), run_name="load_transfer")
+    bench = runpy.run_path(str(BENCHMARKS / "studies" / "load_transfer.py"), run_name="load_transfer")
     out = bench["main"](["--data", str(data), "--model", str(run / "model.pt"), "--split", "train", "--skip", "10"])
     assert out and all(len(row["grfe"]) == 2 and np.isfinite(row["grfe"]).all() and len(row["share_labels"]) == 10
                        for row in out.values())
@@ -153,7 +153,7 @@ def test_sensor_rates(capsys: pytest.CaptureFixture[str], tiny_run) -> None:
     strap wobble of the error model raises the rates it adds; a folder that is not a dataset and a
     cut-off above Nyquist are one-line errors."""
     _, data, _, _, _ = tiny_run
-    bench = runpy.run_path(str(BENCHMARKS / "sensor_rates.py"), run_name="sensor_rates")
+    bench = runpy.run_path(str(BENCHMARKS / "studies" / "sensor_rates.py"), run_name="sensor_rates")
     out = bench["main"](["--data", str(data), "--above", "10"])
     assert out and all(np.isfinite(v).all() and len(v) == 3 for row in out.values() for v in row.values())
     assert "| pelvis | thighs | shanks | feet |" in capsys.readouterr().out
@@ -171,7 +171,7 @@ def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     test trials, report, plots."""
     source = shared_data("cmu_treadmill_imu_grf")
     _, _, cfg, _, run = tiny_run
-    bench = runpy.run_path(str(BENCHMARKS / "bench_cmu_continuous.py"), run_name="bench_cmu_continuous")
+    bench = runpy.run_path(str(BENCHMARKS / "accuracy" / "bench_cmu_continuous.py"), run_name="bench_cmu_continuous")
     common = ["--quick", "--out", str(tmp_path / "cmu"), "--config", str(cfg), "--pretrained", str(run / "model.pt"), "--source", str(source)]
     results = bench["main"]([*common, "--grf-lowpass", "10", "--load-transfer", "--arms", *bench["ARMS"]])
     out = capsys.readouterr().out
@@ -205,7 +205,7 @@ def test_bench_cmu_continuous(tmp_path: Path, capsys: pytest.CaptureFixture[str]
 def test_bench_cmu_continuous_finds_trials_by_pattern(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """Argument parsing and file discovery on a made-up folder (no import, no training): other
     subjects, conditions and file patterns, raw and gzipped files; missing files are one-line errors."""
-    bench = runpy.run_path(str(BENCHMARKS / "bench_cmu_continuous.py"), run_name="bench_cmu_continuous")
+    bench = runpy.run_path(str(BENCHMARKS / "accuracy" / "bench_cmu_continuous.py"), run_name="bench_cmu_continuous")
     source = tmp_path / "lab"
     for subject in ("P1", "P2", "P3"):
         for condition in ("slow", "fast"):
@@ -253,7 +253,7 @@ def test_bench_cmu_continuous_finds_trials_by_pattern(tmp_path: Path, capsys: py
 def test_standing_signals(capsys: pytest.CaptureFixture[str]) -> None:
     """Synthetic standing with the artefact off at rest is found still, with it left on never; the
     real Xsens static trial is read when the shared data are there."""
-    bench = runpy.run_path(str(BENCHMARKS / "standing_signals.py"), run_name="standing_signals")
+    bench = runpy.run_path(str(BENCHMARKS / "studies" / "standing_signals.py"), run_name="standing_signals")
     config = Path(__file__).resolve().parents[1] / "configs" / "synth" / "smoke.yaml"
     assert bench["main"](["--config", str(config), "--seconds", "2"]) == 0
     out = capsys.readouterr().out

@@ -127,7 +127,7 @@ def test_run_comparison_end_to_end_on_tiny_budgets(tmp_path, capsys) -> None:
 
 @pytest.mark.slow
 def test_bench_predictive_times_a_new_speed(tmp_path, capsys) -> None:
-    """benchmarks/bench_predictive.py (new-speed part) runs on a tiny generator and prints ratios."""
+    """benchmarks/accuracy/bench_predictive.py (new-speed part) runs on a tiny generator and prints ratios."""
     import runpy
     from pathlib import Path
 
@@ -138,7 +138,7 @@ def test_bench_predictive_times_a_new_speed(tmp_path, capsys) -> None:
     cfg = tmp_path / "compare.yaml"
     cfg.write_text(yaml.safe_dump({"compare": {"speeds": [1.3], "seeds": [0], "methods": [
         {"name": "g", "kind": "generator", "model": str(tmp_path / "gen" / "generator.pt")}]}}))
-    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "bench_predictive.py"), run_name="bench")
+    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "accuracy" / "bench_predictive.py"), run_name="bench")
     assert bench["main"](["--config", str(cfg), "--out", str(tmp_path / "out"), "--new-speeds", "1.1", "--new-bodies", "1.7:60",
                           "--skip-table"]) == 0
     out = capsys.readouterr().out

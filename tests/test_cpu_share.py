@@ -21,10 +21,9 @@ def test_a_fixed_count_is_kept() -> None:
 
 @pytest.mark.parametrize(("busy_share", "expected"), [(0.0, 4), (0.25, 3), (0.5, 2), (1.0, 1)])
 def test_busy_cpus_of_other_work_are_left_to_it(monkeypatch: pytest.MonkeyPatch, busy_share: float, expected: int) -> None:
-    readings = iter([(0.0, 0.0), (busy_share * 400.0, 400.0)])
-    monkeypatch.setattr(cpu_share, "_cpu_times", lambda: next(readings))
+    monkeypatch.setattr(cpu_share.psutil, "cpu_percent", lambda interval: busy_share * 100.0)
     monkeypatch.setattr(cpu_share, "usable_cpus", lambda: 4)
-    monkeypatch.setattr(cpu_share.os, "cpu_count", lambda: 4)
+    monkeypatch.setattr(cpu_share.psutil, "cpu_count", lambda: 4)
     assert free_cpus(interval_s=0.0) == expected
 
 

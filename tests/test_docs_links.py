@@ -21,6 +21,8 @@ DOCS = sorted(
 
 LINK = re.compile(r"(?<!!)\[[^\]]*\]\(([^)\s]+)\)|!\[[^\]]*\]\(([^)\s]+)\)")
 PROJECT_PATH = re.compile(r"(?<![\w/.-])((?:benchmarks|scripts)/[\w./-]+?\.py|configs/[\w./-]+?\.yaml)(?![\w/])")
+#: ``python -m benchmarks.speed.bench_env``: a benchmark run as a module, named by its dotted path
+BENCH_MODULE = re.compile(r"python -m (benchmarks(?:\.\w+)+)")
 FENCE = re.compile(r"^(```|~~~)")
 
 
@@ -71,7 +73,8 @@ def test_relative_links_resolve(doc: Path) -> None:
 @pytest.mark.parametrize("doc", DOCS, ids=_id)
 def test_named_project_paths_exist(doc: Path) -> None:
     text = doc.read_text(encoding="utf-8")
-    missing = sorted({m for m in PROJECT_PATH.findall(text) if not (ROOT / m).exists()})
+    named = set(PROJECT_PATH.findall(text)) | {m.replace(".", "/") + ".py" for m in BENCH_MODULE.findall(text)}
+    missing = sorted(m for m in named if not (ROOT / m).exists())
     assert not missing, f"{_id(doc)} names paths that do not exist: " + ", ".join(missing)
 
 
@@ -83,6 +86,7 @@ def test_link_checker_catches_a_broken_link(tmp_path: Path) -> None:
         "benchmarks/bench_env.py",
         "configs/synth/default.yaml",
     ]
+    assert BENCH_MODULE.findall("`python -m benchmarks.speed.bench_env --x`") == ["benchmarks.speed.bench_env"]
     page = tmp_path / "p.md"
     page.write_text("# The `sspinn` model: v1\n## Speed\n## Speed\n", encoding="utf-8")
     assert _anchors(page) == {"the-sspinn-model-v1", "speed", "speed-1"}

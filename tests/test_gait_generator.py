@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from predictive.generator.gait_generator import (
-    GaitGenerator,
+    GaitGeneratorNet,
     GaitLosses,
     GeneratorConfig,
     GeneratorTrainer,
@@ -32,9 +32,9 @@ def test_fourier_basis_derivatives_match_finite_differences() -> None:
     torch.testing.assert_close(d2, (d1p - d1m) / (2 * h), atol=1e-3, rtol=1e-6)
 
 
-def _random_generator(seed: int = 0) -> GaitGenerator:
+def _random_generator(seed: int = 0) -> GaitGeneratorNet:
     torch.manual_seed(seed)
-    g = GaitGenerator(harmonics=4, hidden=16, layers=2).double()
+    g = GaitGeneratorNet(harmonics=4, hidden=16, layers=2).double()
     torch.nn.init.normal_(g.head.weight, std=0.5)
     torch.nn.init.normal_(g.head.bias, std=0.5)
     return g
@@ -103,6 +103,27 @@ def test_training_resume_is_exact_and_writes_its_files(tmp_path) -> None:
         load_generator(tmp_path / "missing.pt")
     with pytest.raises(FileNotFoundError, match="no checkpoint"):
         GeneratorTrainer(_tiny(), tmp_path / "c").fit(resume=True)
+
+
+def test_the_generator_object_fits_predicts_saves_and_loads(tmp_path) -> None:
+    """GaitGenerator: construct with settings → fit → predict → save/load, the same gait before and
+    after; the training range and an unfitted generator are clear errors."""
+    from predictive.generator import GaitGenerator
+    from predictive.ocp.limits import RequestError
+
+    with pytest.raises(RequestError, match="no trained network"):
+        GaitGenerator(_tiny()).predict(1.3)
+    generator = GaitGenerator(_tiny()).fit(tmp_path / "run")
+    assert generator.steps_ == 7 and len(generator.history_) == 7 and generator.training_wall_s_ > 0
+    walk = generator.predict(1.3, n=40)
+    assert walk.q.shape == (40, 9) and walk.status == "generated"
+    again = GaitGenerator.load(generator.save(tmp_path / "copy.pt"))
+    np.testing.assert_array_equal(again.predict(1.3, n=40).q, walk.q)
+    np.testing.assert_array_equal(GaitGenerator.load(tmp_path / "run" / "generator.pt").predict(1.3, n=40).q, walk.q)
+    assert again.config == generator.config and again.steps_ is None
+    assert again.outside_training_range(9.0, 1.75, 70.0) and not again.outside_training_range(1.3, 1.75, 70.0)
+    with pytest.raises(RequestError, match="outside its training range"):
+        again.predict(9.0)
 
 
 def test_bad_generator_config() -> None:

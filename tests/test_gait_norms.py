@@ -194,12 +194,12 @@ def test_slow_treadmill_walking_of_real_adults_passes() -> None:
 
 
 def test_the_reference_table_command_runs(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
-    """``benchmarks/gait_norms_references.py`` (the figures of docs/results/gait_norms_references.md)."""
+    """``benchmarks/accuracy/gait_norms_references.py`` (the figures of docs/results/gait_norms_references.md)."""
     if not all((SHARED / name).is_dir() for name in ("winter_walking", "opensim_hamner_run")):
         pytest.skip("../shared/data (winter_walking, opensim_hamner_run) is not available")
     import runpy
 
-    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "gait_norms_references.py"))
+    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "accuracy" / "gait_norms_references.py"))
     assert bench["main"](["--data", str(SHARED), "--json", str(tmp_path / "norms.json")]) == 0
     out = capsys.readouterr().out
     assert "| Winter, averaged stride (×8) | walk | 15 (100 %) | 1.10 | 0.72 | 60.0 | 20.0 | 0.0 | 105 | 0 | – | pass |" in out
@@ -222,7 +222,7 @@ def test_a_periodic_solution_is_scored_beside_the_references(capsys: pytest.Capt
     GaitSolution(**arrays, speed=(arrays["q"][-1, 0] - arrays["q"][0, 0]) / duration, duration=duration,
                  body_parameters=BodyParameters.from_anthropometry(1.75, 70.0).to_dict(), status="Solve_Succeeded").save(tmp_path / "walk")
     (tmp_path / "data").mkdir()
-    bench = runpy.run_path(str(root / "benchmarks" / "gait_norms_references.py"))
+    bench = runpy.run_path(str(root / "benchmarks" / "accuracy" / "gait_norms_references.py"))
     assert bench["main"](["--data", str(tmp_path / "data"), "--solution", str(tmp_path / "walk")]) == 0
     out = capsys.readouterr().out
     norms, metrics = [line for line in out.splitlines() if line.startswith(f"| {tmp_path / 'walk'}")]

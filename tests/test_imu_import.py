@@ -35,7 +35,7 @@ from sspinn.testing import (
     write_opensense,
     write_xsens_txt,
 )
-from sspinn.validation.sensor_mounting import OutOfPlane, embed_in_3d, random_mounting, read_gait_csv, synthetic_walk
+from sspinn.testing.sensor_mounting import OutOfPlane, embed_in_3d, random_mounting, read_gait_csv, synthetic_walk
 from tests.conftest import shared_data
 
 GAIT = Path(__file__).resolve().parent / "fixtures" / "predicted_walk_1.3.csv"

@@ -2,7 +2,7 @@
 
 The data-driven tests need ``../shared/data`` (relative to the repository root) and skip without
 it; the thresholds are set from the measured agreement with some margin (see
-``scripts/validate_inverse_dynamics.py`` for the numbers).
+``benchmarks/accuracy/validate_inverse_dynamics.py`` for the numbers).
 """
 
 from __future__ import annotations
@@ -12,14 +12,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sspinn.data.opensim_files import OpenSimFormatError, read_opensim_header, read_opensim_table
-from sspinn.validation.inverse_dynamics import (
+from benchmarks.accuracy.inverse_dynamics import (
     Comparison,
-    contact_fraction_for_load,
     csu_inverse_dynamics,
     csu_reference_replica,
     opensim_inverse_dynamics,
 )
+from sspinn.data.measured_loads import contact_fraction_for_load
+from sspinn.data.opensim_files import OpenSimFormatError, read_opensim_header, read_opensim_table
 from tests.conftest import shared_data
 
 

@@ -12,7 +12,7 @@ import pytest
 from sspinn.imu.joint_centres import foot_flat_up, joint_centre, plane_signals, segment_axis, sensor_placement
 from sspinn.model.body import WINTER, BodyParameters, IMUPlacement
 from sspinn.model.conventions import SEGMENTS
-from sspinn.validation.sensor_mounting import mounting_trials, read_gait_csv, synthetic_walk
+from sspinn.testing.sensor_mounting import mounting_trials, read_gait_csv, synthetic_walk
 
 GAIT = Path(__file__).resolve().parent / "fixtures" / "predicted_walk_1.3.csv"
 E = np.eye(3)
@@ -68,7 +68,7 @@ def test_the_foot_rests_give_gravity_in_the_foot_frame() -> None:
 
 def test_walking_only_calibration_recovers_thigh_and_shank_angles(gait) -> None:
     """Random 3D mountings with out-of-plane motion, bias and noise, no standing: thighs and shanks
-    within 2.5° from their joint centres (50 mountings: ≤ 1.95°, scripts/validate_sensor_calibration.py)."""
+    within 2.5° from their joint centres (50 mountings: ≤ 1.95°, benchmarks/accuracy/validate_sensor_calibration.py)."""
     res = mounting_trials(gait.q, gait.u, gait.qdd, trials=3, seed=4, standing_s=0.0, strides=30)
     legs = np.isin(res["segment"], ["femur_r", "tibia_r", "femur_l", "tibia_l"])
     assert np.abs(res["angle"][legs]).max() < 2.5

@@ -1,4 +1,4 @@
-"""Sensor placement fitted to a gait's kinematics (sspinn.estimator.placement_fit): exact
+"""Sensor placement fitted to a gait's kinematics (benchmarks.studies.placement_fit): exact
 rigid-body sensors moved and turned away from the nominal placement are found again."""
 
 from __future__ import annotations
@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from benchmarks.studies.placement_fit import PlacementFitError, fit_placement, segment_motion
 from sspinn.data.dataset import Recording
-from sspinn.estimator.placement_fit import PlacementFitError, fit_placement, segment_motion
 from sspinn.model.body import BodyParameters, IMUPlacement
 from sspinn.model.conventions import SEGMENTS
 from sspinn.model.kinematics import virtual_imu
-from sspinn.validation.sensor_mounting import read_gait_csv
+from sspinn.testing.sensor_mounting import read_gait_csv
 
 GAIT = Path(__file__).resolve().parent / "fixtures" / "predicted_walk_1.3.csv"
 
@@ -107,7 +107,7 @@ def test_with_the_angles_kept_only_positions_and_biases_move(walk) -> None:
 
 
 def test_the_recovery_benchmark_finds_moved_sensors_with_a_model(walk, tmp_path: Path, capsys) -> None:
-    """``benchmarks/placement_recovery.py --model --misplacements`` on exact sensors of a
+    """``benchmarks/studies/placement_recovery.py --model --misplacements`` on exact sensors of a
     3.3-s walk stored with their true placement: every method scored, the fit to the true
     kinematics on the truth, the misplacement table for every leg segment (a 4-step model: only
     that it runs, not how well)."""
@@ -134,7 +134,7 @@ def test_the_recovery_benchmark_finds_moved_sensors_with_a_model(walk, tmp_path:
                 provenance={"program": {"name": name.split("_")[1]}, "ground_truth": {"imu_placement": stored}}))
     Dataset.write(tmp_path / "data", recs)
     _, _, run = tiny_run(tmp_path / "model")
-    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "placement_recovery.py"), run_name="bench")
+    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies" / "placement_recovery.py"), run_name="bench")
     result = bench["main"](["--data", str(tmp_path / "data"), "--model", str(run / "model.pt"), "--misplacements",
                             "--decompose", "--json", str(tmp_path / "p.json")])
     assert {r["sensor"] for r in result["rows"]} == set(SEGMENTS)

@@ -27,11 +27,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from benchmarks.accuracy.pymunk_engine import segment_states, simulate_pymunk
 from sspinn.model.body import BodyParameters
 from sspinn.model.conventions import SEGMENTS
 from sspinn.model.kinematics import point_index, point_kinematics, segment_kinematics
 from sspinn.model.simulation import simulate
-from sspinn.validation.pymunk_engine import segment_states, simulate_pymunk
 
 DURATION = 1.0  # s
 SAMPLE_DT = 0.01  # s

@@ -1,32 +1,27 @@
-"""The semi-real running check (:mod:`sspinn.validation.semi_real_running`): human running
+"""The semi-real running check (:mod:`benchmarks.accuracy.semi_real_running`): human running
 kinematics of ``../shared/data/opensim_hamner_run`` with virtual IMUs. The data-driven tests skip
 without the shared data; the numbers they bound are those printed by
-``scripts/make_semi_real_running.py`` (belt speed 4.05 m/s, stride 0.69 s, stance 0.25 s)."""
+``benchmarks/accuracy/make_semi_real_running.py`` (belt speed 4.05 m/s, stride 0.69 s, stance 0.25 s)."""
 
 from __future__ import annotations
-
-import importlib.util
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from sspinn.cli import main as sspinn_main
-from sspinn.data.dataset import LABEL_COLUMNS, Dataset
-from sspinn.data.sensor_noise import IMUErrorModel
-from sspinn.estimator.trivial_predictors import program_of
-from sspinn.model.conventions import COORDINATES, SEGMENTS, SIDES, index
-from sspinn.model.kinematics import point_index, point_kinematics
-from sspinn.validation.semi_real_running import (
+from benchmarks.accuracy.semi_real_running import (
     DATA_FOLDER,
     SemiRealRunning,
     _stride_speed,
     hamner_running,
     stance_intervals,
 )
+from sspinn.cli import main as sspinn_main
+from sspinn.data.dataset import LABEL_COLUMNS, Dataset
+from sspinn.data.sensor_noise import IMUErrorModel
+from sspinn.estimator.trivial_predictors import program_of
+from sspinn.model.conventions import COORDINATES, SEGMENTS, SIDES, index
+from sspinn.model.kinematics import point_index, point_kinematics
 from tests.conftest import SHARED_DATA, shared_data
-
-REPO = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
@@ -141,10 +136,8 @@ def test_deterministic_under_a_seed(run: SemiRealRunning) -> None:
 @pytest.mark.skipif(not (SHARED_DATA / DATA_FOLDER).exists(), reason=f"real data {SHARED_DATA / DATA_FOLDER} not present")
 def test_script_writes_an_evaluable_dataset(tmp_path, tiny_run, capsys) -> None:
     data = shared_data(DATA_FOLDER)
-    spec = importlib.util.spec_from_file_location("make_semi_real_running", REPO / "scripts" / "make_semi_real_running.py")
-    assert spec is not None and spec.loader is not None
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
+    from benchmarks.accuracy import make_semi_real_running as script
+
     out = tmp_path / "hamner_run"
     assert script.main(["--out", str(out), "--seed", "0", "--data", str(data)]) == 0
     assert "belt speed: 4.0" in capsys.readouterr().out

@@ -8,14 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from benchmarks.accuracy.inverse_dynamics import measured_stride
 from sspinn.imu.calibration import SensorCalibrationError, calibrate
 from sspinn.imu.sensor_map import SensorAssignment, SensorMap, SensorMapError
 from sspinn.model.conventions import SEGMENTS
-from sspinn.validation.sensor_mounting import (
+from sspinn.testing.sensor_mounting import (
     OutOfPlane,
     calibration_errors,
     embed_in_3d,
-    measured_stride,
     mounting_trials,
     random_mounting,
     read_gait_csv,
@@ -68,7 +68,7 @@ def test_sensor_map_parsing_and_errors(tmp_path) -> None:
 def test_random_mountings_are_recovered_with_standing(gait) -> None:
     """Five random mountings of all seven sensors (35 sensors) with out-of-plane motion, bias and
     noise: every sign right, axes within 3° (median < 1°), in-plane angles within 0.5° (standing calibrates them).
-    The full distribution (50 mountings): scripts/validate_sensor_calibration.py."""
+    The full distribution (50 mountings): benchmarks/accuracy/validate_sensor_calibration.py."""
     res = mounting_trials(gait.q, gait.u, gait.qdd, trials=5, seed=3, standing_s=2.0, strides=30)
     assert res["sign_ok"].all()
     assert np.median(res["axis"]) < 1.0 and res["axis"].max() < 3.0  # 30 strides; 50 (a CMU trial): max 2°
@@ -110,7 +110,7 @@ def test_the_validation_script_fits_the_feet_to_an_estimate(tiny_run, capsys: py
     model: the mechanics, not the accuracy); bad paths are one-line errors."""
     import runpy
 
-    script = runpy.run_path(str(REPO / "scripts" / "validate_sensor_calibration.py"), run_name="validate_sensor_calibration")
+    script = runpy.run_path(str(REPO / "benchmarks" / "accuracy" / "validate_sensor_calibration.py"), run_name="validate_sensor_calibration")
     model = tiny_run[4] / "model.pt"
     assert script["main"](["--trials", "1", "--strides", "5", "--estimate", str(model)]) == 0
     out = capsys.readouterr().out

@@ -23,7 +23,7 @@ from sspinn.errors import run_cli
 from sspinn.model.body import IMUPlacement
 from sspinn.model.conventions import GRAVITY, SEGMENTS
 from sspinn.testing import walking_recording
-from sspinn.validation.sensor_mounting import read_gait_csv, synthetic_walk
+from sspinn.testing.sensor_mounting import read_gait_csv, synthetic_walk
 
 GAIT = Path(__file__).resolve().parent / "fixtures" / "predicted_walk_1.3.csv"
 

@@ -40,7 +40,7 @@ from sspinn.imu import pipeline  # noqa: E402
 from sspinn.model.body import IMUPlacement  # noqa: E402
 from sspinn.model.conventions import SEGMENTS  # noqa: E402
 from sspinn.testing.perturbations import KINDS, perturb  # noqa: E402
-from sspinn.validation.sensor_mounting import read_gait_csv, synthetic_walk  # noqa: E402
+from sspinn.testing.sensor_mounting import read_gait_csv, synthetic_walk  # noqa: E402
 from tests.conftest import shared_data  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -161,7 +161,7 @@ def test_legitimate_synthetic_recordings_silent():
 
 @pytest.mark.slow
 def test_semi_real_running_silent():
-    from sspinn.validation.semi_real_running import hamner_running_recording
+    from benchmarks.accuracy.semi_real_running import hamner_running_recording
 
     rec = hamner_running_recording(shared_data("opensim_hamner_run"))
     assert recording_findings(rec, rec.name) == [] and label_findings(rec, rec.name) == []

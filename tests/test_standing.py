@@ -1,14 +1,14 @@
-"""Synthetic quiet standing (predictive.synth.standing, scripts/make_standing.py): labels that
+"""Synthetic quiet standing (predictive.synth.standing, python -m predictive synth-standing): labels that
 satisfy the equations of motion, feet that stay put, and the command's refusals."""
 
 from __future__ import annotations
 
-import runpy
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from predictive.__main__ import main as predictive_main
 from predictive.synth.config import SynthConfig
 from predictive.synth.standing import STANDING_ANGLES, leg_angles, standing_recording, standing_trajectory
 from predictive.synth.subjects import sample_subjects
@@ -80,8 +80,12 @@ def test_standing_sensors_are_as_quiet_as_real_ones_and_the_estimate_rests() -> 
     assert whole_body_still(rec.imu, 100.0).all()
 
 
+def main(argv: list[str]) -> int:
+    """``python -m predictive synth-standing ARGV``."""
+    return predictive_main(["synth-standing", *argv])
+
+
 def test_the_command_writes_a_dataset_and_never_replaces_one_without_the_flag(tmp_path: Path, capsys) -> None:
-    main = runpy.run_path(str(REPO / "scripts" / "make_standing.py"), run_name="make_standing")["main"]
     out = tmp_path / "standing"
     assert main(["--config", str(SMOKE), "--split", "train", "--duration", "2", "--out", str(out)]) == 0
     ds = Dataset.open(out)
@@ -100,7 +104,6 @@ def test_with_a_dataset_each_subject_stands_in_its_own_split(tmp_path: Path) -> 
 
     config = SynthConfig.from_yaml(SMOKE, cache_dir=str(tmp_path / "cache"))
     base = generate_dataset(config, tmp_path / "base", progress=False)
-    main = runpy.run_path(str(REPO / "scripts" / "make_standing.py"), run_name="make_standing")["main"]
     assert main(["--config", str(SMOKE), "--with", str(tmp_path / "base"), "--duration", "2", "--out", str(tmp_path / "mixed")]) == 0
     mixed = Dataset.open(tmp_path / "mixed")
     for split, names in base.splits.items():

@@ -1,5 +1,5 @@
 """Recordings that start and end standing (predictive.synth.start_stop, the chain's start state,
-targets and standing plans, scripts/make_standing.py --start-stop): exact labels over the whole
+targets and standing plans, python -m predictive synth-standing --start-stop): exact labels over the whole
 recording, standing at 0 m/s on both feet, the walking speed reached, the same file from the same
 seed, and one-line refusals.
 
@@ -8,12 +8,12 @@ stand–walk–stand recordings (about 25 s each on an idle core)."""
 
 from __future__ import annotations
 
-import runpy
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from predictive.__main__ import main as predictive_main
 from predictive.ocp.stride_nlp import StridePlan, StrideSettings, StrideSolverCache
 from predictive.synth.cache import SynthCache
 from predictive.synth.chain import simulate_chain
@@ -39,7 +39,8 @@ SPEED = 1.2
 
 
 def _main():
-    return runpy.run_path(str(REPO / "scripts" / "make_standing.py"), run_name="make_standing")["main"]
+    """``python -m predictive synth-standing``'s entry point."""
+    return lambda argv: predictive_main(["synth-standing", *argv])
 
 
 # ------------------------------------------------------------------------------ refusals

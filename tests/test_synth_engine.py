@@ -114,13 +114,13 @@ def test_a_backend_registered_by_the_user_gives_the_same_files(serial, tmp_path:
 
 @pytest.mark.slow
 def test_the_placement_benchmark_scores_the_fits_against_the_stored_truth(serial, tmp_path: Path, capsys) -> None:
-    """``benchmarks/placement_recovery.py`` on generated data: every sensor scored (the joint-centre
+    """``benchmarks/studies/placement_recovery.py`` on generated data: every sensor scored (the joint-centre
     fits on thighs and shanks), finite errors, the nominal error is the stored truth's distance
     from the nominal, and the fit to the true kinematics lands nearer the truth than the nominal."""
     import runpy
 
     root, _ = serial
-    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "placement_recovery.py"), run_name="bench")
+    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "studies" / "placement_recovery.py"), run_name="bench")
     result = bench["main"](["--data", str(root / "out"), "--json", str(tmp_path / "p.json")])
     assert {r["sensor"] for r in result["rows"]} == set(SEGMENTS)
     legs = [r for r in result["rows"] if r["sensor"][:5] in ("femur", "tibia")]

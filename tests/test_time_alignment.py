@@ -21,7 +21,7 @@ from sspinn.imu.time_alignment import (
 from sspinn.model.body import BodyParameters, IMUPlacement
 from sspinn.model.conventions import SEGMENTS
 from sspinn.model.kinematics import virtual_imu
-from sspinn.validation.sensor_mounting import read_gait_csv
+from sspinn.testing.sensor_mounting import read_gait_csv
 from tests.conftest import shared_data
 
 GAIT = Path(__file__).resolve().parent / "fixtures" / "predicted_walk_1.3.csv"

@@ -14,7 +14,7 @@ from sspinn.imu.sensor_map import SensorAssignment
 from sspinn.imu.turns import MIN_TURN_DEG, detect_turns, turn_findings, turning_mask
 from sspinn.model.conventions import SEGMENTS
 from sspinn.testing import walking_recording
-from sspinn.validation.sensor_mounting import OutOfPlane, embed_in_3d, random_mounting, read_gait_csv, synthetic_walk
+from sspinn.testing.sensor_mounting import OutOfPlane, embed_in_3d, random_mounting, read_gait_csv, synthetic_walk
 
 GAIT = Path(__file__).resolve().parent / "fixtures" / "predicted_walk_1.3.csv"
 RATE = 100.0

@@ -1,10 +1,10 @@
 """The 2D ZUPT Kalman filter (:mod:`sspinn.estimator.zupt`): synthetic cases and real foot IMUs vs motion capture
-(:mod:`sspinn.validation.zupt_gaitmap`).
+(:mod:`benchmarks.accuracy.zupt_gaitmap`).
 
 Synthetic walking: a rigid foot sensor whose position and angle follow smooth closed-form stride
 profiles (known stride length and speed), with exact specific force and gyro plus noise and a gyro
 bias. Real data: gaitmap's example recording in ``../shared/data/gaitmap_foot_imu`` (skipped when
-absent); the thresholds are the errors measured by ``scripts/validate_zupt.py`` with a margin.
+absent); the thresholds are the errors measured by ``benchmarks/accuracy/validate_zupt.py`` with a margin.
 """
 
 from __future__ import annotations
@@ -14,9 +14,7 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from sspinn.estimator.zupt import SagittalZuptKalman, detect_stance, foot_speed, stance_phases
-from sspinn.model.conventions import GRAVITY
-from sspinn.validation.zupt_gaitmap import (
+from benchmarks.accuracy.zupt_gaitmap import (
     FEET,
     GaitmapExample,
     StrideSpeeds,
@@ -24,6 +22,8 @@ from sspinn.validation.zupt_gaitmap import (
     load_gaitmap_example,
     sagittal_from_gaitmap_frame,
 )
+from sspinn.estimator.zupt import SagittalZuptKalman, detect_stance, foot_speed, stance_phases
+from sspinn.model.conventions import GRAVITY
 from tests.conftest import shared_data
 
 FS = 200.0

@@ -53,14 +53,7 @@ def add_parsers(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from predictive.generator.gait_generator import (
-        RUN_OUTPUTS,
-        GeneratorConfig,
-        GeneratorTrainer,
-        generate,
-        load_generator,
-        outside_training_range,
-    )
+    from predictive.generator.gait_generator import RUN_OUTPUTS, GaitGenerator, GeneratorConfig
 
     if args.command == COMMANDS[0]:
         config = GeneratorConfig.from_yaml(args.config, settings=args.set)
@@ -70,9 +63,8 @@ def run(args: argparse.Namespace) -> int:
         if not resume:  # a folder holding a run: continued with --resume, replaced with --overwrite, else a new folder
             args.out = output_target(args.out, lambda f: bool(run_outputs(f, RUN_OUTPUTS)), args.overwrite,
                                      "a generator run", "continue it with --resume, ")
-        trainer = GeneratorTrainer(config, args.out)
-        trainer.fit(resume=resume, overwrite=args.overwrite and not resume)
-        print(f"trained {trainer.step} steps in {trainer.wall:.0f} s → {args.out / 'generator.pt'}")
+        generator = GaitGenerator(config).fit(args.out, resume=resume, overwrite=args.overwrite and not resume)
+        print(f"trained {generator.steps_} steps in {generator.training_wall_s_:.0f} s → {args.out / 'generator.pt'}")
         return 0
     from predictive.ocp.gait_analysis import compare_with_reference, load_winter, plot_gait
     from predictive.ocp.limits import RequestError, check_body, check_speed
@@ -83,15 +75,15 @@ def run(args: argparse.Namespace) -> int:
     check_speed(args.speed, "--speed")
     check_body(args.height, args.mass)
     args.out = output_target(args.out, stem_outputs(SOLUTION_OUTPUTS), args.overwrite, "a generated gait")
-    model, config = load_generator(args.model)
-    outside = outside_training_range(config, args.speed, args.height, args.mass)
+    generator = GaitGenerator.load(args.model)
+    outside = generator.outside_training_range(args.speed, args.height, args.mass)
     if outside and not args.force:
         raise RequestError(f"{'; '.join(outside)} of {args.model}: the generator would extrapolate; "
                            "use --force to generate anyway")
     for problem in outside:
         print(f"WARNING: {problem} of {args.model}: extrapolated, no physics loss checked this gait", file=sys.stderr)
     body = BodyParameters.from_anthropometry(args.height, args.mass)
-    sol = generate(model, args.speed, body, refine_iterations=args.refine, config=config, force=args.force)
+    sol = generator.predict(args.speed, body, refine_iterations=args.refine, force=args.force)
     summary = sol.summary()
     # the node residual of an OCP solution uses the collocation's backward differences; a
     # generated cycle has analytic q̈, so report the residual with those instead

@@ -23,7 +23,7 @@ from typing import Any
 from envs.config import WalkerConfig
 from envs.sagittal_walker import SagittalWalkerEnv
 from predictive.generator.closed_loop import GaitTracker, TrackerSettings, resample_cycle
-from predictive.generator.gait_generator import GaitGenerator, GeneratorConfig, generate, load_generator
+from predictive.generator.gait_generator import GaitGenerator
 from predictive.ocp.solution import GaitSolution
 from sspinn.model.body import BodyParameters
 
@@ -55,32 +55,33 @@ class GeneratorControllers:
     """Gait trackers of a trained self-supervised gait generator.
 
     Attributes:
-        model, config: the generator and its training configuration (:func:`load_generator`).
+        generator: the trained generator (:meth:`GaitGenerator.load`).
         tracker: gain schedule and phase estimation. refine_iterations: per-gait L-BFGS fine-tune
             (0: one forward pass) with the Kane weight × ``refine_kane_factor``.
         env_config: the environment the controllers are built for (None: defaults).
-        training_time_s: the generator's training wall time (s; NaN if unknown).
     """
 
-    model: GaitGenerator
-    config: GeneratorConfig
+    generator: GaitGenerator
     tracker: TrackerSettings = field(default_factory=TrackerSettings)
     refine_iterations: int = 0
     refine_kane_factor: float = 10.0
     env_config: WalkerConfig | None = None
-    training_time_s: float = float("nan")
 
     @classmethod
     def from_file(cls, path: str | Path, **kwargs: Any) -> GeneratorControllers:
         """The controllers of the generator saved at ``path`` (other fields as keywords)."""
-        model, config = load_generator(path)
-        return cls(model, config, training_time_s=model.training_wall_s_, **kwargs)
+        return cls(GaitGenerator.load(path), **kwargs)
+
+    @property
+    def training_time_s(self) -> float:
+        """The generator's training wall time (s; NaN if unknown)."""
+        return self.generator.training_wall_s_
 
     def controller_for(self, speed: float, body: BodyParameters | None = None) -> GaitTracker:
         env = model_env(self.env_config, speed, body)
         start = time.perf_counter()
-        solution = generate(self.model, speed, env.body, refine_iterations=self.refine_iterations, config=self.config,
-                            refine_kane_factor=self.refine_kane_factor)
+        solution = self.generator.predict(speed, env.body, refine_iterations=self.refine_iterations,
+                                          refine_kane_factor=self.refine_kane_factor)
         note = f"kane rms {solution.settings['kane_rms_bw']:.3g} BW"
         return track(solution, env, self.tracker, time.perf_counter() - start, note)
 

@@ -184,8 +184,8 @@ class GeneratorConfig:
         return dataclasses.asdict(self)
 
 
-class GaitGenerator(torch.nn.Module):
-    """MLP (speed, height, mass) → Fourier coefficients (B, 9, 1 + 2K) of q over one cycle.
+class GaitGeneratorNet(torch.nn.Module):
+    """The generator's network (inside :class:`GaitGenerator`): an MLP (speed, height, mass) → Fourier coefficients (B, 9, 1 + 2K) of q over one cycle.
 
     Columns: mean, then cos(2πkφ), sin(2πkφ) for k = 1…K (φ = t/T). Rows in coordinate order;
     pelvis_tx holds only its periodic part (:meth:`cycle` adds v·t).
@@ -354,8 +354,9 @@ RUN_OUTPUTS: tuple[str, ...] = ("checkpoint.pt", "generator.pt", "history.csv", 
 
 
 class GeneratorTrainer:
-    """Trains a :class:`GaitGenerator` (module docstring). ``fit()`` writes ``checkpoint.pt``,
-    ``generator.pt`` and ``history.csv`` (step, wall time, losses) into ``out``.
+    """Trains a :class:`GaitGeneratorNet` (module docstring; behind :meth:`GaitGenerator.fit`).
+    ``fit()`` writes ``checkpoint.pt``, ``generator.pt`` and ``history.csv`` (step, wall time,
+    losses) into ``out``.
 
     Attributes after ``fit``: ``model_``, ``history_`` (list of dicts), ``train_time_s_``.
     """
@@ -368,7 +369,7 @@ class GeneratorTrainer:
         self.history_: list[dict[str, float]] = []
         torch.manual_seed(config.seed)
         self.rng = np.random.default_rng(config.seed)
-        self.model_ = GaitGenerator(config.harmonics, config.hidden, config.layers).double()
+        self.model_ = GaitGeneratorNet(config.harmonics, config.hidden, config.layers).double()
         self.optimizer = torch.optim.Adam(self.model_.parameters(), lr=config.lr)
         self.bodies = BodyPool.sample(256, config.heights, config.masses, self.rng)
         self.losses = GaitLosses(config)
@@ -490,7 +491,7 @@ class GeneratorTrainer:
         self.step += 1
         return terms
 
-    def fit(self, resume: bool = False, overwrite: bool = False) -> GaitGenerator:
+    def fit(self, resume: bool = False, overwrite: bool = False) -> GaitGeneratorNet:
         """Train (continuing from ``<out>/checkpoint.pt`` with ``resume``); the run folder is
         owned by this run while it trains (:class:`sspinn.run_folder.RunLock`). Without
         ``resume``, a folder holding a run (:data:`RUN_OUTPUTS`) is refused unless ``overwrite``,
@@ -502,7 +503,7 @@ class GeneratorTrainer:
                 claim_run_folder(self.out, RUN_OUTPUTS, overwrite, "continue it with --resume, ")
             return self._fit(resume)
 
-    def _fit(self, resume: bool) -> GaitGenerator:
+    def _fit(self, resume: bool) -> GaitGeneratorNet:
         from tqdm.auto import tqdm
 
         cfg = self.config
@@ -581,20 +582,21 @@ class GeneratorTrainer:
             w.writerows(self.history_)
 
 
-def save_generator(model: GaitGenerator, path: str | Path, config: GeneratorConfig, wall_s: float = float("nan")) -> Path:
-    """Weights + config (+ the training wall time so far, s) in one file."""
+def save_generator(model: GaitGeneratorNet, path: str | Path, config: GeneratorConfig, wall_s: float = float("nan")) -> Path:
+    """Weights + config (+ the training wall time so far, s) in one file (behind :meth:`GaitGenerator.save`)."""
     return save_torch_file(path, GENERATOR, {"state": model.state_dict(), "config": config.to_dict(), "wall_s": wall_s})
 
 
-def load_generator(path: str | Path) -> tuple[GaitGenerator, GeneratorConfig]:
-    """(model in eval mode, its config) from :func:`save_generator`'s file; the model's
+def load_generator(path: str | Path) -> tuple[GaitGeneratorNet, GeneratorConfig]:
+    """(network in eval mode, its config) from :func:`save_generator`'s file (behind
+    :meth:`GaitGenerator.load`); the network's
     ``training_wall_s_`` is the training wall time (s) when the file was written (NaN if unknown)."""
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"{path}: no gait generator here (train one with `python -m predictive train-generator`)")
     data = load_torch_file(path, (GENERATOR,), ("state", "config"), "train one with `python -m predictive train-generator`")
     cfg = config_from_mapping(GeneratorConfig, dict(data["config"]), str(path))
-    model = GaitGenerator(cfg.harmonics, cfg.hidden, cfg.layers).double()
+    model = GaitGeneratorNet(cfg.harmonics, cfg.hidden, cfg.layers).double()
     model.load_state_dict(data["state"])
     model.training_wall_s_ = float(data.get("wall_s", float("nan")))
     return model.eval(), cfg
@@ -616,7 +618,7 @@ def outside_training_range(config: GeneratorConfig, speed: float, height: float,
 
 
 def generate(
-    model: GaitGenerator, speed: float, body: BodyParameters | None = None, n: int = 200, refine_iterations: int = 0,
+    model: GaitGeneratorNet, speed: float, body: BodyParameters | None = None, n: int = 200, refine_iterations: int = 0,
     config: GeneratorConfig | None = None,
     refine_kane_factor: float = 1.0,
     force: bool = False,
@@ -683,7 +685,73 @@ def generate(
     )
 
 
-__all__ = [
-    "BodyPool", "GaitGenerator", "GaitLosses", "GeneratorConfig", "GeneratorTrainer", "GeneratorWeights",
-    "cycle", "fourier_basis", "generate", "load_generator", "outside_training_range", "save_generator",
-]
+
+class GaitGenerator:
+    """The self-supervised gait generator, in the shape of every trained model of the project
+    (:class:`sspinn.SSPINNpose`): construct with settings, ``fit``, ``predict``, ``save``/``load``::
+
+        gen = GaitGenerator(GeneratorConfig.from_yaml("configs/predictive/generator.yaml")).fit("runs/gen")
+        walk = gen.predict(1.3)                    # a GaitSolution: one periodic cycle at 1.3 m/s
+        gen = GaitGenerator.load("runs/gen/generator.pt")
+
+    Args:
+        config: training settings (default :class:`GeneratorConfig`); after ``load``, the file's.
+
+    Attributes (set by ``fit`` or ``load``):
+        network_: the trained :class:`GaitGeneratorNet` (float64, eval mode).
+        training_wall_s_: the training wall time, s (NaN if unknown).
+        steps_: training steps of the last ``fit`` (None after ``load``).
+        history_: the last ``fit``'s learning curve (one dict per logged step; empty after ``load``).
+    """
+
+    def __init__(self, config: GeneratorConfig | None = None) -> None:
+        self.config = config or GeneratorConfig()
+
+    def fit(self, out: str | Path, resume: bool = False, overwrite: bool = False) -> GaitGenerator:
+        """Train into the run folder ``out`` (``checkpoint.pt``, ``generator.pt``, ``history.csv``);
+        ``resume`` continues an interrupted run there, ``overwrite`` replaces a finished one."""
+        trainer = GeneratorTrainer(self.config, out)
+        network = trainer.fit(resume=resume, overwrite=overwrite)
+        self._set(network.eval(), trainer.wall, trainer.step, trainer.history_)
+        return self
+
+    @classmethod
+    def load(cls, path: str | Path) -> GaitGenerator:
+        """The generator saved at ``path`` (``generator.pt`` of a run, or :meth:`save`'s file)."""
+        network, config = load_generator(path)
+        generator = cls(config)
+        generator._set(network, network.training_wall_s_, None, [])
+        return generator
+
+    def _set(self, network: GaitGeneratorNet, wall_s: float, steps: int | None, history: list[dict[str, float]]) -> None:
+        self.network_ = network
+        self.training_wall_s_ = float(wall_s)
+        self.steps_ = steps
+        self.history_ = history
+
+    def _check_fitted(self) -> None:
+        if not hasattr(self, "network_"):
+            raise RequestError("this GaitGenerator has no trained network: call fit(out) or GaitGenerator.load(path)")
+
+    def predict(self, speed: float, body: BodyParameters | None = None, n: int = 200, refine_iterations: int = 0,
+                refine_kane_factor: float = 1.0, force: bool = False) -> GaitSolution:
+        """The gait cycle for ``speed`` (m/s) and ``body`` at ``n`` samples (:func:`generate`: its
+        checks of the training range, and the optional per-gait fine-tune)."""
+        self._check_fitted()
+        return generate(self.network_, speed, body, n, refine_iterations, self.config, refine_kane_factor, force)
+
+    def outside_training_range(self, speed: float, height: float, mass: float) -> list[str]:
+        """What of ``speed`` (m/s), ``height`` (m) and ``mass`` (kg) lies outside the training ranges, in words."""
+        return outside_training_range(self.config, speed, height, mass)
+
+    def save(self, path: str | Path) -> Path:
+        """Write the generator file (atomically, safe format) and return its path."""
+        self._check_fitted()
+        return save_generator(self.network_, path, self.config, self.training_wall_s_)
+
+    def __repr__(self) -> str:
+        state = f"trained ({self.training_wall_s_:.0f} s)" if hasattr(self, "network_") else "not fitted"
+        return f"GaitGenerator(speeds={self.config.speeds}; {state})"
+
+
+__all__ = ["GaitGenerator", "GaitGeneratorNet", "GeneratorConfig", "GeneratorWeights"]

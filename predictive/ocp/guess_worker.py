@@ -4,7 +4,7 @@
 the speed continuations of its guesses. With a second core it hands some of them to one worker
 process (:class:`GuessWorker`) — the first start of the multi-start, the first continuation from
 it on speculation (kept when the multi-start chooses that start, as it did on the real and the
-synthetic stride of ``benchmarks/bench_imu_tracking.py``), and each other continuation ahead of
+synthetic stride of ``benchmarks/speed/bench_imu_tracking.py``), and each other continuation ahead of
 the tracking start that needs it — while the caller solves the second start and builds and runs
 the tracking NLP. Every solve here is the same code on the same inputs as in the caller
 (the problem is rebuilt from its settings and body), and IPOPT is deterministic for given

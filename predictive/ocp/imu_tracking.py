@@ -33,7 +33,7 @@ another optimum; a 25-node middle-speed multi-start refined on 50 nodes took as 
 iterations) saved guess time but cost more in tracking (IPOPT 8.6 vs 6.5 s on the real stride,
 20.7 vs 15.8 s on the synthetic one). On two cores a worker process solves part of the guesses
 while this process solves the rest and builds the tracking NLP (:class:`ContinuedGuesses`,
-:mod:`predictive.ocp.guess_worker`; the same results). ``benchmarks/bench_imu_tracking.py``
+:mod:`predictive.ocp.guess_worker`; the same results). ``benchmarks/speed/bench_imu_tracking.py``
 times each step: every start in one process, the early stop, the worker.
 """
 
@@ -360,7 +360,7 @@ def solve_imu_tracking(
             (:func:`~predictive.ocp.tracking.track_starts`); "independent" runs a predictive
             multi-start (:func:`predictive_guess`) and builds a tracking NLP per start. Both
             reach the same optimum on the real and synthetic strides of
-            ``benchmarks/bench_imu_tracking.py``; "shared" in less than half the time. With a
+            ``benchmarks/speed/bench_imu_tracking.py``; "shared" in less than half the time. With a
             fixed speed the starts are independent.
         agree_rtol: with ``starts="shared"``, the starts run from the middle speed guess
             outwards, the slower first (:meth:`ContinuedGuesses.trial_order`), and stop once two

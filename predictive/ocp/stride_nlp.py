@@ -485,7 +485,7 @@ class StrideSolverCache:
 
     Compiling one costs a few seconds; each is reused for every subject, speed and plan whose
     strides fit its buckets. With ``reuse=False`` every :meth:`get` builds its problem anew (the
-    same problem: the baseline of ``benchmarks/bench_synth.py``). ``builds`` counts the problems
+    same problem: the baseline of ``benchmarks/speed/bench_synth.py``). ``builds`` counts the problems
     built, ``build_time`` their seconds.
     """
 

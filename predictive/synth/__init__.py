@@ -14,3 +14,32 @@ each step lives in its own module:
 * :mod:`~predictive.synth.recording` — one recording: its chain, labels, IMUs and provenance;
 * :mod:`~predictive.synth.pipeline` — subjects and datasets, parallel workers, output.
 """
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from sspinn.lazy_exports import attach
+
+#: public name → the module that defines it (imported on first use)
+_EXPORTS: dict[str, str] = {
+    **dict.fromkeys(("SynthConfig",), "predictive.synth.config"),
+    **dict.fromkeys(("SynthWarning", "generate_dataset",), "predictive.synth.pipeline"),
+    **dict.fromkeys(("standing_recording",), "predictive.synth.standing"),
+    **dict.fromkeys(("start_stop_recording",), "predictive.synth.start_stop"),
+}
+__all__ = [
+    "SynthConfig",
+    "SynthWarning",
+    "generate_dataset",
+    "standing_recording",
+    "start_stop_recording",
+]
+
+if TYPE_CHECKING:  # the names for type checkers and editors; imported on first use at run time
+    from predictive.synth.config import SynthConfig
+    from predictive.synth.pipeline import SynthWarning, generate_dataset
+    from predictive.synth.standing import standing_recording
+    from predictive.synth.start_stop import start_stop_recording
+
+__getattr__, __dir__ = attach(__name__, _EXPORTS)

@@ -22,7 +22,7 @@ virtual subjects, labelled like the others:
    and the IMU error model, the estimator told the nominal placement, and no soft-tissue artefact
    (movement drives it; the body rests); the speed label is 0.
 
-Usage: ``python scripts/make_standing.py --config configs/synth/default.yaml --split test --out
+Usage: ``python -m predictive synth-standing --config configs/synth/default.yaml --split test --out
 data/standing``.
 """
 
@@ -37,13 +37,13 @@ from predictive.synth.cache import GENERATOR_NAME
 from predictive.synth.recording import synthetic_recording
 from predictive.synth.subjects import VirtualSubject
 from sspinn.data.dataset import SAMPLE_RATE_HZ, Recording
+from sspinn.data.measured_loads import grf_inputs
 from sspinn.data.sensor_noise import IMUErrorModel
 from sspinn.model.body import BodyParameters
 from sspinn.model.conventions import GRAVITY, N_Q, index
 from sspinn.model.dynamics import inverse_dynamics
 from sspinn.model.kinematics import point_index, point_kinematics
 from sspinn.model.trajectory import Trajectory
-from sspinn.validation.inverse_dynamics import grf_inputs
 
 #: Frequencies of the sway's sinusoids, Hz (quiet standing sways below 1 Hz).
 SWAY_HZ: Final = (0.11, 0.23, 0.37, 0.61)

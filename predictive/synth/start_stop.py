@@ -47,11 +47,11 @@ the first stride had to reach 0.75 m/s in a running stride's time from standing:
 subjects stepped back (the pelvis at −0.37 and −0.29 m/s) and hopped (flight phases, 3.7 BW).
 Through walking, at 3.0 m/s, both step off at −0.03 m/s as the walking start does, the first two
 strides have no flight phase (peaks 1.3–1.8 BW), the strides at 1.32 and 1.92 m/s jog (short
-flight phases), the run begins at 2.7 m/s (``python benchmarks/start_stop.py --speed
+flight phases), the run begins at 2.7 m/s (``python -m benchmarks.studies.start_stop --speed
 3.0 --subject 0``, and ``--subject 1``). The stop mirrors it and is less human: braking through
 1.92 and 1.32 m/s peaks at 4.7–6.9 BW.
 
-Usage: ``python scripts/make_standing.py --config configs/synth/smoke.yaml --split test
+Usage: ``python -m predictive synth-standing --config configs/synth/smoke.yaml --split test
 --start-stop 1.2 --out data/start_stop``.
 """
 

@@ -36,7 +36,7 @@ Human ranges (:func:`human_ranges`; speeds outside the tabulated ones take the n
   *J Rehabil Res Dev* 30:210–223). Flight ≤ 1 % (walking has none). Angle RMSD to Winter's walking
   (1.325 m/s) ≤ 6 / 8 / 6° (hip / knee / ankle), checked at 1.0–1.6 m/s only (the angles change
   with speed). The 0.8-m/s row's valley, double-support and cadence bands were widened after six
-  adults' normal treadmill walking at 0.72–0.78 m/s (CMU, ``benchmarks/gait_norms_references.py``,
+  adults' normal treadmill walking at 0.72–0.78 m/s (CMU, ``benchmarks/accuracy/gait_norms_references.py``,
   ``docs/results/gait_norms_references.md``) failed a narrower first row (valley ≤ 0.9 BW,
   cadence ≤ 110, double support ≤ 25 %); the 1.8-m/s row is not checked against recordings here.
 * **Running** (one row, from sources at 2.5–4.5 m/s, applied at 2.0–6.0 m/s): vertical GRF peak 2.2–3.0 BW (Cavanagh & Lafortune

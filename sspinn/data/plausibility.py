@@ -14,7 +14,7 @@ from a foot gyroscope in rad/s; so each check is driven by what the body can do,
   specific force (the mean over each :data:`LOW_PASS_WINDOW_S` window: linear accelerations
   average out, gravity does not) in the median window. In the frame of a swinging segment the
   centripetal acceleration does not average out either: virtual foot IMUs on human running
-  kinematics at 4 m/s (``sspinn.validation.semi_real_running``) give 1 s means of 2.9–3.1 g
+  kinematics at 4 m/s (``benchmarks.accuracy.semi_real_running``) give 1 s means of 2.9–3.1 g
   (shank 1.6 g), hence the upper bound of :data:`LOW_PASS_RANGE` equals that of the raw median.
 * **dead sensors**: a channel that never changes over the recording.
 * **saturated sensors**: a channel that sits at its extreme value (max or min) for at least

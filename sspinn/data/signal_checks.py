@@ -55,7 +55,7 @@ Gait checks (recordings of ≥ :data:`MIN_GAIT_S` with a periodic leg movement, 
   negated (gain above :data:`JOINT_MIRROR_WARN`) has a mirrored acc_x — what a negated 3D
   gyroscope or two swapped accelerometer axes become after ``sspinn import``'s calibration; a leg
   sensor whose joints fit best with its gyr_z scaled outside :data:`JOINT_SCALE_OK` has a
-  mis-scaled gyroscope (× 0.5). Margins measured by ``scripts/joint_check_margins.py`` are given
+  mis-scaled gyroscope (× 0.5). Margins measured by ``benchmarks/accuracy/joint_check_margins.py`` are given
   at the thresholds.
 * Not detectable without labels and thus not claimed: swapping *all* sensors of the two legs (the
   sagittal signals are the same up to half a stride; ``sspinn import`` judges it from the
@@ -148,7 +148,7 @@ JOINT_MAX_S: Final = 60.0
 #: Time-base factors and gyroscope scales searched.
 JOINT_FACTOR_RANGE: Final = (0.3, 3.0)
 JOINT_SCALE_RANGE: Final = (0.3, 3.0)
-#: Best-fitting time-base factor accepted as the stated rate. Measured (``scripts/joint_check_margins.py``):
+#: Best-fitting time-base factor accepted as the stated rate. Measured (``benchmarks/accuracy/joint_check_margins.py``):
 #: untouched 0.883–1.082 on the twelve CMU trials and their 20 s excerpts, 0.870–1.049 on the 40
 #: predicted recordings, the averaged stride, the predicted walk and the semi-real running; with the
 #: motion × 0.4–0.8 or × 1.25–2 the estimate is 0.76–1.07 × the true factor, so mislabels near × 0.8

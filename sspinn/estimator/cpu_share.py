@@ -4,56 +4,32 @@ torch's intra-op threads wait for each other at every parallel region; when anot
 one of the cores busy, a thread that the kernel has descheduled holds the others up: on a 2-core
 machine beside one busy-looping process, the demo configuration's steps ran at 0.26× their rate
 alone with two threads and at 0.80× with one. :func:`free_cpus` counts the cores that are not
-busy with other work, from two readings of ``/proc/stat`` a moment apart (the load average lags
-by a minute); :class:`ThreadShare` applies it at the start of training and again every few hundred
+busy with other work, from the machine's CPU use over a moment (:func:`psutil.cpu_percent`; the
+load average lags by a minute); :class:`ThreadShare` applies it at the start of training and again every few hundred
 steps, so training takes both cores of an idle machine and steps aside when a neighbour starts.
 
-Why by hand: neither torch nor threadpoolctl measures other processes' load, and OpenMP's
-``OMP_DYNAMIC`` is not honoured by torch's thread pool.
+Why not torch or threadpoolctl alone: neither measures other processes' load, and OpenMP's
+``OMP_DYNAMIC`` is not honoured by torch's thread pool; psutil measures the load.
 """
 
 from __future__ import annotations
 
-import os
-import time
+import psutil
 
 
 def usable_cpus() -> int:
-    """CPUs this process may run on (its affinity mask; ``os.cpu_count()`` where that is unknown)."""
+    """CPUs this process may run on (its affinity mask where the platform has one, else all)."""
     try:
-        return len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        return os.cpu_count() or 1
-
-
-def _cpu_times() -> tuple[float, float] | None:
-    """(busy, total) jiffies of all CPUs since boot, or None off Linux."""
-    try:
-        with open("/proc/stat") as fh:
-            fields = [float(v) for v in fh.readline().split()[1:]]
-    except (OSError, ValueError):
-        return None
-    idle = fields[3] + (fields[4] if len(fields) > 4 else 0.0)  # idle + iowait
-    return sum(fields) - idle, sum(fields)
+        return len(psutil.Process().cpu_affinity())
+    except (AttributeError, psutil.Error, OSError):  # no affinity on macOS
+        return psutil.cpu_count() or 1
 
 
 def free_cpus(interval_s: float = 0.2) -> int:
     """Usable CPUs minus those kept busy by other work over the next ``interval_s`` seconds
-    (the caller sleeps meanwhile), at least 1. Without ``/proc/stat`` it falls back to the
-    1-minute load average."""
+    (the caller sleeps meanwhile; busy: all CPU time but idle and I/O wait), at least 1."""
     n = usable_cpus()
-    first = _cpu_times()
-    if first is None:
-        try:
-            busy = os.getloadavg()[0]
-        except OSError:
-            return n
-    else:
-        time.sleep(interval_s)
-        second = _cpu_times()
-        assert second is not None
-        total = second[1] - first[1]
-        busy = (second[0] - first[0]) / total * (os.cpu_count() or n) if total > 0 else 0.0
+    busy = psutil.cpu_percent(interval=interval_s) / 100.0 * (psutil.cpu_count() or n)
     return max(1, min(n, round(n - busy)))
 
 

@@ -142,7 +142,7 @@ class TrainConfig:
             equations of motion are thousands of small element-wise operations, so eager PyTorch
             spends the physics' time dispatching them; inductor fuses them into a few C++ loops
             (physics 3.6× faster, the demo-size step 1.51× on a 2-core CPU;
-            ``benchmarks/bench_sspinn.py``). The first step pays a one-off compilation (about a
+            ``benchmarks/speed/bench_sspinn.py``). The first step pays a one-off compilation (about a
             minute on a 2-core machine, without SIMD code generation: see :class:`PhysicsTerms`;
             a few seconds when inductor's cache in ``$TORCHINDUCTOR_CACHE_DIR`` already holds it). If compilation
             fails (no C++ compiler), training warns and continues eagerly. The numbers agree with
@@ -462,7 +462,7 @@ PHYSICS_THREADS: Final = 1
 #: inductor options of the physics' compilation: no SIMD code generation. The cold compilation
 #: takes half as long (58 against 121–129 s, forward and backward, demo size, 2-core AMD EPYC) and
 #: the step runs as fast (51.6–51.8 k against 42.6–49.8 k samples/s): the tensors are short
-#: (batch × window elements), the kernels many (benchmarks/bench_sspinn.py). A SIMD width that no
+#: (batch × window elements), the kernels many (benchmarks/speed/bench_sspinn.py). A SIMD width that no
 #: instruction set has (``cpp.simdlen: 1``), not ``cpp.vec_isa_ok: False``: inductor reads the
 #: latter when it first probes the CPU and caches the answer for the process, so every later
 #: compilation in that process (the environment's) would be built without SIMD flags, and fail on
@@ -538,7 +538,9 @@ class NonFiniteLossError(RuntimeError):
 
 
 class Trainer:
-    """Trains an :class:`SSPINNposeNet` on recordings, self-supervised.
+    """Trains an :class:`SSPINNposeNet` on recordings, self-supervised: the machinery behind
+    :meth:`SSPINNpose.fit <sspinn.estimator.sspinnpose.SSPINNpose.fit>`, ``adapt`` and ``finetune``
+    (the one way in for users and the project's own code; not a public name).
 
     Args:
         config: the run's configuration.

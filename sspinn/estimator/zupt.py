@@ -5,7 +5,7 @@ SSPINNpose's foot-speed loss L_FS compares the foot IMU's horizontal speed with 
 error-state Kalman filter on strapdown integration, zero-velocity pseudo-measurements during
 detected stance, a Rauch–Tung–Striebel smoother, results in ``velocity_``, ``position_``,
 ``zupts_``). gaitmap needs numpy < 2.1, so this module is the **2D sagittal equivalent**
-(:class:`SagittalZuptKalman`), validated against motion capture by ``scripts/validate_zupt.py``.
+(:class:`SagittalZuptKalman`), validated against motion capture by ``benchmarks/accuracy/validate_zupt.py``.
 
 Conventions (:mod:`sspinn.model.conventions`)
 --------------------------------------
@@ -50,7 +50,7 @@ orientation_error_variance=1e-8, n_iterations=3`` (tested on synthetic data; the
 the real validation recording are equally good with both).
 
 Real 3D foot IMUs: project them onto the foot's sagittal plane first, e.g. with
-:func:`sspinn.validation.zupt_gaitmap.sagittal_from_gaitmap_frame` (gravity and heading
+:func:`benchmarks.accuracy.zupt_gaitmap.sagittal_from_gaitmap_frame` (gravity and heading
 alignment, as gaitmap's preprocessing); that module also holds the validation on gaitmap's
 example recording.
 

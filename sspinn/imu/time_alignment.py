@@ -64,7 +64,7 @@ off. The spans are returned (``lag_jumps``) so that they can be left out; a jump
 number of strides cannot be seen this way.
 
 The thresholds were set on CMU subjects Sub01–Sub04 only (Sub05 and Sub06 held out);
-``benchmarks/alignment_checks.py`` measures every warning's false alarms and detections on the
+``benchmarks/accuracy/alignment_checks.py`` measures every warning's false alarms and detections on the
 twelve CMU trials, as recorded and edited (docs/results/alignment.md).
 """
 
@@ -94,7 +94,7 @@ LAG_WINDOW_STRIDES: Final = 0.25
 AMBIGUOUS_RATIO: Final = 1.05
 #: Each foot's own lag further from the other foot's than this is a warning (force channels
 #: offset in time), s. CMU Sub01–Sub04 as recorded: at most 0.03 s apart; with the left channel
-#: 0.15 s late: 0.13–0.18 s (benchmarks/alignment_checks.py).
+#: 0.15 s late: 0.13–0.18 s (benchmarks/accuracy/alignment_checks.py).
 SIDE_LAG_TOLERANCE_S: Final = 0.08
 #: The exchanged assignment's (loading + impact) fit over the labelled one's above which the
 #: sides look swapped: "fits better" (1.0) at the best lags in the lag window. CMU Sub01–Sub04 in
@@ -103,7 +103,7 @@ SWAPPED_SIDES_RATIO: Final = 1.0
 #: A fit this close to its window's border (samples) may be the flank of a peak beyond it ...
 BORDER_SAMPLES: Final = 2
 #: ... so there the exchanged sides must fit this many times better than the labelled ones to
-#: look swapped. CMU Sub01–Sub04 (benchmarks/alignment_checks.py): as recorded or with one
+#: look swapped. CMU Sub01–Sub04 (benchmarks/accuracy/alignment_checks.py): as recorded or with one
 #: channel 0.15 s late, fits on the border reached 1.06 (Sub02 CSStiffKnee, left late); the
 #: sides exchanged with the truth 0.2 stride from the clock, 1.94 on the border (the others
 #: inside the window, 1.12–1.94); 0.25 stride away (on the border itself), 0.97–1.56.
@@ -114,7 +114,7 @@ BORDER_SIDES_RATIO: Final = 1.12
 #: as recorded 0.77–0.95 in eleven trials, 1.02 in Sub05 CSBaseline).
 SWAPPED_GLOBAL_RATIO: Final = 1.03
 #: A candidate beyond the lag window must score this many times the best fit in the window to
-#: overrule a shared clock. CMU Sub01–Sub04: at most 0.95 (benchmarks/alignment_checks.py).
+#: overrule a shared clock. CMU Sub01–Sub04: at most 0.95 (benchmarks/accuracy/alignment_checks.py).
 CLOCK_OVERRULE_RATIO: Final = 1.25
 #: ... and must overlap the IMU stream over at least this share of the clock's overlap (CMU
 #: Sub05 CSStiffKnee with a GRF clock jump: a lag of −92 s sharing 20 of its 112 s fitted better).

@@ -6,7 +6,7 @@
   (``sspinn/model/_generated/model_numba.py``). :func:`step` (one control interval, returns new arrays),
   :func:`simulate` (a whole rollout) and the Gymnasium environment (``envs/``) all call it;
   :func:`accel` evaluates q̈ once. About 0.4–0.5 µs per model evaluation with contact
-  (``benchmarks/bench_env.py``, 2-core development machine).
+  (``benchmarks/speed/bench_env.py``, 2-core development machine).
 * torch: :func:`step_torch` advances any batch of states differentiably with the generated
   array code (``model_expr``) and the generic integrators of :mod:`sspinn.model.integrators`, on CPU or
   CUDA.

@@ -96,7 +96,8 @@ def tiny_run(root: Path) -> tuple[Path, Path, Path]:
     configuration and a finished 4-step run below ``root``: (data folder, config path, run folder)."""
     import yaml
 
-    from sspinn.estimator.training import TrainConfig, Trainer
+    from sspinn.estimator.sspinnpose import SSPINNpose
+    from sspinn.estimator.training import TrainConfig
 
     rng = np.random.default_rng(3)
     data = root / "data"
@@ -109,7 +110,7 @@ def tiny_run(root: Path) -> tuple[Path, Path, Path]:
     }}))
     run = root / "run"
     with contextlib.redirect_stderr(io.StringIO()):  # the progress bar
-        Trainer(TrainConfig.from_yaml(cfg), run).fit(Dataset.open(data).load("train"))
+        SSPINNpose(TrainConfig.from_yaml(cfg)).fit(Dataset.open(data).load("train"), out=run)
     return data, cfg, run
 
 

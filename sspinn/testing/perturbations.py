@@ -1,6 +1,6 @@
 """Wiring and labelling mistakes applied to a good 2D recording, for the tests and measurements of
 :mod:`sspinn.data.signal_checks` (``tests/test_signal_checks_property.py``,
-``scripts/signal_check_rates.py``, ``scripts/bad_input_cases.py``).
+``benchmarks/accuracy/signal_check_rates.py``, ``scripts/bad_input_cases.py``).
 
 Each :class:`Perturbation` changes only the IMU array (acc_x, acc_y, gyr_z per segment, 100 Hz)
 the way a mistake would, and names what it did. Kinds (:data:`KINDS`):
@@ -32,7 +32,7 @@ from sspinn.model.conventions import GRAVITY
 
 KINDS: tuple[str, ...] = ("acc_sign", "gyro_sign", "acc_swap", "side_swap", "rate", "dead_gyro", "on_table", "rate_near",
                           "acc_x_sign", "gyro_scale")
-#: Mistakes the checks do not claim to detect (measured by ``scripts/signal_check_rates.py``):
+#: Mistakes the checks do not claim to detect (measured by ``benchmarks/accuracy/signal_check_rates.py``):
 #: the pelvis's gyr_z negated or scaled (it turns too little for the joint constraints), a
 #: thigh's gyr_z × 0.5 (the best-fitting thigh scale spans 0.59–1.49 on the untouched CMU trials,
 #: so × 0.5 is caught only where the thigh fits near 1), thigh

@@ -1,1 +1,0 @@
-"""Independent checks of the sagittal model against other engines (e.g. :mod:`.pymunk_engine`)."""
