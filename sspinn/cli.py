@@ -21,7 +21,7 @@ from sspinn.data.dataset import Dataset
 from sspinn.data.loading import dataset_recordings, open_recordings
 from sspinn.errors import ArgumentParser, UserError, bounded, run_cli
 from sspinn.estimator.inference import ImplausibleEstimateError, NonFiniteEstimateError
-from sspinn.run_folder import RunLock, output_target
+from sspinn.run_folder import RunLock, atomic_path, output_target
 from sspinn.yaml_config import add_config_flags, flag_overrides, shipped_path
 
 #: Fields of :class:`~sspinn.estimator.training.TrainConfig` that ``train`` and ``finetune`` take as flags.
@@ -295,8 +295,15 @@ def _calibrate_uncertainty(args: argparse.Namespace) -> int:
 def _export(args: argparse.Namespace) -> int:
     from sspinn.estimator.sspinnpose import SSPINNpose
 
+    if args.out.resolve() == args.model.resolve():
+        raise RunFolderError(f"--out {args.out}: is the model file the program is exported from; choose another --out")
+    if args.out.is_dir():
+        raise RunFolderError(f"--out {args.out}: is a folder; give the program's file, e.g. {args.out / 'step.pt2'}")
+    out = output_target(args.out, Path.exists, args.overwrite, "an existing file", keep_suffix=True)
     est = SSPINNpose.load(args.model)
-    path = est.export(args.out)
+    with atomic_path(out, tmp_suffix=".tmp.pt2") as tmp:  # torch.export.save wants the .pt2 ending
+        est.export(tmp)
+    path = out
     model, segments = est.network_, est.segments_
     cfg = model.config
     print(
@@ -404,7 +411,8 @@ def _main(argv: list[str]) -> int:
 
     ex = sub.add_parser("export", help="torch.export program of one streaming step of a trained network (.pt2)")
     ex.add_argument("--model", type=Path, required=True)
-    ex.add_argument("--out", type=Path, required=True)
+    ex.add_argument("--out", type=Path, required=True, help="program file (.pt2)")
+    ex.add_argument("--overwrite", action="store_true", help="replace the file already at --out (else a NOTE and <out>_2.pt2, …)")
 
     from sspinn.imu import pipeline as imu_import  # sspinn import: vendor IMU files + sensor map → calibrated recording
 

@@ -33,6 +33,7 @@ import contextlib
 import fcntl
 import io
 import json
+import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -503,7 +504,10 @@ class Dataset:
         if not isinstance(splits, dict) or not set(splits) <= set(SPLITS):
             raise DataFormatError(f"{index}: 'splits' must map some of {SPLITS} to lists of recording names")
         for split, names in splits.items():
+            if not isinstance(names, list):
+                raise DataFormatError(f"{index}: split {split!r} must be a list of recording names")
             for n in names:
+                check_name(n, index)  # a name like '../outside/secret' is refused, never read
                 if not (root / f"{n}.csv").exists():
                     raise DataFormatError(f"{index}: split {split!r} lists {n!r} but {root / (n + '.csv')} is missing")
         return cls(root=root, splits={k: list(v) for k, v in splits.items()}, info=meta.get("info", {}))
@@ -529,10 +533,12 @@ class Dataset:
         return Dataset(root=root, splits=splits, info=info or {})
 
     @staticmethod
-    def add(root: str | Path, rec: Recording, splits: tuple[str, ...], update_info: Callable[[dict[str, Any]], None] | None = None) -> Dataset:
+    def add(root: str | Path, rec: Recording, splits: tuple[str, ...], update_info: Callable[[dict[str, Any]], None] | None = None,
+            overwrite: bool = False) -> Dataset:
         """Save ``rec`` into the dataset folder ``root`` and list it in ``splits`` of its index
-        (created if absent; a recording of the same name is replaced), ``update_info`` changing
-        the index's ``info`` on the way. The read-modify-write of ``dataset.json`` holds an
+        (created if absent), ``update_info`` changing the index's ``info`` on the way. A recording
+        of the same name (its CSV or sidecar, or the index's entry) is replaced only with
+        ``overwrite`` and only by one of the same subject; else :class:`DataFormatError`. The read-modify-write of ``dataset.json`` holds an
         exclusive lock on the folder's index, so concurrent adds never lose each other's entries."""
         root = Path(root)
         root.mkdir(parents=True, exist_ok=True)
@@ -546,9 +552,12 @@ class Dataset:
                     raise DataFormatError(f"{index}: not valid JSON ({exc}); remove it or use another folder") from None
                 if not isinstance(meta, dict) or not isinstance(meta.get("splits"), dict):
                     raise DataFormatError(f"{index}: not a dataset index (no 'splits'); use another folder")
-            listed = any(rec.name in names for names in meta["splits"].values())
+            check_name(rec.name, root)
+            if holds_recording(root, rec.name) and not overwrite:
+                raise DataFormatError(f"{root}: already holds a recording {rec.name!r}; give this one another name, or "
+                                      "replace it with --overwrite")
             sidecar = root / f"{rec.name}.json"
-            if listed and sidecar.exists():
+            if sidecar.exists():
                 other = _read_sidecar(sidecar).get("subject", {}).get("id")
                 if other != rec.subject:
                     raise DataFormatError(f"{root}: already holds a recording {rec.name!r} of subject {other!r}, not "
@@ -569,13 +578,35 @@ class Dataset:
 INDEX: Final = "dataset.json"
 #: Names a recording may not take: they would collide with the dataset's own files.
 RESERVED_NAMES: Final = ("dataset",)
+#: The ending of the calibration reports ``sspinn import`` writes beside a recording
+#: (``<name>_calibration.md/.json/.png``): no recording name may end so, or its sidecar would be
+#: another recording's report.
+RESERVED_SUFFIX: Final = "_calibration"
 
 
-def check_name(name: str, folder: Path) -> None:
-    """A recording name is a plain file stem: no path separators, not ``.``/``..``, not reserved."""
-    if not name or name in (".", "..") or "/" in name or "\\" in name or Path(name).name != name or name in RESERVED_NAMES:
-        raise DataFormatError(f"{folder}: {name!r} is not a usable recording name (a plain file name, not "
-                              f"{', '.join(RESERVED_NAMES)}, without path separators)")
+def check_name(name: object, folder: Path) -> None:
+    """A recording name is a plain, visible file stem: a non-empty string of printable
+    characters, no path separators, not starting with a dot, not ``dataset``, not ending in
+    ``_calibration`` (the import's reports)."""
+    ok = (isinstance(name, str) and bool(name) and name.isprintable() and not name.startswith(".") and "/" not in name
+          and "\\" not in name and Path(name).name == name and name not in RESERVED_NAMES
+          and not name.endswith(RESERVED_SUFFIX))
+    if not ok:
+        raise DataFormatError(f"{folder}: {name!r} is not a usable recording name (a plain, visible file name of "
+                              f"printable characters, not starting with '.', without path separators, not "
+                              f"{', '.join(RESERVED_NAMES)}, not ending in {RESERVED_SUFFIX!r})")
+
+
+def holds_recording(root: Path, name: str) -> bool:
+    """Whether the dataset folder ``root`` already has a recording ``name`` (its CSV, its
+    sidecar, or an entry in ``dataset.json``)."""
+    if (root / f"{name}.csv").exists() or (root / f"{name}.json").exists():
+        return True
+    try:
+        splits = json.loads((root / INDEX).read_text()).get("splits", {})
+        return any(name in names for names in splits.values())
+    except (OSError, ValueError, AttributeError):
+        return False
 
 
 @contextlib.contextmanager
@@ -583,12 +614,18 @@ def index_lock(root: Path) -> Iterator[None]:
     """An exclusive advisory lock (``fcntl.flock``) on ``<root>/.dataset.lock``, waited for: the
     one writer of ``dataset.json`` holds it for its whole read-modify-write."""
     root.mkdir(parents=True, exist_ok=True)
-    with open(root / ".dataset.lock", "a") as fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(fh, fcntl.LOCK_UN)
+    path = root / ".dataset.lock"
+    try:  # never through a symbolic link, never truncated
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
+    except OSError as exc:
+        if path.is_symlink():
+            raise DataFormatError(f"{path}: is a symbolic link; it is never followed: remove it") from None
+        raise
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # releases the flock
 
 
 def _write_index(root: Path, splits: dict[str, list[str]], info: dict[str, Any]) -> Path:

@@ -47,7 +47,17 @@ from typing import Any, Final
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
-from sspinn.data.dataset import FORMAT, SPLITS, DataFormatError, Dataset, Labels, Recording
+from sspinn.data.dataset import (
+    FORMAT,
+    RESERVED_SUFFIX,
+    SPLITS,
+    DataFormatError,
+    Dataset,
+    Labels,
+    Recording,
+    check_name,
+    holds_recording,
+)
 from sspinn.data.signal_checks import label_findings, recording_findings
 from sspinn.errors import UserError
 from sspinn.imu.calibration import Calibration, calibrate
@@ -59,7 +69,7 @@ from sspinn.imu.stream import ANTI_ALIAS_HZ, DEFAULT_MAX_GAP_S, RATE_HZ, IMUImpo
 from sspinn.imu.time_alignment import Alignment, align_to_grf, walking_direction_sign
 from sspinn.imu.vendor_readers import read_imu_files, read_treadmill_grf_columns
 from sspinn.model.conventions import GRF
-from sspinn.run_folder import atomic_write_text
+from sspinn.run_folder import atomic_write_text, output_target
 
 #: Version of the import procedure, stored in the provenance.
 IMPORTER_VERSION: Final = 6
@@ -82,7 +92,26 @@ def default_name(files: list[Path]) -> str:
     name = files[0].name
     for suffix in (".gz", ".trc", ".txt", ".csv", "_Accel", "_Gyro"):
         name = name.removesuffix(suffix)
-    return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name) or "imported"
+    name = "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name).lstrip(".").removesuffix(RESERVED_SUFFIX)
+    return name or "imported"
+
+
+def _report_paths(out: Path, name: str) -> tuple[Path, Path, Path]:
+    """The calibration report, its JSON and its figure beside recording ``name``."""
+    stem = f"{name}{RESERVED_SUFFIX}"
+    return out / f"{stem}.md", out / f"{stem}.json", out / f"{stem}.png"
+
+
+def recording_target(out: Path, name: str, overwrite: bool) -> str:
+    """The name a recording is imported under: ``name``, or — when the dataset folder already
+    holds a recording (or calibration report) of that name and ``overwrite`` is false — the first
+    free ``name_2``, ``name_3``, … announced on a ``NOTE`` line (:func:`sspinn.run_folder.output_target`)."""
+    check_name(name, out)
+
+    def taken(path: Path) -> bool:
+        return holds_recording(out, path.name) or any(p.exists() for p in _report_paths(out, path.name))
+
+    return output_target(out / name, taken, overwrite, "a recording", "give another --name, ").name
 
 
 def ignored_signals(ignored: IMUStream, grid: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -119,14 +148,17 @@ def import_imu(
     max_gap_s: float = DEFAULT_MAX_GAP_S,
     split: str = "all",
     imu_rate_hz: float | None = None,
+    overwrite: bool = False,
 ) -> ImportResult:
     """Import one trial (module docstring). ``height`` m, ``mass`` kg, ``speed`` m/s, times s;
-    ``imu_rate_hz``: the update rate of Xsens files whose header lacks one (Hz)."""
+    ``imu_rate_hz``: the update rate of Xsens files whose header lacks one (Hz). A recording of
+    the same name already in ``out`` is replaced only with ``overwrite`` (and only by the same
+    subject's); else this one is imported as ``<name>_2``, … with a ``NOTE``."""
     files = [Path(f) for f in imu_files]
     smap = sensor_map if isinstance(sensor_map, SensorMap) else SensorMap.from_yaml(sensor_map)
     if split not in (*SPLITS, "all"):
         raise IMUImportError(f"split must be one of {[*SPLITS, 'all']}, got {split!r}")
-    name = name or default_name(files)
+    name = recording_target(Path(out), default_name(files) if name is None else name, overwrite)
     stream = read_imu_files(files, imu_rate_hz, known=(*smap.assignments, *smap.ignore))
     smap.check_sensors(stream.names, stream.source)
     ignored = IMUStream({s: stream.sensors[s] for s in stream.names if s in smap.ignore}, stream.source)
@@ -192,15 +224,15 @@ def import_imu(
     cal.warnings += findings
     provenance["warnings"] += findings
     out = Path(out)
-    csv = add_to_index(out, rec, split)
+    csv = add_to_index(out, rec, split, overwrite)
     context = {"files": ", ".join(str(f) for f in files), "sensor map": smap.source,
                "subject": f"{subject}, {height} m, {mass} kg", "recording": f"{csv} ({rec.n_samples} samples, {rec.duration:.2f} s)"}
-    report = out / f"{name}_calibration.md"
+    report, report_json, report_png = _report_paths(out, name)
     atomic_write_text(report, calibration_markdown(name, cal, alignment, context, notes))
-    atomic_write_text(out / f"{name}_calibration.json", json.dumps(
+    atomic_write_text(report_json, json.dumps(
         {"sensors": provenance["calibration"], "alignment": provenance.get("grf_alignment"), "warnings": provenance["warnings"],
          "notes": provenance["notes"]}, indent=2))
-    figure = plot_calibration(out / f"{name}_calibration.png", name, cal, projected, {s: v[1] for s, v in signals.items()})
+    figure = plot_calibration(report_png, name, cal, projected, {s: v[1] for s, v in signals.items()})
     return ImportResult(rec, cal, alignment, csv, report, figure)
 
 
@@ -250,18 +282,18 @@ def _grf_labels(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], c
     return alignment, labels, keep, notes, warnings
 
 
-def add_to_index(folder: Path, rec: Recording, split: str) -> Path:
+def add_to_index(folder: Path, rec: Recording, split: str, overwrite: bool = False) -> Path:
     """Save ``rec`` into the dataset folder and list it in ``split`` of its ``dataset.json``
     (``"all"``: train, val and test) through the dataset's one writer
     (:meth:`sspinn.data.dataset.Dataset.add`: locked, atomic); a recording of the same name is
-    replaced. Returns the CSV path."""
+    replaced only with ``overwrite``. Returns the CSV path."""
 
     def note(info: dict[str, Any]) -> None:
         info.setdefault("imported", {})[rec.name] = {"subject": rec.subject, "split": split, "format": FORMAT}
         info["note"] = ("recordings imported with `sspinn import`; split 'all' lists a recording in train, val and test "
                         "(self-supervised use on the same data)")
 
-    Dataset.add(folder, rec, SPLITS if split == "all" else (split,), note)
+    Dataset.add(folder, rec, SPLITS if split == "all" else (split,), note, overwrite)
     return folder / f"{rec.name}.csv"
 
 
@@ -288,6 +320,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--imu-rate", type=bounded(float, 1.0, 2000.0, " Hz"), default=None,
                    help="update rate of the Xsens files, Hz: needed where PacketCounter times the samples and no "
                    "'// Update Rate' header line gives it (a header that disagrees is an error)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a recording of the same --name (same subject) in --out (else a NOTE and <name>_2, …)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -295,7 +329,7 @@ def run(args: argparse.Namespace) -> int:
     result = import_imu(
         args.imu, args.sensor_map, args.height, args.mass, args.out, subject=args.subject, name=args.name, grf=args.grf,
         speed=args.speed, start_s=args.start, end_s=args.end, standing=not args.no_standing, max_gap_s=args.max_gap,
-        split=args.split, imu_rate_hz=args.imu_rate,
+        split=args.split, imu_rate_hz=args.imu_rate, overwrite=args.overwrite,
     )
     rec, cal = result.recording, result.calibration
     print(f"{rec.name}: {rec.n_samples} samples ({rec.duration:.1f} s), IMUs {list(rec.segments)} → {result.csv}")
