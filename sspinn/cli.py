@@ -41,18 +41,18 @@ def _data_args(p: argparse.ArgumentParser) -> None:
 
 
 def _train(args: argparse.Namespace, command: str) -> int:
-    from sspinn.estimator.sspinnpose import SSPINNpose, resolve_train_config
+    from sspinn.estimator.sspinnpose import SSPINNpose
 
     _check_run_folder(args, command)
     recordings = open_recordings(args.data, getattr(args, "split", "train"), args.periods, args.height, args.mass)
     resume = args.resume or (args.auto_resume and (args.out / "checkpoint.pt").exists())
     if command == "train":
-        est = SSPINNpose(resolve_train_config(args.config, args.set, **flag_overrides(args))).fit(recordings, args.out, resume=resume)
+        est = SSPINNpose(_train_config(args)).fit(recordings, args.out, resume=resume)
     elif command == "adapt":
         est = SSPINNpose.load(args.model).adapt(recordings, args.out, resume=resume, settings=args.set, **flag_overrides(args))
     else:
         est = SSPINNpose.load(args.model)
-        est.config = resolve_train_config(args.config, args.set, **flag_overrides(args))
+        est.config = _train_config(args)
         est.finetune(recordings, args.out, resume=resume)
     print(f"{'adapted' if command == 'adapt' else 'trained'} {est.steps_} steps → {args.out / 'model.pt'}")
     if est.stopped_by_ == "time_limit":
@@ -62,6 +62,23 @@ def _train(args: argparse.Namespace, command: str) -> int:
             file=sys.stderr,
         )
     return 0
+
+
+def _train_config(args: argparse.Namespace):  # -> TrainConfig (imported lazily: torch)
+    """The training configuration of ``--config`` (a file that must exist there — a relative
+    path is never looked up anywhere else — or a shipped name: demo, smoke, paper) with the flags
+    and ``--set`` applied."""
+    from sspinn.estimator.sspinnpose import CONFIG_DIR
+    from sspinn.estimator.training import TrainConfig
+    from sspinn.yaml_config import MissingConfigFileError
+
+    path = Path(args.config)
+    if str(path) == path.name and not path.suffix and (CONFIG_DIR / f"{path}.yaml").is_file():
+        path = CONFIG_DIR / f"{path}.yaml"
+    elif not path.exists():
+        names = ", ".join(sorted(p.stem for p in CONFIG_DIR.glob("*.yaml")))
+        raise MissingConfigFileError(f"{path}: no such configuration file (give the path of one, or a shipped name: {names})")
+    return TrainConfig.from_yaml(path, settings=list(args.set), **flag_overrides(args))
 
 
 #: Files of a run folder that make it a (finished or resumable) run.
