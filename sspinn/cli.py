@@ -43,17 +43,29 @@ def _data_args(p: argparse.ArgumentParser) -> None:
 def _train(args: argparse.Namespace, command: str) -> int:
     from sspinn.estimator.sspinnpose import SSPINNpose
 
+    check_device(flag_overrides(args).get("device"), "--device")
+    for setting in args.set:
+        key, _, value = setting.partition("=")
+        if key.strip() == "device":
+            check_device(value.strip(), f"--set {setting!r}:")
     _check_run_folder(args, command)
     recordings = open_recordings(args.data, getattr(args, "split", "train"), args.periods, args.height, args.mass)
     resume = args.resume or (args.auto_resume and (args.out / "checkpoint.pt").exists())
-    if command == "train":
-        est = SSPINNpose(_train_config(args)).fit(recordings, args.out, resume=resume)
-    elif command == "adapt":
-        est = SSPINNpose.load(args.model).adapt(recordings, args.out, resume=resume, settings=args.set, **flag_overrides(args))
-    else:
-        est = SSPINNpose.load(args.model)
-        est.config = _train_config(args)
-        est.finetune(recordings, args.out, resume=resume)
+    from sspinn.estimator.training import NonFiniteLossError
+
+    try:
+        if command == "train":
+            est = SSPINNpose(_train_config(args)).fit(recordings, args.out, resume=resume)
+        elif command == "adapt":
+            est = SSPINNpose.load(args.model).adapt(recordings, args.out, resume=resume, settings=args.set,
+                                                    **flag_overrides(args))
+        else:
+            est = SSPINNpose.load(args.model)
+            est.config = _train_config(args)
+            est.finetune(recordings, args.out, resume=resume)
+    except NonFiniteLossError as exc:  # a user's setting (a learning rate too high), not a bug
+        raise UserError(f"{args.out}: training diverged: {exc}; lower the learning rate (--lr / --set lr=) or "
+                        "check the recordings") from None
     print(f"{'adapted' if command == 'adapt' else 'trained'} {est.steps_} steps → {args.out / 'model.pt'}")
     if est.stopped_by_ == "time_limit":
         print(
@@ -78,7 +90,28 @@ def _train_config(args: argparse.Namespace):  # -> TrainConfig (imported lazily:
     elif not path.exists():
         names = ", ".join(sorted(p.stem for p in CONFIG_DIR.glob("*.yaml")))
         raise MissingConfigFileError(f"{path}: no such configuration file (give the path of one, or a shipped name: {names})")
-    return TrainConfig.from_yaml(path, settings=list(args.set), **flag_overrides(args))
+    config = TrainConfig.from_yaml(path, settings=list(args.set), **flag_overrides(args))
+    check_device(config.device, f"{path}: device")
+    return config
+
+
+def check_device(name: str | None, where: str) -> None:
+    """A :class:`UserError` naming ``where`` unless ``name`` is ``auto``, ``cpu`` or a CUDA device
+    this torch can use (``cuda``, ``cuda:<k>`` below the number of GPUs)."""
+    if name in (None, "auto", "cpu"):
+        return
+    import torch
+
+    try:
+        device = torch.device(name)
+    except (RuntimeError, TypeError):
+        device = None
+    if device is None or device.type not in ("cpu", "cuda"):
+        raise UserError(f"{where} {name!r} is not a device sspinn trains on: use cpu, cuda, cuda:<k> or auto")
+    if device.type == "cuda" and not torch.cuda.is_available():
+        raise UserError(f"{where} {name!r}: this torch ({torch.__version__}) sees no CUDA GPU; use cpu or auto")
+    if device.type == "cuda" and device.index is not None and device.index >= torch.cuda.device_count():
+        raise UserError(f"{where} {name!r}: there are {torch.cuda.device_count()} CUDA GPU(s) (cuda:0 …); use another index")
 
 
 #: Files of a run folder that make it a (finished or resumable) run.

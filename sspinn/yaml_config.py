@@ -498,13 +498,16 @@ def check_batch_memory(config: Any, source: str, error: type[Exception] = Config
 def _implied_spec(f: dataclasses.Field, value: Any, prefix: str) -> dict[str, Any]:
     """The :func:`option` spec of ``f`` plus the ranges every configuration gets by convention:
     an upper bound for a size-like integer field the class bounds not
-    (:data:`sspinn.resource_limits.SIZE_LIMITS`), and ``>= 0`` for a number in a section named
+    (:data:`sspinn.resource_limits.SIZE_LIMITS`), a learning rate ``lr`` in (0, 1], and ``>= 0`` for a number in a section named
     ``weights`` (loss or cost weights: a negative one rewards the error it should punish)."""
     spec = _spec(f)
     if "choices" in spec:
         return spec
     if f.name in SIZE_LIMITS and isinstance(value, int) and not isinstance(value, bool):
         spec.setdefault("le", SIZE_LIMITS[f.name])
+    if f.name == "lr" and isinstance(value, (int, float)) and not isinstance(value, bool):  # Adam's step size
+        spec.setdefault("gt", 0)
+        spec.setdefault("le", 1.0)
     if prefix.rsplit(".", 1)[-1] == "weights" and isinstance(value, (int, float)) and not isinstance(value, bool):
         spec.setdefault("ge", 0)
     return spec
