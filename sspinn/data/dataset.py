@@ -47,6 +47,7 @@ from sspinn.errors import DataFormatError
 from sspinn.model.body import IMUPlacement, ParameterError
 from sspinn.model.conventions import GRAVITY, IMU_CHANNELS, SEGMENTS
 from sspinn.model.trajectory import COLUMNS, Trajectory
+from sspinn.resource_limits import MAX_CONFIG_BYTES, MAX_INPUT_BYTES, MAX_ROWS, ResourceLimitError, read_input_text
 from sspinn.run_folder import atomic_path, atomic_write_text
 
 FORMAT: Final = "sspinn-recording"
@@ -335,13 +336,40 @@ class Recording:
         return rec
 
 
-def _read_sidecar(path: Path) -> dict[str, Any]:
+def read_data_text(path: Path, max_bytes: int = MAX_INPUT_BYTES) -> str:
+    """The UTF-8 text of a data file (a byte-order mark ignored): a regular file (not a FIFO or a
+    device) of at most ``max_bytes`` (:mod:`sspinn.resource_limits`), else :class:`DataFormatError`
+    naming it."""
     try:
-        meta = json.loads(path.read_text(encoding="utf-8-sig"))  # a UTF-8 byte-order mark is fine
-    except json.JSONDecodeError as exc:
+        return read_input_text(path, max_bytes, "data file")
+    except ResourceLimitError as exc:
+        raise DataFormatError(str(exc)) from None
+
+
+def _object_without_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object; a key given twice is an error (``json`` keeps the last silently)."""
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise ValueError(f"duplicate key {key!r}")
+        out[key] = value
+    return out
+
+
+def read_json_data(path: Path, max_bytes: int = MAX_INPUT_BYTES) -> Any:
+    """A JSON data file (:func:`read_data_text`); invalid JSON, a duplicate key or nesting too
+    deep for the parser is a :class:`DataFormatError` naming the file."""
+    text = read_data_text(path, max_bytes)
+    try:
+        return json.loads(text, object_pairs_hook=_object_without_duplicates)
+    except RecursionError:
+        raise DataFormatError(f"{path}: JSON nested too deeply") from None
+    except ValueError as exc:  # JSONDecodeError is one
         raise DataFormatError(f"{path}: not valid JSON ({exc})") from None
-    except UnicodeDecodeError as exc:
-        raise DataFormatError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+
+
+def _read_sidecar(path: Path) -> dict[str, Any]:
+    meta = read_json_data(path, MAX_CONFIG_BYTES)
     if not isinstance(meta, dict):
         raise DataFormatError(f"{path}: expected a JSON object with format, version, subject and imu; got a {type(meta).__name__}")
     if meta.get("format") != FORMAT:
@@ -382,11 +410,11 @@ def read_csv_table(path: Path) -> tuple[list[str], np.ndarray]:
     """(column names, (rows, columns) float array) of a comma-separated file with one header
     line; clear errors for duplicate or empty columns, unreadable numbers, ragged rows and a last
     line cut short (a file must end with a newline). A UTF-8 byte-order mark is ignored."""
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise DataFormatError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    text = read_data_text(path)
     lines = text.splitlines()
+    if len(lines) > MAX_ROWS + 1:
+        raise DataFormatError(f"{path}: {len(lines) - 1} rows, more than the {MAX_ROWS} a table may have here "
+                              f"({MAX_ROWS / SAMPLE_RATE_HZ / 3600:.1f} h at 100 Hz); split it")
     if not lines or not lines[0].strip():
         raise DataFormatError(f"{path}: empty file or empty header line (expected column names)")
     if not text.endswith(("\n", "\r")) and len(lines) > 1:
@@ -496,11 +524,8 @@ class Dataset:
         index = root / "dataset.json"
         if not index.exists():
             raise DataFormatError(f"{index}: not found (a dataset folder needs a dataset.json index)")
-        try:
-            meta = json.loads(index.read_text())
-        except json.JSONDecodeError as exc:
-            raise DataFormatError(f"{index}: not valid JSON ({exc})") from None
-        splits = meta.get("splits")
+        meta = read_json_data(index, MAX_CONFIG_BYTES)
+        splits = meta.get("splits") if isinstance(meta, dict) else None
         if not isinstance(splits, dict) or not set(splits) <= set(SPLITS):
             raise DataFormatError(f"{index}: 'splits' must map some of {SPLITS} to lists of recording names")
         for split, names in splits.items():
@@ -546,10 +571,7 @@ class Dataset:
         with index_lock(root):
             meta: dict[str, Any] = {"splits": {}, "info": {}}
             if index.exists():
-                try:
-                    meta = json.loads(index.read_text())
-                except json.JSONDecodeError as exc:
-                    raise DataFormatError(f"{index}: not valid JSON ({exc}); remove it or use another folder") from None
+                meta = read_json_data(index, MAX_CONFIG_BYTES)
                 if not isinstance(meta, dict) or not isinstance(meta.get("splits"), dict):
                     raise DataFormatError(f"{index}: not a dataset index (no 'splits'); use another folder")
             check_name(rec.name, root)
@@ -603,9 +625,9 @@ def holds_recording(root: Path, name: str) -> bool:
     if (root / f"{name}.csv").exists() or (root / f"{name}.json").exists():
         return True
     try:
-        splits = json.loads((root / INDEX).read_text()).get("splits", {})
+        splits = read_json_data(root / INDEX, MAX_CONFIG_BYTES).get("splits", {})
         return any(name in names for names in splits.values())
-    except (OSError, ValueError, AttributeError):
+    except (OSError, ValueError, AttributeError):  # DataFormatError is a ValueError
         return False
 
 
@@ -617,7 +639,7 @@ def index_lock(root: Path) -> Iterator[None]:
     path = root / ".dataset.lock"
     try:  # never through a symbolic link, never truncated
         fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
-    except OSError as exc:
+    except OSError:
         if path.is_symlink():
             raise DataFormatError(f"{path}: is a symbolic link; it is never followed: remove it") from None
         raise
