@@ -70,6 +70,7 @@ from sspinn.imu.time_alignment import Alignment, align_to_grf, walking_direction
 from sspinn.imu.vendor_readers import read_imu_files, read_treadmill_grf_columns
 from sspinn.model.conventions import GRF
 from sspinn.run_folder import atomic_write_text, output_target
+from sspinn.yaml_config import read_yaml
 
 #: Version of the import procedure, stored in the provenance.
 IMPORTER_VERSION: Final = 6
@@ -131,6 +132,14 @@ def ignored_signals(ignored: IMUStream, grid: np.ndarray) -> dict[str, tuple[np.
     return out
 
 
+def _read_sensor_map(path: Path) -> SensorMap:
+    """The sensor map at ``path``, read through :func:`sspinn.yaml_config.read_yaml` (a regular
+    UTF-8 file of bounded size, no duplicate keys: errors name the file)."""
+    if not path.exists():
+        return SensorMap.from_yaml(path)  # its own "not found" message
+    return SensorMap.from_dict(read_yaml(path), source=str(path))
+
+
 def import_imu(
     imu_files: list[str | Path],
     sensor_map: SensorMap | str | Path,
@@ -155,7 +164,7 @@ def import_imu(
     the same name already in ``out`` is replaced only with ``overwrite`` (and only by the same
     subject's); else this one is imported as ``<name>_2``, … with a ``NOTE``."""
     files = [Path(f) for f in imu_files]
-    smap = sensor_map if isinstance(sensor_map, SensorMap) else SensorMap.from_yaml(sensor_map)
+    smap = sensor_map if isinstance(sensor_map, SensorMap) else _read_sensor_map(Path(sensor_map))
     if split not in (*SPLITS, "all"):
         raise IMUImportError(f"split must be one of {[*SPLITS, 'all']}, got {split!r}")
     name = recording_target(Path(out), default_name(files) if name is None else name, overwrite)
