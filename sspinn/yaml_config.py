@@ -475,10 +475,6 @@ def check_options(config: Any, source: str, *, prefix: str = "", error: type[Exc
         spec = _implied_spec(f, value, prefix)
         if value is not None and not _allowed(value, spec):
             raise error(f"{source}: option {path} must be {describe(hints[f.name], spec)}, got {value!r}")
-        if f.name.startswith("weights") and isinstance(value, Mapping):  # e.g. weights_after_starts
-            for key, weight in value.items():
-                if not (isinstance(weight, (int, float)) and math.isfinite(weight) and weight >= 0):
-                    raise error(f"{source}: option {path}.{key} must be a loss weight >= 0, got {weight!r}")
 
 
 def check_batch_memory(config: Any, source: str, error: type[Exception] = ConfigError) -> None:
