@@ -316,10 +316,11 @@ class Recording:
                 bad = [s for s, xy in positions.items() if len(xy) != 2]
                 if bad:
                     raise ValueError(f"position_m of {bad} is not [x, y]")
-                placement = IMUPlacement(
-                    positions=positions,  # type: ignore[arg-type]
-                    angles={s: _number(sidecar_path, f"imu.placement.{s}.angle_rad", v["angle_rad"]) for s, v in placement_meta.items()},
-                )
+                angles = {s: _number(sidecar_path, f"imu.placement.{s}.angle_rad", v["angle_rad"]) for s, v in placement_meta.items()}
+                check_placement_angles(angles, sidecar_path)
+                placement = IMUPlacement(positions=positions, angles=angles)  # type: ignore[arg-type]
+            except DataFormatError:
+                raise
             except (KeyError, TypeError, ValueError, AttributeError, ParameterError) as exc:
                 raise DataFormatError(f"{sidecar_path}: bad imu.placement ({type(exc).__name__}: {exc}); expected "
                                       "{segment: {position_m: [x, y], angle_rad: a}} for every segment") from None
@@ -334,6 +335,17 @@ class Recording:
             raise DataFormatError(f"{csv}: {str(exc).removeprefix(csv.stem + ': ')}") from None
         check_recording(rec, str(csv))
         return rec
+
+
+def check_placement_angles(angles: dict[str, float], source: object) -> None:
+    """:class:`DataFormatError` naming ``source`` for a placement angle beyond ±π rad: a sensor's
+    angle in its segment's plane is one turn at most, so such a number is in degrees (a degree
+    value within ±π cannot be told from radians here; the gravity-direction check of
+    :mod:`sspinn.data.signal_checks` judges it against the signals)."""
+    bad = {s: a for s, a in angles.items() if abs(a) > np.pi}
+    if bad:
+        shown = ", ".join(f"imu.placement.{s}.angle_rad {a:g}" for s, a in bad.items())
+        raise DataFormatError(f"{source}: {shown}: beyond ±π rad — in degrees? give radians (× π/180)")
 
 
 def read_data_text(path: Path, max_bytes: int = MAX_INPUT_BYTES) -> str:
