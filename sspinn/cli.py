@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -53,6 +54,9 @@ def _train(args: argparse.Namespace, command: str) -> int:
     resume = args.resume or (args.auto_resume and (args.out / "checkpoint.pt").exists())
     from sspinn.estimator.training import NonFiniteLossError
 
+    if resume and command != "adapt":
+        _warn_resume_changes(_train_config(args), args.out / "checkpoint.pt")
+    previous = _sigterm_as_ctrl_c()
     try:
         if command == "train":
             est = SSPINNpose(_train_config(args)).fit(recordings, args.out, resume=resume)
@@ -66,6 +70,9 @@ def _train(args: argparse.Namespace, command: str) -> int:
     except NonFiniteLossError as exc:  # a user's setting (a learning rate too high), not a bug
         raise UserError(f"{args.out}: training diverged: {exc}; lower the learning rate (--lr / --set lr=) or "
                         "check the recordings") from None
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
     print(f"{'adapted' if command == 'adapt' else 'trained'} {est.steps_} steps → {args.out / 'model.pt'}")
     if est.stopped_by_ == "time_limit":
         print(
@@ -93,6 +100,43 @@ def _train_config(args: argparse.Namespace):  # -> TrainConfig (imported lazily:
     config = TrainConfig.from_yaml(path, settings=list(args.set), **flag_overrides(args))
     check_device(config.device, f"{path}: device")
     return config
+
+
+#: Settings a resumed run may change without a warning: its length, machine and logging.
+RESUME_FREE = ("steps", "threads", "time_limit_s", "device", "log_every", "checkpoint_every")
+
+
+def _warn_resume_changes(config, checkpoint: Path) -> None:
+    """A WARNING line naming every setting (other than :data:`RESUME_FREE`) that differs from the
+    one the checkpoint was trained with: a resumed run is then not the run it continues."""
+    from sspinn.torch_files import CHECKPOINT, load_torch_file
+
+    if not checkpoint.is_file():
+        return
+    saved = load_torch_file(checkpoint, (CHECKPOINT,), ("config",), "resume from an intact checkpoint").get("config", {})
+    now = config.to_dict()
+    changed = [f"{k} {saved[k]!r} → {now[k]!r}" for k in now if k in saved and k not in RESUME_FREE and saved[k] != now[k]]
+    if changed:
+        print(f"WARNING: {checkpoint}: resuming with settings other than the checkpoint's ({'; '.join(changed)}): the "
+              "result is not that of the run it continues", file=sys.stderr)
+
+
+def _sigterm_as_ctrl_c():  # -> the previous handler, or None outside the main thread
+    """SIGTERM (``kill``, a batch system's stop) handled as Ctrl-C is: training finishes the step
+    it is in, saves the checkpoint and stops (a second signal stops at once)."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return None
+
+    def forward(signum: int, frame: object) -> None:
+        handler = signal.getsignal(signal.SIGINT)
+        if callable(handler):
+            handler(signal.SIGINT, frame)
+        else:
+            raise KeyboardInterrupt
+
+    return signal.signal(signal.SIGTERM, forward)
 
 
 def check_device(name: str | None, where: str) -> None:

@@ -163,3 +163,28 @@ def test_export_writes_through_the_safe_path_and_the_sidecar_written_is_json(tmp
     rec.save(tmp_path)
     assert json.loads((tmp_path / f"{rec.name}.json").read_text())["format"]
     assert Recording.load(tmp_path / f"{rec.name}.csv").n_samples == rec.n_samples
+
+
+def test_resume_with_other_settings_warns_naming_them(tiny_run, tmp_path, capsys) -> None:
+    import shutil
+
+    _, data, cfg, _, run = tiny_run
+    out = Path(shutil.copytree(run, tmp_path / "run"))
+    assert main(["train", "--config", str(cfg), "--data", str(data), "--out", str(out), "--resume", "--set", "lr=0.01"]) == 0
+    err = capsys.readouterr().err
+    assert "resuming with settings other than the checkpoint's (lr 0.001 → 0.01)" in err, err
+
+
+def test_sigterm_during_training_is_handled_like_ctrl_c() -> None:
+    import signal
+
+    from sspinn.cli import _sigterm_as_ctrl_c
+    from sspinn.interrupt import DeferredInterrupt
+
+    with DeferredInterrupt() as interrupt:
+        previous = _sigterm_as_ctrl_c()
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            assert interrupt.requested  # the step finishes, then the checkpoint is saved
+        finally:
+            signal.signal(signal.SIGTERM, previous)
