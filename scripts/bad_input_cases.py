@@ -870,7 +870,7 @@ def main() -> None:
         Case("18", "left-leg sensors turned 180° about their long axis", "sspinn infer --data walk.csv (acc_x, gyr_z × −1 on the "
              "left leg)", "exit 0", "the right and left legs swing in phase", lambda: real_infer(left_leg_turned)),
         Case("18", "all accelerometers × 1.5", "sspinn infer --data walk.csv (acc × 1.5)", "exit 0",
-             "every accelerometer looks scaled by 1.5", lambda: real_infer(columns_of("all", [0, 1], lambda a: 1.5 * a))),
+             "the accelerometer looks scaled by 1.5", lambda: real_infer(columns_of("all", [0, 1], lambda a: 1.5 * a))),
         Case("18", "a gyroscope bias of 0.5 rad/s on every sensor", "sspinn infer --data walk.csv (gyr_z + 0.5)", "exit 0",
              "every gyroscope looks biased", lambda: real_infer(columns_of("all", [2], lambda g: g + 0.5))),
         Case("18", "a speed label 10× the walk's (7.69 for 0.77 m/s)", "sspinn import --speed 7.69 --end 30", "exit 0",

@@ -106,7 +106,7 @@ def test_scaled_accelerometers_biased_gyroscopes_and_a_turned_leg_are_named(walk
     scaled = walk.imu.copy()
     scaled[:, :, :2] *= 1.5
     found = recording_findings(_edited(walk, scaled), "walk")
-    assert any("every accelerometer looks scaled by 1.5" in f for f in found), found
+    assert any("the accelerometer looks scaled by 1.5" in f for f in found), found
     biased = walk.imu.copy()
     biased[:, :, 2] += 0.5
     found = recording_findings(_edited(walk, biased), "walk")
