@@ -39,6 +39,7 @@ import argparse
 import dataclasses
 import functools
 import inspect
+import io
 import math
 import re
 import types
@@ -125,8 +126,10 @@ def parse_yaml(text: str, source: str = "YAML text") -> Any:
     """``text`` parsed as YAML (safe, with ``3e-4`` read as a float; a duplicate key, or lists
     and mappings nested more than :data:`MAX_NESTING` deep, are a :class:`ConfigError` naming
     ``source``)."""
+    stream = io.StringIO(text)
+    stream.name = source  # PyYAML names the stream in its marks ("in <source>, line 3")
     try:
-        data = yaml.load(text, Loader=_Loader)  # noqa: S506 (a SafeLoader subclass)
+        data = yaml.load(stream, Loader=_Loader)  # noqa: S506 (a SafeLoader subclass)
     except RecursionError:
         raise ConfigError(f"{source}: lists or mappings nested too deeply (at most {MAX_NESTING} levels)") from None
     if _depth(data, MAX_NESTING) > MAX_NESTING:
