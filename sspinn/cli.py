@@ -324,6 +324,7 @@ def _calibrate_quality(args: argparse.Namespace) -> int:
     )
     from sspinn.estimator.sspinnpose import SSPINNpose
 
+    target = _calibration_target(args, calibration_path(args.model))  # checked before the work
     est = SSPINNpose.load(args.model)
     recs = [r for split in args.split for r in open_recordings(args.data, split, args.periods, args.height, args.mass)]
     estimates = [est.predict(r) for r in recs]
@@ -336,7 +337,6 @@ def _calibrate_quality(args: argparse.Namespace) -> int:
               "the input ranges are those of the calibration recordings")
     cal, _, _ = calibrate(est.network_, est.segments_, est.imu_std_, est.config_.joint_limits, recs, estimates, args.model,
                           f"{args.data} ({', '.join(args.split)})", training=training)
-    target = Path(args.out or calibration_path(args.model))
     out = calibration_files.save_new(cal.to_json(), target, "quality", args.overwrite)
     if out is None:  # the same calibration again (a rerun of make demo)
         print(f"{target}: unchanged")
@@ -357,6 +357,7 @@ def _calibrate_uncertainty(args: argparse.Namespace) -> int:
     from sspinn.estimator.sspinnpose import SSPINNpose
     from sspinn.estimator.trivial_predictors import program_of
 
+    target = _calibration_target(args, uncertainty.calibration_path(args.model))  # checked before the work
     est = SSPINNpose.load(args.model)
     seen = set(args.split) & set(args.check)
     if seen:
@@ -373,7 +374,6 @@ def _calibrate_uncertainty(args: argparse.Namespace) -> int:
         estimates = [est.predict(r) for r in checked]
         widths = [uncertainty.intervals(cal, est.network_, est.segments_, r) for r in checked]
         cal.checked[split] = uncertainty.coverage(estimates, checked, widths, [program_of(r) for r in checked])
-    target = Path(args.out or uncertainty.calibration_path(args.model))
     out = calibration_files.save_new(cal.to_json(), target, "uncertainty", args.overwrite)
     if out is None:  # the same calibration again (a rerun of make demo)
         print(f"{target}: unchanged")
@@ -384,6 +384,22 @@ def _calibrate_uncertainty(args: argparse.Namespace) -> int:
         for program, groups in table.items():
             print(f"  {program:<5} " + "; ".join(f"{g} {100 * v:.1f} %" for g, v in groups.items()))
     return 0
+
+
+def _calibration_target(args: argparse.Namespace, default: Path) -> Path:
+    """Where a calibration is written: ``--out`` or ``default``; never the model file itself, and
+    an existing file that is no calibration (not JSON text) is never replaced, even with
+    ``--overwrite``."""
+    target = Path(args.out or default)
+    if target.exists() and target.resolve() == Path(args.model).resolve():
+        raise RunFolderError(f"--out {target}: is the model file being calibrated; choose another --out")
+    if target.is_file():
+        try:
+            json.loads(target.read_text(encoding="utf-8"))
+        except (UnicodeDecodeError, ValueError):
+            raise RunFolderError(f"--out {target}: an existing file that is no calibration (not JSON); it is left as it is: "
+                                 "choose another --out") from None
+    return target
 
 
 def _export(args: argparse.Namespace) -> int:

@@ -76,3 +76,17 @@ def test_import_names_never_replace_silently(tmp_path: Path, capsys) -> None:
     for bad in ("X_calibration", "", ".hidden", "new\nline"):
         with pytest.raises(ValueError, match="not a usable recording name"):
             recording_target(tmp_path, bad, overwrite=False)
+
+
+@pytest.mark.parametrize("command", ["calibrate-quality", "calibrate-uncertainty"])
+def test_calibrations_never_replace_the_model_or_a_file_that_is_no_calibration(tmp_path: Path, capsys, command) -> None:
+    model = tmp_path / "model.pt"
+    model.write_bytes(b"PK\x03\x04 not really a model")
+    for target, needle in ((model, "is the model file being calibrated"), (tmp_path / "notes.bin", "no calibration (not JSON)")):
+        if target != model:
+            target.write_bytes(b"\xff\xfe binary")
+        before = target.read_bytes()
+        assert main([command, "--model", str(model), "--data", str(tmp_path), "--out", str(target), "--overwrite"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and needle in err, err
+        assert target.read_bytes() == before
