@@ -803,6 +803,10 @@ def main() -> None:
              "is the model file the program is exported from", lambda: export_onto(model_copy(), "model.pt")),
         Case("15", "export onto an existing file (the run's checkpoint)", "sspinn export --out checkpoint.pt", "exit 0",
              "is an existing file; writing to", lambda: export_onto(model_copy(), "checkpoint.pt")),
+        Case("15", "calibrate-quality --out onto the model file, with --overwrite", "sspinn calibrate-quality --out model.pt "
+             "--overwrite", "exit 2", "is the model file being calibrated", lambda: cli(sspinn_main, [
+                 "calibrate-quality", "--model", str(model_copy()), "--data", str(data), "--out", str(model_copy()),
+                 "--overwrite"])),
         Case("15", "a .lock that is a symbolic link to another file", "sspinn train --out r (r/.lock → victim)", "exit 2",
              "r/.lock: is a symbolic link (to", lambda: linked_lock(symbolic=True)),
         Case("15", "a .lock that is a hard link to another file", "sspinn train --out h (h/.lock = victim)", "exit 2",
