@@ -14,6 +14,7 @@ Usage::
 
     python scripts/signal_check_rates.py --data results/cmu/data --draws 200
     python scripts/signal_check_rates.py --data results/cmu/data --faults
+    python scripts/signal_check_rates.py --data results/cmu/data --effect models/pretrained/model.pt
 """
 
 from __future__ import annotations
@@ -156,6 +157,31 @@ def fault_table(recs: list[Recording], rng: np.random.Generator) -> None:
         print(f"| {name} | {total} | {shown} | {other} | {quiet} |", flush=True)
 
 
+def effect_table(model: Path, recs: list[Recording], rng: np.random.Generator) -> None:
+    """The change of ``model``'s mean forward-speed estimate each IMU or sidecar fault of
+    :data:`FAULTS` causes on every whole trial (the checks' warnings do not stop the estimate)."""
+    import torch
+
+    from sspinn.estimator.sspinnpose import SSPINNpose
+
+    torch.set_num_threads(1)
+    est = SSPINNpose.load(model)
+    changes: dict[str, list[float]] = defaultdict(list)
+    for rec in recs:
+        base = float(np.mean(est.predict(rec).u[:, 0]))
+        for name, fault, _ in FAULTS[1:]:
+            if name.startswith("speed label"):  # labels are no input of the model
+                continue
+            try:
+                changed = fault(rec, rec.imu, rng)
+            except DataFormatError:  # refused by the loader: never estimated
+                continue
+            changes[name].append(float(np.mean(est.predict(changed).u[:, 0])) / base - 1)
+    print(f"| fault | mean speed estimate vs untouched ({model}; mean, range over {len(recs)} trials) |\n|---|---|")
+    for name, values in changes.items():
+        print(f"| {name} | {np.mean(values):+.0%} ({np.min(values):+.0%} … {np.max(values):+.0%}) |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, required=True, help="dataset folder of the imported CMU trials")
@@ -165,6 +191,8 @@ def main() -> None:
                         help="also show the estimate checks' findings with this model on the first trial with every "
                         "accelerometer negated, acc_x/acc_y swapped or every gyroscope negated (input checks bypassed)")
     parser.add_argument("--faults", action="store_true", help="print the fault → reported-cause table instead")
+    parser.add_argument("--effect", type=Path, default=None, metavar="MODEL",
+                        help="print each fault's effect on MODEL's mean speed estimate instead")
     parser.add_argument("--factors", type=float, nargs="*", default=[0.1, 0.2, 0.25, 0.4, 0.6, 1.67, 2.0, 2.5, 3.0, 5.0, 10.0])
     args = parser.parse_args()
     warnings.simplefilter("ignore")
@@ -174,6 +202,9 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     if args.faults:
         fault_table(recs, rng)
+        return
+    if args.effect is not None:
+        effect_table(args.effect, recs, rng)
         return
     false_alarms = [r.name for r in recs if recording_findings(r, r.name) or label_findings(r, r.name)]
     print(f"untouched trials with a finding: {len(false_alarms)} of {len(recs)} {false_alarms or ''}\n")
