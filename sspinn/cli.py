@@ -115,7 +115,9 @@ def _warn_resume_changes(config, checkpoint: Path) -> None:
         return
     saved = load_torch_file(checkpoint, (CHECKPOINT,), ("config",), "resume from an intact checkpoint").get("config", {})
     now = config.to_dict()
-    changed = [f"{k} {saved[k]!r} → {now[k]!r}" for k in now if k in saved and k not in RESUME_FREE and saved[k] != now[k]]
+    refused = ("network", "imus")  # the checkpoint's loader refuses these itself, naming them
+    changed = [f"{k} {saved[k]!r} → {now[k]!r}" for k in now
+               if k in saved and k not in RESUME_FREE + refused and saved[k] != now[k]]
     if changed:
         print(f"WARNING: {checkpoint}: resuming with settings other than the checkpoint's ({'; '.join(changed)}): the "
               "result is not that of the run it continues", file=sys.stderr)
