@@ -196,8 +196,11 @@ def _merged(base: Mapping[str, Any], changes: Mapping[str, Any]) -> dict[str, An
 
 def _read_mapping(path: str | Path, section: str | None, error: type[Exception] = ConfigError) -> dict[str, Any]:
     """:func:`read_config_file` (its ``section`` when the file has that top-level key), which
-    must be a mapping (an empty file or section: ``{}``)."""
+    must be a mapping (an empty section: ``{}``). An empty file is an error: it is more often a
+    failed write or the wrong file than a wish for every default (``{}`` says that)."""
     data = read_config_file(path, error)
+    if data is None:
+        raise error(f"{path}: the configuration file is empty; write {{}} to take every default")
     if section is not None and isinstance(data, Mapping) and section in data:
         data = data[section]
     data = {} if data is None else data

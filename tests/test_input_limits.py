@@ -188,3 +188,14 @@ def test_sigterm_during_training_is_handled_like_ctrl_c() -> None:
             assert interrupt.requested  # the step finishes, then the checkpoint is saved
         finally:
             signal.signal(signal.SIGTERM, previous)
+
+
+def test_an_empty_config_file_is_an_error_and_braces_mean_the_defaults(tmp_path) -> None:
+    from sspinn.estimator.training import TrainConfig
+    from sspinn.yaml_config import load_config
+
+    (tmp_path / "empty.yaml").write_text("")
+    with pytest.raises(ConfigError, match="empty.yaml: the configuration file is empty; write {} to take every default"):
+        load_config(TrainConfig, tmp_path / "empty.yaml", "train")
+    (tmp_path / "braces.yaml").write_text("{}\n")
+    assert load_config(TrainConfig, tmp_path / "braces.yaml", "train") == TrainConfig()
