@@ -892,6 +892,9 @@ def main() -> None:
         Case("19", "a duplicate key in a YAML config", "sspinn train --config dup.yaml", "exit 2", "duplicate key 'steps'",
              lambda: cli(sspinn_main, ["train", "--config", str(_written(tmp / "dup.yaml", "train:\n  steps: 5\n  steps: 6\n")),
                                        "--data", str(data), "--out", str(tmp / "b")])),
+        Case("19", "an empty synth configuration", "python -m predictive synth --config empty.yaml", "exit 2",
+             "empty.yaml: the configuration file is empty", lambda: cli(predictive_cli.main, [
+                 "synth", "--config", str(_written(tmp / "empty.yaml", "")), "--out", str(tmp / "synth_empty")])),
         Case("19", "--imu-rate with an OpenSense export", "sspinn import --imu-rate 60", "exit 2",
              "applies to Xsens files only", lambda: imu_import(extra=("--imu-rate", "60"))),
         Case("19", "a complex-valued action", "SagittalWalkerEnv().step([1j] * 6)", "ValueError", "action must be real",
