@@ -57,6 +57,13 @@ Gait checks (recordings of ≥ :data:`MIN_GAIT_S` with a periodic leg movement, 
   sensor whose joints fit best with its gyr_z scaled outside :data:`JOINT_SCALE_OK` has a
   mis-scaled gyroscope (× 0.5). Margins measured by ``scripts/joint_check_margins.py`` are given
   at the thresholds.
+* **Scale, bias, legs in phase** (:func:`scale_and_bias_findings`, :func:`cross_leg_findings`):
+  the pelvis accelerometer's 1 s mean specific force outside :data:`ACC_SCALE_RANGE` g (a scaled
+  accelerometer), a mean gyr_z beyond :data:`GYRO_BIAS_ALL_RAD_S` on every sensor or
+  :data:`GYRO_BIAS_ONE_RAD_S` on one (a bias), and the two legs' thighs, shanks or feet in phase
+  instead of half a stride apart (one leg's sensors turned 180° about their long axis).
+* **Speed label** (:func:`speed_label_findings`): the stride a ``speed`` label gives with the
+  IMU's stride period against Alexander's (:data:`SPEED_LABEL_STRIDE_RANGE`).
 * Not detectable without labels and thus not claimed: swapping *all* sensors of the two legs (the
   sagittal signals are the same up to half a stride; ``sspinn import`` judges it from the
   medio-lateral force, and GRF labels from the stance, below), and thigh/shank swaps that keep
