@@ -331,6 +331,10 @@ def validate(config: AgentConfig, source: str = "config") -> None:
             _check(_is_int(value) and value > 0 or (key == "gradient_steps" and value == -1) or
                    (key == "learning_starts" and value == 0), source, f"hyperparameters.{key}", "a positive integer",
                    value)
+    for key in ("n_steps", "batch_size", "n_epochs", "buffer_size", "learning_starts", "gradient_steps"):
+        value = c.hyperparameters.get(key)
+        _check(not _is_int(value) or value <= MAX_COUNT, source, f"hyperparameters.{key}", f"at most {MAX_COUNT:.0e}", value)
+    _check_buffer_memory(c, source)
     if "gamma" in c.hyperparameters:
         _check(0 < c.gamma <= 1, source, "hyperparameters.gamma", "in (0, 1]", c.gamma)
     if c.algo == "ppo":
@@ -349,6 +353,36 @@ def validate(config: AgentConfig, source: str = "config") -> None:
     noise = c.hyperparameters.get("action_noise")
     _check(noise is None or (_is_number(noise) and noise >= 0), source, "hyperparameters.action_noise",
            "null or a standard deviation >= 0 (normalised action units)", noise)
+
+
+#: Upper bound of the count-like hyperparameters (steps per rollout, batch, epochs, buffer).
+MAX_COUNT = 10**9
+#: Memory a stored transition takes in an SB3 rollout or replay buffer, bytes: a lower bound
+#: (float32 observation — and next observation for replay — of at least 32 values, the action,
+#: reward, value, flags), used to refuse a buffer that cannot fit before SB3 allocates it.
+BYTES_PER_TRANSITION = 256
+
+
+def _check_buffer_memory(c: AgentConfig, source: str) -> None:
+    """Refuse ``n_steps × n_envs`` (PPO, A2C: the rollout buffer) or ``buffer_size`` (replay) whose
+    buffer needs more than half the machine's memory (:func:`sspinn.resource_limits.check_allocation`)."""
+    from sspinn.resource_limits import ResourceLimitError, check_allocation
+
+    h = c.hyperparameters
+    if c.algo in ("ppo", "a2c"):
+        n_steps = h.get("n_steps", 2048 if c.algo == "ppo" else 5)
+        if not _is_int(n_steps):
+            return
+        transitions, what = n_steps * c.env.n_envs, f"hyperparameters.n_steps {n_steps} × env.n_envs {c.env.n_envs}"
+    else:
+        size = h.get("buffer_size", 1_000_000)
+        if not _is_int(size):
+            return
+        transitions, what = size, f"hyperparameters.buffer_size {size}"
+    try:
+        check_allocation(transitions * BYTES_PER_TRANSITION, f"{what} (transitions in the buffer)")
+    except ResourceLimitError as exc:
+        raise ConfigError(f"{source}: {exc}") from None
 
 
 def algorithm_parameters(algo: str) -> set[str]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import gymnasium
@@ -364,6 +365,8 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
 
     def _action(self, action: np.ndarray) -> np.ndarray:
         """The action as float64 (6,) clipped to [−1, 1]; a wrong shape or a non-finite value raises."""
+        if np.iscomplexobj(action):
+            raise ValueError(f"action must be real, got the complex {np.asarray(action).tolist()}: check the policy's output")
         a = np.asarray(action, dtype=np.float64)
         if a.shape != (N_TAU,):
             raise ValueError(f"action must have shape ({N_TAU},), got {a.shape}")
@@ -380,6 +383,9 @@ class SagittalWalkerEnv(WalkerParameters, gymnasium.Env):
 
     # ------------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        if options is not None and not isinstance(options, Mapping):
+            raise TypeError(f"reset(options=...) must be a dict of reset options (target_speed, initial_state, "
+                            f"reset_noise_scale, disturbances) or None, got the {type(options).__name__} {options!r}")
         super().reset(seed=seed)
         setup = episode_setup(self._config, options, 1)
         self._walker.reset_rows(np.zeros(1, dtype=np.int64), [self.np_random], setup)

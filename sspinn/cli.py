@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -21,7 +22,7 @@ from sspinn.data.dataset import Dataset
 from sspinn.data.loading import dataset_recordings, open_recordings
 from sspinn.errors import ArgumentParser, UserError, bounded, run_cli
 from sspinn.estimator.inference import ImplausibleEstimateError, NonFiniteEstimateError
-from sspinn.run_folder import RunLock, output_target
+from sspinn.run_folder import RunLock, atomic_path, output_target
 from sspinn.yaml_config import add_config_flags, flag_overrides, shipped_path
 
 #: Fields of :class:`~sspinn.estimator.training.TrainConfig` that ``train`` and ``finetune`` take as flags.
@@ -41,19 +42,37 @@ def _data_args(p: argparse.ArgumentParser) -> None:
 
 
 def _train(args: argparse.Namespace, command: str) -> int:
-    from sspinn.estimator.sspinnpose import SSPINNpose, resolve_train_config
+    from sspinn.estimator.sspinnpose import SSPINNpose
 
+    check_device(flag_overrides(args).get("device"), "--device")
+    for setting in args.set:
+        key, _, value = setting.partition("=")
+        if key.strip() == "device":
+            check_device(value.strip(), f"--set {setting!r}:")
     _check_run_folder(args, command)
     recordings = open_recordings(args.data, getattr(args, "split", "train"), args.periods, args.height, args.mass)
     resume = args.resume or (args.auto_resume and (args.out / "checkpoint.pt").exists())
-    if command == "train":
-        est = SSPINNpose(resolve_train_config(args.config, args.set, **flag_overrides(args))).fit(recordings, args.out, resume=resume)
-    elif command == "adapt":
-        est = SSPINNpose.load(args.model).adapt(recordings, args.out, resume=resume, settings=args.set, **flag_overrides(args))
-    else:
-        est = SSPINNpose.load(args.model)
-        est.config = resolve_train_config(args.config, args.set, **flag_overrides(args))
-        est.finetune(recordings, args.out, resume=resume)
+    from sspinn.estimator.training import NonFiniteLossError
+
+    if resume and command != "adapt":
+        _warn_resume_changes(_train_config(args), args.out / "checkpoint.pt")
+    previous = _sigterm_as_ctrl_c()
+    try:
+        if command == "train":
+            est = SSPINNpose(_train_config(args)).fit(recordings, args.out, resume=resume)
+        elif command == "adapt":
+            est = SSPINNpose.load(args.model).adapt(recordings, args.out, resume=resume, settings=args.set,
+                                                    **flag_overrides(args))
+        else:
+            est = SSPINNpose.load(args.model)
+            est.config = _train_config(args)
+            est.finetune(recordings, args.out, resume=resume)
+    except NonFiniteLossError as exc:  # a user's setting (a learning rate too high), not a bug
+        raise UserError(f"{args.out}: training diverged: {exc}; lower the learning rate (--lr / --set lr=) or "
+                        "check the recordings") from None
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
     print(f"{'adapted' if command == 'adapt' else 'trained'} {est.steps_} steps → {args.out / 'model.pt'}")
     if est.stopped_by_ == "time_limit":
         print(
@@ -62,6 +81,83 @@ def _train(args: argparse.Namespace, command: str) -> int:
             file=sys.stderr,
         )
     return 0
+
+
+def _train_config(args: argparse.Namespace):  # -> TrainConfig (imported lazily: torch)
+    """The training configuration of ``--config`` (a file that must exist there — a relative
+    path is never looked up anywhere else — or a shipped name: demo, smoke, paper) with the flags
+    and ``--set`` applied."""
+    from sspinn.estimator.sspinnpose import CONFIG_DIR
+    from sspinn.estimator.training import TrainConfig
+    from sspinn.yaml_config import MissingConfigFileError
+
+    path = Path(args.config)
+    if str(path) == path.name and not path.suffix and (CONFIG_DIR / f"{path}.yaml").is_file():
+        path = CONFIG_DIR / f"{path}.yaml"
+    elif not path.exists():
+        names = ", ".join(sorted(p.stem for p in CONFIG_DIR.glob("*.yaml")))
+        raise MissingConfigFileError(f"{path}: no such configuration file (give the path of one, or a shipped name: {names})")
+    config = TrainConfig.from_yaml(path, settings=list(args.set), **flag_overrides(args))
+    check_device(config.device, f"{path}: device")
+    return config
+
+
+#: Settings a resumed run may change without a warning: its length, machine and logging.
+RESUME_FREE = ("steps", "threads", "time_limit_s", "device", "log_every", "checkpoint_every")
+
+
+def _warn_resume_changes(config, checkpoint: Path) -> None:
+    """A WARNING line naming every setting (other than :data:`RESUME_FREE`) that differs from the
+    one the checkpoint was trained with: a resumed run is then not the run it continues."""
+    from sspinn.torch_files import CHECKPOINT, load_torch_file
+
+    if not checkpoint.is_file():
+        return
+    saved = load_torch_file(checkpoint, (CHECKPOINT,), ("config",), "resume from an intact checkpoint").get("config", {})
+    now = config.to_dict()
+    refused = ("network", "imus")  # the checkpoint's loader refuses these itself, naming them
+    changed = [f"{k} {saved[k]!r} → {now[k]!r}" for k in now
+               if k in saved and k not in RESUME_FREE + refused and saved[k] != now[k]]
+    if changed:
+        print(f"WARNING: {checkpoint}: resuming with settings other than the checkpoint's ({'; '.join(changed)}): the "
+              "result is not that of the run it continues", file=sys.stderr)
+
+
+def _sigterm_as_ctrl_c():  # -> the previous handler, or None outside the main thread
+    """SIGTERM (``kill``, a batch system's stop) handled as Ctrl-C is: training finishes the step
+    it is in, saves the checkpoint and stops (a second signal stops at once)."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return None
+
+    def forward(signum: int, frame: object) -> None:
+        handler = signal.getsignal(signal.SIGINT)
+        if callable(handler):
+            handler(signal.SIGINT, frame)
+        else:
+            raise KeyboardInterrupt
+
+    return signal.signal(signal.SIGTERM, forward)
+
+
+def check_device(name: str | None, where: str) -> None:
+    """A :class:`UserError` naming ``where`` unless ``name`` is ``auto``, ``cpu`` or a CUDA device
+    this torch can use (``cuda``, ``cuda:<k>`` below the number of GPUs)."""
+    if name in (None, "auto", "cpu"):
+        return
+    import torch
+
+    try:
+        device = torch.device(name)
+    except (RuntimeError, TypeError):
+        device = None
+    if device is None or device.type not in ("cpu", "cuda"):
+        raise UserError(f"{where} {name!r} is not a device sspinn trains on: use cpu, cuda, cuda:<k> or auto")
+    if device.type == "cuda" and not torch.cuda.is_available():
+        raise UserError(f"{where} {name!r}: this torch ({torch.__version__}) sees no CUDA GPU; use cpu or auto")
+    if device.type == "cuda" and device.index is not None and device.index >= torch.cuda.device_count():
+        raise UserError(f"{where} {name!r}: there are {torch.cuda.device_count()} CUDA GPU(s) (cuda:0 …); use another index")
 
 
 #: Files of a run folder that make it a (finished or resumable) run.
@@ -230,6 +326,7 @@ def _calibrate_quality(args: argparse.Namespace) -> int:
     )
     from sspinn.estimator.sspinnpose import SSPINNpose
 
+    target = _calibration_target(args, calibration_path(args.model))  # checked before the work
     est = SSPINNpose.load(args.model)
     recs = [r for split in args.split for r in open_recordings(args.data, split, args.periods, args.height, args.mass)]
     estimates = [est.predict(r) for r in recs]
@@ -242,7 +339,6 @@ def _calibrate_quality(args: argparse.Namespace) -> int:
               "the input ranges are those of the calibration recordings")
     cal, _, _ = calibrate(est.network_, est.segments_, est.imu_std_, est.config_.joint_limits, recs, estimates, args.model,
                           f"{args.data} ({', '.join(args.split)})", training=training)
-    target = Path(args.out or calibration_path(args.model))
     out = calibration_files.save_new(cal.to_json(), target, "quality", args.overwrite)
     if out is None:  # the same calibration again (a rerun of make demo)
         print(f"{target}: unchanged")
@@ -263,6 +359,7 @@ def _calibrate_uncertainty(args: argparse.Namespace) -> int:
     from sspinn.estimator.sspinnpose import SSPINNpose
     from sspinn.estimator.trivial_predictors import program_of
 
+    target = _calibration_target(args, uncertainty.calibration_path(args.model))  # checked before the work
     est = SSPINNpose.load(args.model)
     seen = set(args.split) & set(args.check)
     if seen:
@@ -279,7 +376,6 @@ def _calibrate_uncertainty(args: argparse.Namespace) -> int:
         estimates = [est.predict(r) for r in checked]
         widths = [uncertainty.intervals(cal, est.network_, est.segments_, r) for r in checked]
         cal.checked[split] = uncertainty.coverage(estimates, checked, widths, [program_of(r) for r in checked])
-    target = Path(args.out or uncertainty.calibration_path(args.model))
     out = calibration_files.save_new(cal.to_json(), target, "uncertainty", args.overwrite)
     if out is None:  # the same calibration again (a rerun of make demo)
         print(f"{target}: unchanged")
@@ -292,11 +388,34 @@ def _calibrate_uncertainty(args: argparse.Namespace) -> int:
     return 0
 
 
+def _calibration_target(args: argparse.Namespace, default: Path) -> Path:
+    """Where a calibration is written: ``--out`` or ``default``; never the model file itself, and
+    an existing file that is no calibration (not JSON text) is never replaced, even with
+    ``--overwrite``."""
+    target = Path(args.out or default)
+    if target.exists() and target.resolve() == Path(args.model).resolve():
+        raise RunFolderError(f"--out {target}: is the model file being calibrated; choose another --out")
+    if target.is_file():
+        try:
+            json.loads(target.read_text(encoding="utf-8"))
+        except (UnicodeDecodeError, ValueError):
+            raise RunFolderError(f"--out {target}: an existing file that is no calibration (not JSON); it is left as it is: "
+                                 "choose another --out") from None
+    return target
+
+
 def _export(args: argparse.Namespace) -> int:
     from sspinn.estimator.sspinnpose import SSPINNpose
 
+    if args.out.resolve() == args.model.resolve():
+        raise RunFolderError(f"--out {args.out}: is the model file the program is exported from; choose another --out")
+    if args.out.is_dir():
+        raise RunFolderError(f"--out {args.out}: is a folder; give the program's file, e.g. {args.out / 'step.pt2'}")
+    out = output_target(args.out, Path.exists, args.overwrite, "an existing file", keep_suffix=True)
     est = SSPINNpose.load(args.model)
-    path = est.export(args.out)
+    with atomic_path(out, tmp_suffix=".tmp.pt2") as tmp:  # torch.export.save wants the .pt2 ending
+        est.export(tmp)
+    path = out
     model, segments = est.network_, est.segments_
     cfg = model.config
     print(
@@ -404,7 +523,8 @@ def _main(argv: list[str]) -> int:
 
     ex = sub.add_parser("export", help="torch.export program of one streaming step of a trained network (.pt2)")
     ex.add_argument("--model", type=Path, required=True)
-    ex.add_argument("--out", type=Path, required=True)
+    ex.add_argument("--out", type=Path, required=True, help="program file (.pt2)")
+    ex.add_argument("--overwrite", action="store_true", help="replace the file already at --out (else a NOTE and <out>_2.pt2, …)")
 
     from sspinn.imu import pipeline as imu_import  # sspinn import: vendor IMU files + sensor map → calibrated recording
 

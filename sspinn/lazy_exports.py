@@ -2,7 +2,7 @@
 
 Each package's ``__init__`` lists its public names in ``__all__`` and maps each to the module
 that defines it; :func:`attach` gives the ``__getattr__`` and ``__dir__`` that import that module
-when the name is first read, so that ``import sspinn`` (or ``import predictive``) stays fast and
+when the name is first read, so that ``import sspinn`` (and every package that uses this helper) stays fast and
 imports neither torch nor CasADi. A name that maps to ``<package>.<name>`` is that sub-module;
 ``"module:attribute"`` exports the attribute under another name (a public name must not be the
 name of a sub-module: importing the sub-module would replace it on the package).

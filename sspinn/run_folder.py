@@ -1,7 +1,8 @@
 """A run folder owned by one process, and atomic writes into it.
 
 * :class:`RunLock` — ``with RunLock(folder):`` makes the calling process the folder's only
-  owner. The lock is an advisory ``fcntl.flock`` on ``<folder>/.lock``, released by the kernel
+  owner. The lock is an advisory ``fcntl.flock`` (through :mod:`filelock`) on ``<folder>/.lock``
+  (never a symbolic or hard link, never a file it did not write), released by the kernel
   when the process ends however it ends (so no lock outlives its owner on this host); the file
   records the owner (PID, host, start time, command line) so that a second process is told who
   holds the folder. A lock file left by a process that died (its PID gone on this host) is taken
@@ -23,12 +24,13 @@
 from __future__ import annotations
 
 import contextlib
-import fcntl
+import errno
 import json
 import math
 import os
 import shutil
 import socket
+import stat
 import sys
 import time
 import uuid
@@ -45,6 +47,11 @@ LOCK_NAME: Final = ".lock"
 
 class RunFolderBusyError(UserError):
     """Another live process owns the run folder; the message names it."""
+
+
+class UnsafeLockFileError(UserError):
+    """``<folder>/.lock`` is a symbolic link, a hard link or a file sspinn did not write: refused
+    untouched (a lock never truncates a file it did not create)."""
 
 
 class NonFiniteValueError(UserError):
@@ -96,38 +103,67 @@ class LockOwner:
 class RunLock:
     """Exclusive ownership of a run folder for the life of a ``with`` block (or until
     :meth:`release`). Raises :class:`RunFolderBusyError` naming the owner if another process
-    holds it. Re-entrant within one process is not supported: lock a folder once."""
+    holds it. Re-entrant within one process is not supported: lock a folder once.
+
+    The ``flock`` itself is :class:`filelock.UnixFileLock` (no soft fallback), which opens
+    ``.lock`` with ``O_NOFOLLOW`` (a symbolic link there is refused, never followed) and creates
+    it with ``O_EXCL``. Only the owner record is written here, through the lock's own descriptor,
+    and only into a file that is a plain regular file with one link holding nothing or an owner
+    record: a hard link to another file, or a file with other content, is refused untouched."""
 
     def __init__(self, folder: str | Path) -> None:
+        import filelock
+
         self.folder = Path(folder)
         self.path = self.folder / LOCK_NAME
         self._fd: int | None = None
+        self._lock = filelock.UnixFileLock(str(self.path), timeout=0, mode=0o644, fallback_to_soft=False,
+                                           on_acquired=self._record_owner)
 
-    def acquire(self) -> RunLock:
-        self.folder.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            os.close(fd)
-            owner = LockOwner.parse(self.path.read_text(errors="replace"))
-            who = owner.describe() if owner else "another process"
-            raise RunFolderBusyError(
-                f"{self.folder}: this run folder is in use by {who}; wait for it to finish, stop it, "
-                "or choose another output folder"
-            ) from None
-        previous = LockOwner.parse(os.pread(fd, 1 << 16, 0).decode(errors="replace"))
+    def _record_owner(self, fd: int) -> None:
+        """Called by filelock with the locked descriptor: check what the file is, warn about a
+        stale owner, write ours."""
+        info = os.fstat(fd)
+        text = os.pread(fd, 1 << 16, 0).decode(errors="replace") if info.st_size <= 1 << 16 else "?"
+        previous = LockOwner.parse(text)
+        if not stat.S_ISREG(info.st_mode) or info.st_nlink != 1 or (text.strip() and previous is None):
+            what = ("a hard link to another file" if stat.S_ISREG(info.st_mode) and info.st_nlink != 1
+                    else "not a lock file of sspinn")
+            raise UnsafeLockFileError(f"{self.path}: {what}; it is left untouched: remove it (or choose another "
+                                      "output folder)")
         if previous is not None and previous.pid != os.getpid():
             # we hold the flock, so the recorded owner no longer holds it: it died (or ran on
             # another host whose lock this filesystem cannot see; warn either way)
             state = {False: "is no longer running", None: "ran on another host"}.get(previous.is_alive_here(), "released it")
             warnings.warn(
-                f"{self.folder}: taking over a stale lock of {previous.describe()}, which {state}", stacklevel=3
+                f"{self.folder}: taking over a stale lock of {previous.describe()}, which {state}", stacklevel=5
             )
         os.ftruncate(fd, 0)
         os.pwrite(fd, json.dumps(asdict(LockOwner.this_process())).encode(), 0)
         os.fsync(fd)
         self._fd = fd
+
+    def acquire(self) -> RunLock:
+        import filelock
+
+        self.folder.mkdir(parents=True, exist_ok=True)
+        try:
+            self._lock.acquire()
+        except filelock.Timeout:
+            owner = LockOwner.parse(_read_no_follow(self.path))
+            who = owner.describe() if owner else "another process"
+            raise RunFolderBusyError(
+                f"{self.folder}: this run folder is in use by {who}; wait for it to finish, stop it, "
+                "or choose another output folder"
+            ) from None
+        except OSError as exc:
+            if exc.errno != errno.ELOOP and not self.path.is_symlink():
+                raise
+            raise UnsafeLockFileError(f"{self.path}: is a symbolic link (to {os.readlink(self.path)}); it is never "
+                                      "followed: remove it (or choose another output folder)") from None
+        except UnsafeLockFileError:
+            self._fd = None
+            raise
         return self
 
     def release(self) -> None:
@@ -135,14 +171,26 @@ class RunLock:
             return
         with contextlib.suppress(OSError):
             os.ftruncate(self._fd, 0)  # a clean exit leaves no owner behind
-        os.close(self._fd)  # closing releases the flock
         self._fd = None
+        self._lock.release()  # closing the descriptor releases the flock
 
     def __enter__(self) -> RunLock:
         return self.acquire()
 
     def __exit__(self, *exc: object) -> None:
         self.release()
+
+
+def _read_no_follow(path: Path) -> str:
+    """The text of a lock file (at most 64 KiB), "" when it cannot be opened without following a link."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+    except OSError:
+        return ""
+    try:
+        return os.pread(fd, 1 << 16, 0).decode(errors="replace")
+    finally:
+        os.close(fd)
 
 
 def free_folder(out: str | Path, holds_result: Callable[[Path], bool], keep_suffix: bool = False) -> Path:
@@ -208,11 +256,12 @@ def stem_outputs(suffixes: tuple[str, ...]) -> Callable[[Path], bool]:
 
 
 @contextlib.contextmanager
-def atomic_path(path: str | Path) -> Iterator[Path]:
-    """Yield a unique temporary path beside ``path``; replace ``path`` with it on success."""
+def atomic_path(path: str | Path, tmp_suffix: str = ".tmp") -> Iterator[Path]:
+    """Yield a unique temporary path beside ``path``; replace ``path`` with it on success.
+    ``tmp_suffix``: the temporary name's ending, for writers that want one (``.tmp.pt2``)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}{tmp_suffix}")
     try:
         yield tmp
         os.replace(tmp, path)

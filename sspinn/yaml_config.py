@@ -39,18 +39,20 @@ import argparse
 import dataclasses
 import functools
 import inspect
+import io
 import math
 import re
 import types
 import typing
-from collections.abc import Collection, Iterable, Mapping
+from collections.abc import Collection, Hashable, Iterable, Mapping
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, Final, TypeVar
 
 import dacite
 import yaml
 
 from sspinn.errors import UserError, one_line
+from sspinn.resource_limits import MAX_CONFIG_BYTES, SIZE_LIMITS, ResourceLimitError, read_input_text
 
 T = TypeVar("T")
 
@@ -91,19 +93,62 @@ _Loader.add_implicit_resolver(
 )
 
 
-def parse_yaml(text: str) -> Any:
-    """``text`` parsed as YAML (safe, with ``3e-4`` read as a float)."""
-    return yaml.load(text, Loader=_Loader)  # noqa: S506 (a SafeLoader subclass)
+def _mapping_without_duplicates(loader: _Loader, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+    """A YAML mapping; a key given twice is an error naming it and its line (PyYAML keeps the
+    last silently). Keys merged in with ``<<`` may be overridden, as YAML intends."""
+    seen: set[Any] = set()
+    for key_node, _ in node.value:
+        if key_node.tag == "tag:yaml.org,2002:merge":
+            continue
+        key = loader.construct_object(key_node, deep=True)
+        if isinstance(key, Hashable):
+            if key in seen:
+                raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
+            seen.add(key)
+    return loader.construct_mapping(node, deep=deep)
+
+
+_Loader.add_constructor("tag:yaml.org,2002:map", _mapping_without_duplicates)
+
+#: Deepest nesting of lists and mappings a configuration may have (the shipped ones use 4).
+MAX_NESTING: Final = 50
+
+
+def _depth(value: Any, limit: int) -> int:
+    """The nesting depth of plain data, counted up to ``limit + 1``."""
+    if limit < 0 or not isinstance(value, (Mapping, list, tuple)):
+        return 0
+    items = value.values() if isinstance(value, Mapping) else value
+    return 1 + max((_depth(v, limit - 1) for v in items), default=0)
+
+
+def parse_yaml(text: str, source: str = "YAML text") -> Any:
+    """``text`` parsed as YAML (safe, with ``3e-4`` read as a float; a duplicate key, or lists
+    and mappings nested more than :data:`MAX_NESTING` deep, are a :class:`ConfigError` naming
+    ``source``)."""
+    stream = io.StringIO(text)
+    stream.name = source  # PyYAML names the stream in its marks ("in <source>, line 3")
+    try:
+        data = yaml.load(stream, Loader=_Loader)  # noqa: S506 (a SafeLoader subclass)
+    except RecursionError:
+        raise ConfigError(f"{source}: lists or mappings nested too deeply (at most {MAX_NESTING} levels)") from None
+    if _depth(data, MAX_NESTING) > MAX_NESTING:
+        raise ConfigError(f"{source}: lists or mappings nested more than {MAX_NESTING} levels deep")
+    return data
 
 
 def read_yaml(path: str | Path, section: str | None = None) -> Any:
     """The parsed YAML file; with ``section``, the value under that top-level key when the file
-    has it (else the whole file). An empty file is ``None``."""
+    has it (else the whole file). An empty file is ``None``. A path that is no regular file (a
+    folder, ``/dev/zero``, a FIFO), a file over :data:`~sspinn.resource_limits.MAX_CONFIG_BYTES`
+    or not UTF-8 is a :class:`ConfigError` naming it."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise MissingConfigFileError(f"{path}: no such configuration file")
     try:
-        data = parse_yaml(path.read_text())
+        data = parse_yaml(read_input_text(path, MAX_CONFIG_BYTES, "configuration file"), str(path))
+    except ResourceLimitError as exc:
+        raise ConfigError(str(exc)) from None
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: not valid YAML: {one_line(exc)}") from None
     if section is not None and isinstance(data, Mapping) and section in data:
@@ -151,8 +196,11 @@ def _merged(base: Mapping[str, Any], changes: Mapping[str, Any]) -> dict[str, An
 
 def _read_mapping(path: str | Path, section: str | None, error: type[Exception] = ConfigError) -> dict[str, Any]:
     """:func:`read_config_file` (its ``section`` when the file has that top-level key), which
-    must be a mapping (an empty file or section: ``{}``)."""
+    must be a mapping (an empty section: ``{}``). An empty file is an error: it is more often a
+    failed write or the wrong file than a wish for every default (``{}`` says that)."""
     data = read_config_file(path, error)
+    if data is None:
+        raise error(f"{path}: the configuration file is empty; write {{}} to take every default")
     if section is not None and isinstance(data, Mapping) and section in data:
         data = data[section]
     data = {} if data is None else data
@@ -394,6 +442,8 @@ def config_from_mapping(
     except (TypeError, ValueError) as exc:  # the dataclass's own validation
         raise error(f"{source}: {prefix + ': ' if prefix else ''}{one_line(exc)}") from None
     check_options(config, source, prefix=prefix, error=error)
+    if not prefix:
+        check_batch_memory(config, source, error)
     return config
 
 
@@ -428,9 +478,41 @@ def check_options(config: Any, source: str, *, prefix: str = "", error: type[Exc
         value, path = getattr(config, f.name), _join(prefix, f.name)
         if _section(hints[f.name]) is not None and dataclasses.is_dataclass(value):
             check_options(value, source, prefix=path, error=error)
-        spec = _spec(f)
+        spec = _implied_spec(f, value, prefix)
         if value is not None and not _allowed(value, spec):
             raise error(f"{source}: option {path} must be {describe(hints[f.name], spec)}, got {value!r}")
+
+
+def check_batch_memory(config: Any, source: str, error: type[Exception] = ConfigError) -> None:
+    """Refuse a configuration whose ``batch_size × window`` samples per training step need more
+    than half the machine's memory (:data:`sspinn.resource_limits.BYTES_PER_TRAINING_SAMPLE`)."""
+    from sspinn.resource_limits import BYTES_PER_TRAINING_SAMPLE, check_allocation
+
+    batch, window = getattr(config, "batch_size", None), getattr(config, "window", None)
+    if isinstance(batch, int) and isinstance(window, int):
+        try:
+            check_allocation(batch * window * BYTES_PER_TRAINING_SAMPLE,
+                             f"batch_size {batch} × window {window} (samples per training step)")
+        except ResourceLimitError as exc:
+            raise error(f"{source}: {exc}") from None
+
+
+def _implied_spec(f: dataclasses.Field, value: Any, prefix: str) -> dict[str, Any]:
+    """The :func:`option` spec of ``f`` plus the ranges every configuration gets by convention:
+    an upper bound for a size-like integer field the class bounds not
+    (:data:`sspinn.resource_limits.SIZE_LIMITS`), a learning rate ``lr`` in (0, 1], and ``>= 0`` for a number in a section named
+    ``weights`` (loss or cost weights: a negative one rewards the error it should punish)."""
+    spec = _spec(f)
+    if "choices" in spec:
+        return spec
+    if f.name in SIZE_LIMITS and isinstance(value, int) and not isinstance(value, bool):
+        spec.setdefault("le", SIZE_LIMITS[f.name])
+    if f.name == "lr" and isinstance(value, (int, float)) and not isinstance(value, bool):  # Adam's step size
+        spec.setdefault("gt", 0)
+        spec.setdefault("le", 1.0)
+    if prefix.rsplit(".", 1)[-1] == "weights" and isinstance(value, (int, float)) and not isinstance(value, bool):
+        spec.setdefault("ge", 0)
+    return spec
 
 
 def _allowed(value: Any, spec: Mapping[str, Any]) -> bool:
@@ -481,7 +563,7 @@ def apply_setting(data: dict[str, Any], assignment: str, path: str | Path) -> No
     if not sep or not key:
         raise ConfigError(f"--set {assignment!r}: expected key=value, e.g. weights.kane=0")
     try:
-        parsed = parse_yaml(value)
+        parsed = parse_yaml(value, f"{path}: --set {assignment}")
     except yaml.YAMLError as exc:
         raise ConfigError(f"--set {assignment!r}: not a YAML value: {one_line(exc)}") from None
     set_option(data, key, parsed, path, what=f"--set {assignment!r}")
@@ -578,7 +660,8 @@ def add_config_flags(
         kinds = [m for m in _members(hint) if m is not type(None)]
         if len(kinds) != 1 or kinds[0] not in _NOUNS:
             raise TypeError(f"{cls.__name__}.{path}: only bool, int, float and str fields become flags, not {hint}")
-        kind, spec = kinds[0], _spec(f)
+        kind = kinds[0]
+        spec = _implied_spec(f, kind() if kind in (int, float) else None, path.rpartition(".")[0])
         name = flags.get(path, "--" + f.name.replace("_", "-"))
         text = (helps.get(path) or field_help(owner, f.name)).replace("%", "%%")
         kwargs: dict[str, Any] = {"dest": FLAG_DEST_PREFIX + path, "default": None, "help": text or None}

@@ -111,7 +111,7 @@ def test_unknown_keys_are_named_with_their_dotted_path_at_every_level(tmp_path: 
         ("kind: a\ninner: {rate: .nan}\n", "option inner.rate must be a finite number, got nan"),
         ("kind: a\ninner: 3\n", "section 'inner' must be a mapping of options, got 3"),
         ("kind: c\n", "option kind must be one of a, b, got 'c'"),
-        ("kind: a\nsteps: 0\n", "option steps must be an integer > 0, got 0"),
+        ("kind: a\nsteps: 0\n", "option steps must be an integer > 0 and <= 1e+08, got 0"),
         ("kind: a\nspeed: 13\n", "option speed must be null or a number in [0, 12] m/s, got 13.0"),
         ("steps: 3\n", "'kind' is required (one of a, b)"),
         ("[1, 2]\n", "expected a mapping of options, got list"),
@@ -188,7 +188,7 @@ def test_flags_are_made_from_the_fields(capsys: pytest.CaptureFixture[str]) -> N
                   "stop after this many seconds", "layer size"):
         assert piece in text, piece
     for argv, message in ((["--steps", "abc"], "argument --steps: must be an integer, got 'abc'"),
-                          (["--steps", "0"], "argument --steps: must be an integer > 0, got '0'"),
+                          (["--steps", "0"], "argument --steps: must be an integer > 0 and <= 1e+08, got '0'"),
                           (["--lr", "nan"], "argument --lr: must be a finite number, got 'nan'"),
                           (["--speed", "30"], "argument --speed: must be a number in [0, 12] m/s, got '30'"),
                           (["--kind", "c"], "argument --kind: invalid choice")):

@@ -119,7 +119,7 @@ def test_sspinn_rooms_import_only_what_their_layer_allows() -> None:
 
 def test_sspinn_has_no_loose_modules() -> None:
     """Every module of ``sspinn`` lives in a room, except the entry points and the plumbing."""
-    plumbing = {"errors", "yaml_config", "run_folder", "interrupt", "torch_files", "lazy_exports"}
+    plumbing = {"errors", "yaml_config", "run_folder", "interrupt", "torch_files", "lazy_exports", "resource_limits"}
     loose = sorted(p.stem for p in (ROOT / "sspinn").glob("*.py") if p.stem not in TOP | plumbing)
     assert not loose, f"modules outside a room: {loose}"
 

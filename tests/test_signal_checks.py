@@ -90,3 +90,48 @@ def test_cli_prints_signal_warnings_as_one_warning_line(capsys):
 
     assert run_cli(main, "sspinn", []) == 0
     assert capsys.readouterr().err == "WARNING: rec.csv: sensor foot_l is not on a moving body\n"
+
+
+def _edited(walk: Recording, imu: np.ndarray | None = None, speed: float | None = None) -> Recording:
+    from sspinn.data.dataset import Labels
+
+    labels = None if speed is None else Labels.from_columns({"speed": np.full(walk.n_samples, speed)}, walk.n_samples)
+    return Recording(name="walk", imu=walk.imu if imu is None else imu, segments=walk.segments, height=walk.height,
+                     mass=walk.mass, placement=walk.placement, labels=labels)
+
+
+def test_scaled_accelerometers_biased_gyroscopes_and_a_turned_leg_are_named(walk):
+    from sspinn.data.signal_checks import label_findings
+
+    scaled = walk.imu.copy()
+    scaled[:, :, :2] *= 1.5
+    found = recording_findings(_edited(walk, scaled), "walk")
+    assert any("the accelerometer looks scaled by 1.5" in f for f in found), found
+    biased = walk.imu.copy()
+    biased[:, :, 2] += 0.5
+    found = recording_findings(_edited(walk, biased), "walk")
+    assert any("every gyroscope looks biased" in f for f in found), found
+    turned = walk.imu.copy()
+    for s in ("femur_l", "tibia_l", "foot_l"):
+        turned[:, SEGMENTS.index(s), 0] *= -1
+        turned[:, SEGMENTS.index(s), 2] *= -1
+    found = recording_findings(_edited(walk, turned), "walk")
+    assert any("the right and left legs swing in phase" in f for f in found), found
+    # a speed label against the cadence: the walk's own 1.3 m/s is silent, 13 m/s is not
+    assert label_findings(_edited(walk, speed=1.3), "walk") == []
+    found = label_findings(_edited(walk, speed=13.0), "walk")
+    assert len(found) == 1 and "the speed label looks wrong" in found[0], found
+
+
+def test_a_placement_angle_beyond_pi_is_refused_as_degrees(tmp_path):
+    import json
+
+    from sspinn.data.dataset import DataFormatError
+
+    csv = walking_recording(n=300).save(tmp_path)
+    sidecar = csv.with_suffix(".json")
+    meta = json.loads(sidecar.read_text())
+    meta["imu"]["placement"]["tibia_r"]["angle_rad"] = 12.0
+    sidecar.write_text(json.dumps(meta))
+    with pytest.raises(DataFormatError, match=r"imu.placement.tibia_r.angle_rad 12: beyond ±π rad — in degrees\?"):
+        Recording.load(csv)

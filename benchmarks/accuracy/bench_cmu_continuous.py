@@ -189,7 +189,7 @@ def import_trials(protocol: Protocol, data: Path, train_subjects: tuple[str, ...
         start = time.perf_counter()
         result = import_imu(
             [trial.imu], protocol.sensor_map, trial.height_m, trial.mass_kg, data, subject=trial.subject, name=trial.name,
-            grf=trial.grf, speed=trial.speed_mps, split=split, end_s=end_s,
+            grf=trial.grf, speed=trial.speed_mps, split=split, end_s=end_s, overwrite=True,  # a stale import is replaced
         )
         lag = result.alignment.lag_s if result.alignment else float("nan")
         print(f"imported {trial.name}: {result.recording.duration:.1f} s, GRF lag {lag:+.3f} s "

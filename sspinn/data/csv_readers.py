@@ -11,7 +11,6 @@ Resampling uses SciPy's cubic splines (periodic for averaged strides).
 from __future__ import annotations
 
 import contextlib
-import json
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -19,10 +18,11 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from sspinn.data.dataset import SAMPLE_RATE_HZ, DataFormatError, Labels, Recording, read_csv_table
+from sspinn.data.dataset import SAMPLE_RATE_HZ, DataFormatError, Labels, Recording, read_csv_table, read_json_data
 from sspinn.data.signal_checks import check_recording
 from sspinn.model.body import IMUPlacement
 from sspinn.model.conventions import GRAVITY, GRF, IMU_CHANNELS, JOINTS, SEGMENTS
+from sspinn.resource_limits import MAX_CONFIG_BYTES
 
 #: OpenSim coordinate names of our joints (as used in $SSPINN_SHARED_DATA): hip_r → hip_flexion_r.
 OPENSIM_NAMES = {j: j.replace("hip", "hip_flexion").replace("knee", "knee_angle").replace("ankle", "ankle_angle") for j in JOINTS}
@@ -75,10 +75,7 @@ def read_averaged_stride(
     meta_path = folder / "meta.json"
     if not meta_path.exists():
         raise DataFormatError(f"{meta_path}: file not found")
-    try:
-        meta: dict[str, Any] = json.loads(meta_path.read_text(encoding="utf-8-sig"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise DataFormatError(f"{meta_path}: not valid JSON ({exc})") from None
+    meta: dict[str, Any] = read_json_data(meta_path, MAX_CONFIG_BYTES)
     if not isinstance(meta, dict):
         raise DataFormatError(f"{meta_path}: expected a JSON object, got a {type(meta).__name__}")
     for key in ("units", "speed_mps", "participant"):

@@ -33,6 +33,7 @@ import contextlib
 import fcntl
 import io
 import json
+import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,6 +47,7 @@ from sspinn.errors import DataFormatError
 from sspinn.model.body import IMUPlacement, ParameterError
 from sspinn.model.conventions import GRAVITY, IMU_CHANNELS, SEGMENTS
 from sspinn.model.trajectory import COLUMNS, Trajectory
+from sspinn.resource_limits import MAX_CONFIG_BYTES, MAX_INPUT_BYTES, MAX_ROWS, ResourceLimitError, read_input_text
 from sspinn.run_folder import atomic_path, atomic_write_text
 
 FORMAT: Final = "sspinn-recording"
@@ -314,10 +316,11 @@ class Recording:
                 bad = [s for s, xy in positions.items() if len(xy) != 2]
                 if bad:
                     raise ValueError(f"position_m of {bad} is not [x, y]")
-                placement = IMUPlacement(
-                    positions=positions,  # type: ignore[arg-type]
-                    angles={s: _number(sidecar_path, f"imu.placement.{s}.angle_rad", v["angle_rad"]) for s, v in placement_meta.items()},
-                )
+                angles = {s: _number(sidecar_path, f"imu.placement.{s}.angle_rad", v["angle_rad"]) for s, v in placement_meta.items()}
+                check_placement_angles(angles, sidecar_path)
+                placement = IMUPlacement(positions=positions, angles=angles)  # type: ignore[arg-type]
+            except DataFormatError:
+                raise
             except (KeyError, TypeError, ValueError, AttributeError, ParameterError) as exc:
                 raise DataFormatError(f"{sidecar_path}: bad imu.placement ({type(exc).__name__}: {exc}); expected "
                                       "{segment: {position_m: [x, y], angle_rad: a}} for every segment") from None
@@ -334,13 +337,51 @@ class Recording:
         return rec
 
 
-def _read_sidecar(path: Path) -> dict[str, Any]:
+def check_placement_angles(angles: dict[str, float], source: object) -> None:
+    """:class:`DataFormatError` naming ``source`` for a placement angle beyond ±π rad: a sensor's
+    angle in its segment's plane is one turn at most, so such a number is in degrees (a degree
+    value within ±π cannot be told from radians here; the gravity-direction check of
+    :mod:`sspinn.data.signal_checks` judges it against the signals)."""
+    bad = {s: a for s, a in angles.items() if abs(a) > np.pi}
+    if bad:
+        shown = ", ".join(f"imu.placement.{s}.angle_rad {a:g}" for s, a in bad.items())
+        raise DataFormatError(f"{source}: {shown}: beyond ±π rad — in degrees? give radians (× π/180)")
+
+
+def read_data_text(path: Path, max_bytes: int = MAX_INPUT_BYTES) -> str:
+    """The UTF-8 text of a data file (a byte-order mark ignored): a regular file (not a FIFO or a
+    device) of at most ``max_bytes`` (:mod:`sspinn.resource_limits`), else :class:`DataFormatError`
+    naming it."""
     try:
-        meta = json.loads(path.read_text(encoding="utf-8-sig"))  # a UTF-8 byte-order mark is fine
-    except json.JSONDecodeError as exc:
+        return read_input_text(path, max_bytes, "data file")
+    except ResourceLimitError as exc:
+        raise DataFormatError(str(exc)) from None
+
+
+def _object_without_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object; a key given twice is an error (``json`` keeps the last silently)."""
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise ValueError(f"duplicate key {key!r}")
+        out[key] = value
+    return out
+
+
+def read_json_data(path: Path, max_bytes: int = MAX_INPUT_BYTES) -> Any:
+    """A JSON data file (:func:`read_data_text`); invalid JSON, a duplicate key or nesting too
+    deep for the parser is a :class:`DataFormatError` naming the file."""
+    text = read_data_text(path, max_bytes)
+    try:
+        return json.loads(text, object_pairs_hook=_object_without_duplicates)
+    except RecursionError:
+        raise DataFormatError(f"{path}: JSON nested too deeply") from None
+    except ValueError as exc:  # JSONDecodeError is one
         raise DataFormatError(f"{path}: not valid JSON ({exc})") from None
-    except UnicodeDecodeError as exc:
-        raise DataFormatError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+
+
+def _read_sidecar(path: Path) -> dict[str, Any]:
+    meta = read_json_data(path, MAX_CONFIG_BYTES)
     if not isinstance(meta, dict):
         raise DataFormatError(f"{path}: expected a JSON object with format, version, subject and imu; got a {type(meta).__name__}")
     if meta.get("format") != FORMAT:
@@ -381,11 +422,11 @@ def read_csv_table(path: Path) -> tuple[list[str], np.ndarray]:
     """(column names, (rows, columns) float array) of a comma-separated file with one header
     line; clear errors for duplicate or empty columns, unreadable numbers, ragged rows and a last
     line cut short (a file must end with a newline). A UTF-8 byte-order mark is ignored."""
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise DataFormatError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    text = read_data_text(path)
     lines = text.splitlines()
+    if len(lines) > MAX_ROWS + 1:
+        raise DataFormatError(f"{path}: {len(lines) - 1} rows, more than the {MAX_ROWS} a table may have here "
+                              f"({MAX_ROWS / SAMPLE_RATE_HZ / 3600:.1f} h at 100 Hz); split it")
     if not lines or not lines[0].strip():
         raise DataFormatError(f"{path}: empty file or empty header line (expected column names)")
     if not text.endswith(("\n", "\r")) and len(lines) > 1:
@@ -495,15 +536,15 @@ class Dataset:
         index = root / "dataset.json"
         if not index.exists():
             raise DataFormatError(f"{index}: not found (a dataset folder needs a dataset.json index)")
-        try:
-            meta = json.loads(index.read_text())
-        except json.JSONDecodeError as exc:
-            raise DataFormatError(f"{index}: not valid JSON ({exc})") from None
-        splits = meta.get("splits")
+        meta = read_json_data(index, MAX_CONFIG_BYTES)
+        splits = meta.get("splits") if isinstance(meta, dict) else None
         if not isinstance(splits, dict) or not set(splits) <= set(SPLITS):
             raise DataFormatError(f"{index}: 'splits' must map some of {SPLITS} to lists of recording names")
         for split, names in splits.items():
+            if not isinstance(names, list):
+                raise DataFormatError(f"{index}: split {split!r} must be a list of recording names")
             for n in names:
+                check_name(n, index)  # a name like '../outside/secret' is refused, never read
                 if not (root / f"{n}.csv").exists():
                     raise DataFormatError(f"{index}: split {split!r} lists {n!r} but {root / (n + '.csv')} is missing")
         return cls(root=root, splits={k: list(v) for k, v in splits.items()}, info=meta.get("info", {}))
@@ -529,10 +570,12 @@ class Dataset:
         return Dataset(root=root, splits=splits, info=info or {})
 
     @staticmethod
-    def add(root: str | Path, rec: Recording, splits: tuple[str, ...], update_info: Callable[[dict[str, Any]], None] | None = None) -> Dataset:
+    def add(root: str | Path, rec: Recording, splits: tuple[str, ...], update_info: Callable[[dict[str, Any]], None] | None = None,
+            overwrite: bool = False) -> Dataset:
         """Save ``rec`` into the dataset folder ``root`` and list it in ``splits`` of its index
-        (created if absent; a recording of the same name is replaced), ``update_info`` changing
-        the index's ``info`` on the way. The read-modify-write of ``dataset.json`` holds an
+        (created if absent), ``update_info`` changing the index's ``info`` on the way. A recording
+        of the same name (its CSV or sidecar, or the index's entry) is replaced only with
+        ``overwrite`` and only by one of the same subject; else :class:`DataFormatError`. The read-modify-write of ``dataset.json`` holds an
         exclusive lock on the folder's index, so concurrent adds never lose each other's entries."""
         root = Path(root)
         root.mkdir(parents=True, exist_ok=True)
@@ -540,15 +583,15 @@ class Dataset:
         with index_lock(root):
             meta: dict[str, Any] = {"splits": {}, "info": {}}
             if index.exists():
-                try:
-                    meta = json.loads(index.read_text())
-                except json.JSONDecodeError as exc:
-                    raise DataFormatError(f"{index}: not valid JSON ({exc}); remove it or use another folder") from None
+                meta = read_json_data(index, MAX_CONFIG_BYTES)
                 if not isinstance(meta, dict) or not isinstance(meta.get("splits"), dict):
                     raise DataFormatError(f"{index}: not a dataset index (no 'splits'); use another folder")
-            listed = any(rec.name in names for names in meta["splits"].values())
+            check_name(rec.name, root)
+            if holds_recording(root, rec.name) and not overwrite:
+                raise DataFormatError(f"{root}: already holds a recording {rec.name!r}; give this one another name, or "
+                                      "replace it with --overwrite")
             sidecar = root / f"{rec.name}.json"
-            if listed and sidecar.exists():
+            if sidecar.exists():
                 other = _read_sidecar(sidecar).get("subject", {}).get("id")
                 if other != rec.subject:
                     raise DataFormatError(f"{root}: already holds a recording {rec.name!r} of subject {other!r}, not "
@@ -569,13 +612,35 @@ class Dataset:
 INDEX: Final = "dataset.json"
 #: Names a recording may not take: they would collide with the dataset's own files.
 RESERVED_NAMES: Final = ("dataset",)
+#: The ending of the calibration reports ``sspinn import`` writes beside a recording
+#: (``<name>_calibration.md/.json/.png``): no recording name may end so, or its sidecar would be
+#: another recording's report.
+RESERVED_SUFFIX: Final = "_calibration"
 
 
-def check_name(name: str, folder: Path) -> None:
-    """A recording name is a plain file stem: no path separators, not ``.``/``..``, not reserved."""
-    if not name or name in (".", "..") or "/" in name or "\\" in name or Path(name).name != name or name in RESERVED_NAMES:
-        raise DataFormatError(f"{folder}: {name!r} is not a usable recording name (a plain file name, not "
-                              f"{', '.join(RESERVED_NAMES)}, without path separators)")
+def check_name(name: object, folder: Path) -> None:
+    """A recording name is a plain, visible file stem: a non-empty string of printable
+    characters, no path separators, not starting with a dot, not ``dataset``, not ending in
+    ``_calibration`` (the import's reports)."""
+    ok = (isinstance(name, str) and bool(name) and name.isprintable() and not name.startswith(".") and "/" not in name
+          and "\\" not in name and Path(name).name == name and name not in RESERVED_NAMES
+          and not name.endswith(RESERVED_SUFFIX))
+    if not ok:
+        raise DataFormatError(f"{folder}: {name!r} is not a usable recording name (a plain, visible file name of "
+                              f"printable characters, not starting with '.', without path separators, not "
+                              f"{', '.join(RESERVED_NAMES)}, not ending in {RESERVED_SUFFIX!r})")
+
+
+def holds_recording(root: Path, name: str) -> bool:
+    """Whether the dataset folder ``root`` already has a recording ``name`` (its CSV, its
+    sidecar, or an entry in ``dataset.json``)."""
+    if (root / f"{name}.csv").exists() or (root / f"{name}.json").exists():
+        return True
+    try:
+        splits = read_json_data(root / INDEX, MAX_CONFIG_BYTES).get("splits", {})
+        return any(name in names for names in splits.values())
+    except (OSError, ValueError, AttributeError):  # DataFormatError is a ValueError
+        return False
 
 
 @contextlib.contextmanager
@@ -583,12 +648,18 @@ def index_lock(root: Path) -> Iterator[None]:
     """An exclusive advisory lock (``fcntl.flock``) on ``<root>/.dataset.lock``, waited for: the
     one writer of ``dataset.json`` holds it for its whole read-modify-write."""
     root.mkdir(parents=True, exist_ok=True)
-    with open(root / ".dataset.lock", "a") as fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(fh, fcntl.LOCK_UN)
+    path = root / ".dataset.lock"
+    try:  # never through a symbolic link, never truncated
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
+    except OSError:
+        if path.is_symlink():
+            raise DataFormatError(f"{path}: is a symbolic link; it is never followed: remove it") from None
+        raise
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # releases the flock
 
 
 def _write_index(root: Path, splits: dict[str, list[str]], info: dict[str, Any]) -> Path:

@@ -57,6 +57,13 @@ Gait checks (recordings of ≥ :data:`MIN_GAIT_S` with a periodic leg movement, 
   sensor whose joints fit best with its gyr_z scaled outside :data:`JOINT_SCALE_OK` has a
   mis-scaled gyroscope (× 0.5). Margins measured by ``benchmarks/accuracy/joint_check_margins.py`` are given
   at the thresholds.
+* **Scale, bias, legs in phase** (:func:`scale_and_bias_findings`, :func:`cross_leg_findings`):
+  the pelvis accelerometer's 1 s mean specific force outside :data:`ACC_SCALE_RANGE` g (a scaled
+  accelerometer), a mean gyr_z beyond :data:`GYRO_BIAS_ALL_RAD_S` on every sensor or
+  :data:`GYRO_BIAS_ONE_RAD_S` on one (a bias), and the two legs' thighs, shanks or feet in phase
+  instead of half a stride apart (one leg's sensors turned 180° about their long axis).
+* **Speed label** (:func:`speed_label_findings`): the stride a ``speed`` label gives with the
+  IMU's stride period against Alexander's (:data:`SPEED_LABEL_STRIDE_RANGE`).
 * Not detectable without labels and thus not claimed: swapping *all* sensors of the two legs (the
   sagittal signals are the same up to half a stride; ``sspinn import`` judges it from the
   medio-lateral force, and GRF labels from the stance, below), and thigh/shank swaps that keep
@@ -141,6 +148,11 @@ MIN_MEAN_VERTICAL_BW: Final = 0.7
 STRIDE_LENGTH_FACTOR: Final = 2.0
 #: Leg length / body height (Winter).
 LEG_PER_HEIGHT: Final = 0.53
+#: Accepted ratio of a speed label's stride (mean speed × the IMU's stride period) to Alexander's
+#: stride at that speed. Measured untouched: 0.81–1.12 on the 12 CMU treadmill trials and 60 of
+#: their 20 s excerpts, 1.15 on the predicted 1.3 m/s walk, 1.06 on the semi-real running. The
+#: ratio grows as v^0.4, so a label × 3.6 (km/h as m/s) gives ≥ 1.35, × 10 ≥ 2.0.
+SPEED_LABEL_STRIDE_RANGE: Final = (0.7, 1.33)
 #: Joint constraints (:func:`joint_stats`): low-pass before the fit, Hz; window, s; longest stretch judged, s.
 JOINT_LOWPASS_HZ: Final = 8.0
 JOINT_WINDOW_S: Final = 3.0
@@ -162,6 +174,17 @@ JOINT_SCALE_OK: Final[dict[str, tuple[float, float]]] = {"femur": (0.5, 1.6), "t
 #: Measured: untouched ≤ 0.79 with acc_x negated, ≤ 0.54 with a leg gyr_z negated (every sensor,
 #: every recording above); acc_x negated ≥ 1.26 (pelvis), ≥ 1.78 (femur), ≥ 2.83 (tibia), ≥ 3.21 (foot).
 JOINT_MIRROR_WARN: Final = 1.1
+#: Gravity read by the pelvis accelerometer (median 1 s mean in-plane specific force, in g)
+#: accepted. Measured: 1.00–1.03 on the 12 CMU trials (whole and 20 s excerpts), 1.002 on the
+#: predicted 1.3 m/s walk, 1.012 on the semi-real running.
+ACC_SCALE_RANGE: Final = (0.85, 1.15)
+#: Mean gyr_z (rad/s) accepted while walking: measured on the same recordings ≤ 0.124 on one
+#: sensor, ≤ 0.07 as the median over the sensors.
+GYRO_BIAS_ALL_RAD_S: Final = 0.2
+GYRO_BIAS_ONE_RAD_S: Final = 0.3
+#: Stride-frequency phase between the right and left thighs, shanks and feet: measured 109°–180°
+#: in magnitude on the same recordings (stiff-knee thighs the least).
+CROSS_LEG_MIN_DEG: Final = 109.0
 _KINDS: Final = ("femur", "tibia", "foot")
 
 
@@ -223,6 +246,8 @@ def recording_findings(rec: Recording, source: str, leg_pairing: bool = True, jo
     if cadence:  # at a wrong rate the other gait checks judge nonsense
         return found + cadence
     found += _periodicity_findings(imu, segments, rhythm, source)
+    found += scale_and_bias_findings(imu, segments, source)
+    found += cross_leg_findings(imu, segments, rhythm, source) if leg_pairing else []
     rates = {s: imu[:, i, 2] for i, s in enumerate(segments)} if leg_pairing else {}
     window = min(max(4 * rhythm.period_s, 2.0), imu.shape[0] / RATE_HZ)
     legs = []
@@ -333,6 +358,65 @@ def _periodicity_findings(imu: np.ndarray, segments: tuple[str, ...], rhythm: Ga
     return found
 
 
+def scale_and_bias_findings(imu: np.ndarray, segments: tuple[str, ...], source: str) -> list[str]:
+    """While the legs walk or run (the caller found a gait rhythm): the pelvis accelerometer's
+    scale, the median over 1 s windows of its in-plane mean specific force (≈ g: gravity dominates
+    a second's mean of a sensor that turns little), outside :data:`ACC_SCALE_RANGE`; and a
+    gyroscope bias, the mean gyr_z over the recording (a segment's angle repeats with the stride,
+    so its mean rate is ≈ 0), above :data:`GYRO_BIAS_ALL_RAD_S` on every sensor (median) or
+    :data:`GYRO_BIAS_ONE_RAD_S` on one. The legs' sensors are not judged for scale: their rotation
+    adds a centripetal mean (measured: thighs 1.55 g, shanks 1.6 g, feet 3 g on the semi-real
+    running; shanks 1.13 g, feet 1.2 g on the predicted 1.3 m/s walk)."""
+    found = []
+    n = imu.shape[0] // int(RATE_HZ)
+    if "pelvis" in segments and n >= 2:
+        i = segments.index("pelvis")
+        second = imu[: n * int(RATE_HZ), i, :2].reshape(n, int(RATE_HZ), 2).mean(axis=1)
+        scale = float(np.median(np.hypot(second[:, 0], second[:, 1]))) / GRAVITY
+        lo, hi = ACC_SCALE_RANGE
+        if not lo <= scale <= hi:
+            found.append(f"{source}: sensor pelvis: its accelerometer reads gravity as {scale:.2f} g (median 1 s mean specific "
+                         f"force; untouched recordings {lo:g}–{hi:g} g): the accelerometer looks scaled by {scale:.2f} (a unit "
+                         "or range setting? the other sensors likely too)")
+    bias = imu[:, :, 2].mean(axis=0)
+    typical = float(np.median(np.abs(bias)))
+    if typical > GYRO_BIAS_ALL_RAD_S:
+        found.append(f"{source}: the gyroscopes' gyr_z average {typical:.2f} rad/s in magnitude (median over the sensors; a "
+                     f"walking segment's angle repeats, so its mean rate is ≈ 0; untouched recordings ≤ {GYRO_BIAS_ALL_RAD_S:g}): "
+                     "every gyroscope looks biased; remove the bias (a still period's mean) first")
+    else:
+        found += [f"{source}: sensor {s}: gyr_z averages {b:+.2f} rad/s (a walking segment's mean rate is ≈ 0; untouched "
+                  f"recordings ≤ {GYRO_BIAS_ONE_RAD_S:g} in magnitude): a gyroscope bias; remove it first"
+                  for s, b in zip(segments, bias) if abs(b) > GYRO_BIAS_ONE_RAD_S]
+    return found
+
+
+def cross_leg_findings(imu: np.ndarray, segments: tuple[str, ...], rhythm: GaitRhythm, source: str) -> list[str]:
+    """The two legs swing half a stride apart: the same segments' gyr_z of the right and left leg
+    are ≈ 180° apart at the stride frequency. When at least two of the pairs (thighs, shanks,
+    feet) are within 90° of in phase, one leg's sensors are turned 180° about their long axis
+    (gyr_z and acc_x negated) or that leg's gyroscopes negated."""
+    n = imu.shape[0]
+    window = min(max(4 * rhythm.period_s, 2.0), n / RATE_HZ)
+    close = []
+    for kind in _KINDS:
+        a, b = f"{kind}_r", f"{kind}_l"
+        if a not in segments or b not in segments:
+            continue
+        sab, saa, sbb = cross_spectrum(imu[:, segments.index(a), 2][:, None], imu[:, segments.index(b), 2], RATE_HZ,
+                                       1 / rhythm.period_s, [(0, n)], window)
+        if saa[0] * sbb == 0 or abs(sab[0]) / np.sqrt(saa[0] * sbb) < MIN_COHERENCE:
+            continue
+        phase = float(np.degrees(np.angle(sab[0])))
+        if abs(_wrap_deg(phase)) < 90.0:
+            close.append(f"{a}/{b} {phase:+.0f}°")
+    if len(close) < 2:
+        return []
+    return [f"{source}: the right and left legs swing in phase ({', '.join(close)} at the stride frequency; walking and "
+            f"running: ≈ ±180°, untouched recordings beyond ±{CROSS_LEG_MIN_DEG:g}°): one leg's sensors look turned 180° about "
+            "their long axis (gyr_z and acc_x negated), or that leg's gyroscopes negated"]
+
+
 def _knee_skew_findings(imu: np.ndarray, segments: tuple[str, ...], source: str) -> list[str]:
     sos = butter(2, 0.3, btype="high", fs=RATE_HZ, output="sos")
     skews = {}
@@ -422,16 +506,40 @@ def mean_vertical_force_findings(what: str, mean_n: float, mass: float, strict: 
     return []
 
 
+def speed_label_findings(rec: Recording, source: str) -> list[str]:
+    """A warning when the mean ``speed`` label, with the IMU's stride period, gives a stride
+    length whose ratio to Alexander's is outside :data:`SPEED_LABEL_STRIDE_RANGE` (a speed label
+    off by more than about × 2 to 3.6 or ÷ 1.7 to 2.4: stride ∝ v against Alexander's v^0.6; a
+    unit, a digit, another trial)."""
+    labels = rec.labels
+    if labels is None or labels.speed is None or not np.isfinite(labels.speed).all():
+        return []
+    rhythm = gait_rhythm(rec.imu, tuple(rec.segments))
+    v = float(abs(np.mean(labels.speed)))
+    if rhythm is None or v <= 0.3:
+        return []
+    stride, expected = v * rhythm.period_s, alexander_stride(v, rec.height)
+    lo, hi = SPEED_LABEL_STRIDE_RANGE
+    if lo <= stride / expected <= hi:
+        return []
+    likely = (expected / rhythm.period_s) ** 2.5 / v**1.5  # the speed at which stride = Alexander's: v^0.4 ∝ stride/period
+    return [f"{source}: label speed averages {v:.3g} m/s; with the IMU's {rhythm.period_s:.2f} s stride that is a stride of "
+            f"{stride:.2f} m, but a {rec.height:g} m person at that speed strides ≈ {expected:.2f} m (Alexander 1984; "
+            f"accepted ratio {lo:g}–{hi:g}): the speed label looks wrong (≈ {likely:.2g} m/s fits the cadence)"]
+
+
 def label_findings(rec: Recording, source: str, mean_check: bool = True) -> list[str]:
     """Warnings about the GRF labels of ``rec`` against its body weight and its IMU (module
     docstring; without the mean force where the caller judged it, as ``sspinn import`` does on the
     GRF file with :func:`mean_vertical_force_findings`); none without GRF labels."""
     labels = rec.labels
-    if labels is None or labels.grf is None or rec.imu.shape[0] < 10:
+    if labels is None or rec.imu.shape[0] < 10:
         return []
+    found = speed_label_findings(rec, source)
+    if labels.grf is None:
+        return found
     weight = rec.mass * GRAVITY
     grf = np.asarray(labels.grf, dtype=float)
-    found = []
     vertical = {side: grf[:, k] for side, k in (("r", 1), ("l", 3)) if np.isfinite(grf[:, k]).all()}
     for side, v in vertical.items():
         low = float(v.min()) / weight
@@ -466,6 +574,13 @@ def label_findings(rec: Recording, source: str, mean_check: bool = True) -> list
 
 
 # ------------------------------------------------------------------------------------ estimates
+def alexander_stride(speed: float, height: float) -> float:
+    """The stride length (m) of a ``height`` m person at ``speed`` m/s by Alexander's relation
+    λ/h = 2.3 (v²/(g h))^0.3, h = :data:`LEG_PER_HEIGHT` × height (module docstring)."""
+    leg = LEG_PER_HEIGHT * height
+    return 2.3 * (speed**2 / (GRAVITY * leg)) ** 0.3 * leg if speed > 0 else 0.0
+
+
 def estimate_findings(name: str, vertical_grf: np.ndarray, speed: np.ndarray, imu: np.ndarray, segments: Sequence[str],
                       height: float, mass: float) -> list[str]:
     """Warnings about an estimate of the recording ``name``: the summed vertical GRF (T,) N and
@@ -483,9 +598,7 @@ def estimate_findings(name: str, vertical_grf: np.ndarray, speed: np.ndarray, im
                      f"below {MIN_MEAN_VERTICAL_BW:g} (the feet carry the body: ≈ 1 over a stride): the estimate is not "
                      "trustworthy; check the input signals' signs and axes")
     v = float(abs(np.mean(speed[:whole])))
-    leg = LEG_PER_HEIGHT * height
-    stride = v * rhythm.period_s
-    expected = 2.3 * (v**2 / (GRAVITY * leg)) ** 0.3 * leg if v > 0 else 0.0
+    stride, expected = v * rhythm.period_s, alexander_stride(v, height)
     if v > 0.3 and not expected / STRIDE_LENGTH_FACTOR <= stride <= expected * STRIDE_LENGTH_FACTOR:
         found.append(f"{name}: the estimated speed {v:.2f} m/s with the IMU's {rhythm.period_s:.2f} s stride gives a stride of "
                      f"{stride:.2f} m, but a {height:g} m person at that speed strides ≈ {expected:.2f} m (Alexander 1984; "

@@ -49,7 +49,17 @@ from typing import Any, Final
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
-from sspinn.data.dataset import FORMAT, SPLITS, DataFormatError, Dataset, Labels, Recording
+from sspinn.data.dataset import (
+    FORMAT,
+    RESERVED_SUFFIX,
+    SPLITS,
+    DataFormatError,
+    Dataset,
+    Labels,
+    Recording,
+    check_name,
+    holds_recording,
+)
 from sspinn.data.signal_checks import label_findings, recording_findings
 from sspinn.errors import UserError
 from sspinn.imu.calibration import Calibration, calibrate
@@ -68,7 +78,8 @@ from sspinn.imu.time_alignment import (
 )
 from sspinn.imu.vendor_readers import read_imu_files, read_treadmill_grf_columns
 from sspinn.model.conventions import GRF
-from sspinn.run_folder import atomic_write_text
+from sspinn.run_folder import atomic_write_text, output_target
+from sspinn.yaml_config import read_yaml
 
 #: Version of the import procedure, stored in the provenance.
 IMPORTER_VERSION: Final = 7
@@ -93,7 +104,26 @@ def default_name(files: list[Path]) -> str:
     name = files[0].name
     for suffix in (".gz", ".trc", ".txt", ".csv", "_Accel", "_Gyro"):
         name = name.removesuffix(suffix)
-    return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name) or "imported"
+    name = "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name).lstrip(".").removesuffix(RESERVED_SUFFIX)
+    return name or "imported"
+
+
+def _report_paths(out: Path, name: str) -> tuple[Path, Path, Path]:
+    """The calibration report, its JSON and its figure beside recording ``name``."""
+    stem = f"{name}{RESERVED_SUFFIX}"
+    return out / f"{stem}.md", out / f"{stem}.json", out / f"{stem}.png"
+
+
+def recording_target(out: Path, name: str, overwrite: bool) -> str:
+    """The name a recording is imported under: ``name``, or — when the dataset folder already
+    holds a recording (or calibration report) of that name and ``overwrite`` is false — the first
+    free ``name_2``, ``name_3``, … announced on a ``NOTE`` line (:func:`sspinn.run_folder.output_target`)."""
+    check_name(name, out)
+
+    def taken(path: Path) -> bool:
+        return holds_recording(out, path.name) or any(p.exists() for p in _report_paths(out, path.name))
+
+    return output_target(out / name, taken, overwrite, "a recording", "give another --name, ").name
 
 
 def ignored_signals(ignored: IMUStream, grid: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -111,6 +141,14 @@ def ignored_signals(ignored: IMUStream, grid: np.ndarray) -> dict[str, tuple[np.
             continue
         out[name] = (one.sensors[name].acc, one.sensors[name].gyr)
     return out
+
+
+def _read_sensor_map(path: Path) -> SensorMap:
+    """The sensor map at ``path``, read through :func:`sspinn.yaml_config.read_yaml` (a regular
+    UTF-8 file of bounded size, no duplicate keys: errors name the file)."""
+    if not path.exists():
+        return SensorMap.from_yaml(path)  # its own "not found" message
+    return SensorMap.from_dict(read_yaml(path), source=str(path))
 
 
 def import_imu(
@@ -132,18 +170,21 @@ def import_imu(
     imu_rate_hz: float | None = None,
     same_clock: bool | None = None,
     align: str = "common",
+    overwrite: bool = False,
 ) -> ImportResult:
     """Import one trial (module docstring). ``height`` m, ``mass`` kg, ``speed`` m/s, times s;
     ``imu_rate_hz``: the update rate of Xsens files whose header lacks one (Hz); ``same_clock``:
     True if the IMU and GRF files share a clock, False if not, None to tell from their starts and
-    durations; ``align``: ``"common"`` (one lag) or ``"per-foot"`` (each foot's own lag)."""
+    durations; ``align``: ``"common"`` (one lag) or ``"per-foot"`` (each foot's own lag). A
+    recording of the same name already in ``out`` is replaced only with ``overwrite`` (and only by
+    the same subject's); else this one is imported as ``<name>_2``, … with a ``NOTE``."""
     if align not in ALIGN_MODES:
         raise IMUImportError(f"align must be one of {list(ALIGN_MODES)}, got {align!r}")
     files = [Path(f) for f in imu_files]
-    smap = sensor_map if isinstance(sensor_map, SensorMap) else SensorMap.from_yaml(sensor_map)
+    smap = sensor_map if isinstance(sensor_map, SensorMap) else _read_sensor_map(Path(sensor_map))
     if split not in (*SPLITS, "all"):
         raise IMUImportError(f"split must be one of {[*SPLITS, 'all']}, got {split!r}")
-    name = name or default_name(files)
+    name = recording_target(Path(out), default_name(files) if name is None else name, overwrite)
     stream = read_imu_files(files, imu_rate_hz, known=(*smap.assignments, *smap.ignore))
     smap.check_sensors(stream.names, stream.source)
     ignored = IMUStream({s: stream.sensors[s] for s in stream.names if s in smap.ignore}, stream.source)
@@ -211,15 +252,15 @@ def import_imu(
     cal.warnings += findings
     provenance["warnings"] += findings
     out = Path(out)
-    csv = add_to_index(out, rec, split)
+    csv = add_to_index(out, rec, split, overwrite)
     context = {"files": ", ".join(str(f) for f in files), "sensor map": smap.source,
                "subject": f"{subject}, {height} m, {mass} kg", "recording": f"{csv} ({rec.n_samples} samples, {rec.duration:.2f} s)"}
-    report = out / f"{name}_calibration.md"
+    report, report_json, report_png = _report_paths(out, name)
     atomic_write_text(report, calibration_markdown(name, cal, alignment, context, notes))
-    atomic_write_text(out / f"{name}_calibration.json", json.dumps(
+    atomic_write_text(report_json, json.dumps(
         {"sensors": provenance["calibration"], "alignment": provenance.get("grf_alignment"), "warnings": provenance["warnings"],
          "notes": provenance["notes"]}, indent=2))
-    figure = plot_calibration(out / f"{name}_calibration.png", name, cal, projected, {s: v[1] for s, v in signals.items()})
+    figure = plot_calibration(report_png, name, cal, projected, {s: v[1] for s, v in signals.items()})
     return ImportResult(rec, cal, alignment, csv, report, figure)
 
 
@@ -285,18 +326,18 @@ def alignment_note(alignment: Alignment, grid_offset_s: float) -> str:
     return text
 
 
-def add_to_index(folder: Path, rec: Recording, split: str) -> Path:
+def add_to_index(folder: Path, rec: Recording, split: str, overwrite: bool = False) -> Path:
     """Save ``rec`` into the dataset folder and list it in ``split`` of its ``dataset.json``
     (``"all"``: train, val and test) through the dataset's one writer
     (:meth:`sspinn.data.dataset.Dataset.add`: locked, atomic); a recording of the same name is
-    replaced. Returns the CSV path."""
+    replaced only with ``overwrite``. Returns the CSV path."""
 
     def note(info: dict[str, Any]) -> None:
         info.setdefault("imported", {})[rec.name] = {"subject": rec.subject, "split": split, "format": FORMAT}
         info["note"] = ("recordings imported with `sspinn import`; split 'all' lists a recording in train, val and test "
                         "(self-supervised use on the same data)")
 
-    Dataset.add(folder, rec, SPLITS if split == "all" else (split,), note)
+    Dataset.add(folder, rec, SPLITS if split == "all" else (split,), note, overwrite)
     return folder / f"{rec.name}.csv"
 
 
@@ -331,6 +372,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--imu-rate", type=bounded(float, 1.0, 2000.0, " Hz"), default=None,
                    help="update rate of the Xsens files, Hz: needed where PacketCounter times the samples and no "
                    "'// Update Rate' header line gives it (a header that disagrees is an error)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a recording of the same --name (same subject) in --out (else a NOTE and <name>_2, …)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -339,6 +382,7 @@ def run(args: argparse.Namespace) -> int:
         args.imu, args.sensor_map, args.height, args.mass, args.out, subject=args.subject, name=args.name, grf=args.grf,
         speed=args.speed, start_s=args.start, end_s=args.end, standing=not args.no_standing, max_gap_s=args.max_gap,
         split=args.split, imu_rate_hz=args.imu_rate, same_clock=args.same_clock, align=args.align,
+        overwrite=args.overwrite,
     )
     rec, cal = result.recording, result.calibration
     print(f"{rec.name}: {rec.n_samples} samples ({rec.duration:.1f} s), IMUs {list(rec.segments)} → {result.csv}")

@@ -28,6 +28,7 @@ from scipy.signal import butter, sosfiltfilt
 from sspinn.data.gait_events import true_runs
 from sspinn.errors import DataFormatError
 from sspinn.model.conventions import GRAVITY
+from sspinn.resource_limits import MAX_ROWS
 
 #: The project's sample rate, Hz.
 RATE_HZ: Final = 100.0
@@ -304,7 +305,12 @@ def resample(stream: IMUStream, max_gap_s: float = DEFAULT_MAX_GAP_S, rate_hz: f
         spans = ", ".join(f"{n}: {s.time[0]:.3f}–{s.time[-1]:.3f} s" for n, s in stream.sensors.items())
         raise IMUImportError(f"{stream.source}: the sensors' time spans do not overlap ({spans}); they must share one clock")
     if grid is None:
-        grid = t0 + np.arange(int(np.floor((t1 - t0) * rate_hz + 1e-9)) + 1) / rate_hz
+        n_grid = int(np.floor((t1 - t0) * rate_hz + 1e-9)) + 1
+        if n_grid > MAX_ROWS:
+            raise IMUImportError(f"{stream.source}: the sensors span {t1 - t0:.6g} s, {n_grid} samples at {rate_hz:g} Hz, "
+                                 f"more than the {MAX_ROWS} a recording may have here: is the time column in seconds "
+                                 "(not ms)? Import a part (start/end times)")
+        grid = t0 + np.arange(n_grid) / rate_hz
     elif grid[0] < t0 - 1e-9 or grid[-1] > t1 + 1e-9:
         raise IMUImportError(f"{stream.source}: the sensors cover {t0:.3f}–{t1:.3f} s, not the grid's {grid[0]:.3f}–{grid[-1]:.3f} s")
     out: dict[str, SensorSignals] = {}

@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import dataclasses
 import gzip
+import io
 import re
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass
@@ -60,6 +61,7 @@ import numpy as np
 
 from sspinn.data.opensim_files import OpenSimFormatError, read_opensim_table
 from sspinn.imu.stream import IMUImportError, IMUStream, SensorSignals
+from sspinn.resource_limits import MAX_INPUT_BYTES, ResourceLimitError, input_file
 
 #: File-name suffixes of the OpenSense export (before an optional ``.gz``).
 OPENSENSE_SUFFIXES: Final = {"accel": "_Accel.trc", "gyro": "_Gyro.trc", "orientations": "_Orientations.sto"}
@@ -84,12 +86,19 @@ def read_text(path: Path) -> str:
     path = Path(path)
     if not path.exists():
         raise IMUImportError(f"{path}: file not found")
+    try:
+        input_file(path, MAX_INPUT_BYTES, "IMU or force file")  # no FIFO, device or huge file
+    except ResourceLimitError as exc:
+        raise IMUImportError(str(exc)) from None
     raw = path.read_bytes()
     if raw[:2] == b"\x1f\x8b":
         try:
-            raw = gzip.decompress(raw)
+            with gzip.GzipFile(fileobj=io.BytesIO(raw)) as fh:
+                raw = fh.read(MAX_INPUT_BYTES + 1)  # never more than the limit, however well it compresses
         except (OSError, EOFError) as exc:
             raise IMUImportError(f"{path}: a damaged gzip file ({exc})") from None
+        if len(raw) > MAX_INPUT_BYTES:
+            raise IMUImportError(f"{path}: decompresses to more than the {MAX_INPUT_BYTES >> 20} MiB a file may have here")
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
@@ -112,11 +121,27 @@ def _stem(path: Path) -> str:
 
 
 # ---------------------------------------------------------------------------------- OpenSense
-def _rate_from_time(path: Path, time: np.ndarray) -> float:
+#: Sample rates an IMU or force file may have, Hz: outside, the time column is in other units.
+FILE_RATE_RANGE_HZ: Final = (1.0, 20_000.0)
+
+
+def _rate_from_time(path: Path, time: np.ndarray, stated: float | None = None) -> float:
+    """The sample rate (Hz) of a time column in seconds; an error naming the file for a column
+    that does not increase, implies a rate outside :data:`FILE_RATE_RANGE_HZ`, or disagrees by
+    more than 1 % with the ``stated`` rate of the header (a time column in ms, say)."""
     steps = np.diff(time)
     if not (steps > 0).any():
         raise IMUImportError(f"{path}: the time column does not increase: no sample rate")
-    return float(1.0 / np.median(steps[steps > 0]))
+    rate = float(1.0 / np.median(steps[steps > 0]))
+    low, high = FILE_RATE_RANGE_HZ
+    if stated is not None and abs(rate - stated) > 0.01 * stated:
+        hint = " (the time column in ms?)" if abs(rate * 1000 / stated - 1) < 0.01 else ""
+        raise IMUImportError(f"{path}: the time column steps by {1 / rate:.6g} (a rate of {rate:.6g} Hz if in seconds) but "
+                             f"the header's DataRate is {stated:g} Hz{hint}: give the time in seconds")
+    if not low <= rate <= high:
+        raise IMUImportError(f"{path}: the time column steps by {1 / rate:.6g}, a rate of {rate:.6g} Hz if in seconds, "
+                             f"outside {low:g}–{high:g} Hz: is it in ms or samples? Give the time in seconds")
+    return rate
 
 
 def read_trc_vectors(path: str | Path) -> tuple[np.ndarray, dict[str, np.ndarray], float]:
@@ -156,8 +181,7 @@ def read_trc_vectors(path: str | Path) -> tuple[np.ndarray, dict[str, np.ndarray
     data = np.array(rows)
     if not np.isfinite(data[:, 1]).all():
         raise IMUImportError(f"{path}: the Time column has blank or non-numeric values")
-    if rate is None:
-        rate = _rate_from_time(path, data[:, 1])
+    rate = _rate_from_time(path, data[:, 1], rate)
     return data[:, 1], {n: data[:, 2 + 3 * i: 5 + 3 * i] for i, n in enumerate(names)}, rate
 
 
@@ -486,6 +510,10 @@ def read_xsens_files(paths: Sequence[str | Path], rate_hz: float | None = None, 
             if t.header_rate is not None and abs(t.header_rate / rate_hz - 1) > 0.01:
                 raise IMUImportError(f"{t.path}, sensor {t.name!r}: its header says {t.header_rate:g} Hz, the given rate is {rate_hz:g} Hz")
     header_rates = sorted({t.header_rate for t in tables if t.header_rate is not None})
+    if len(header_rates) > 1 and rate_hz is None:
+        rates = ", ".join(f"{t.path.name} ({t.name}): {t.header_rate:g} Hz" for t in tables if t.header_rate is not None)
+        raise IMUImportError(f"the Xsens files' headers give different update rates ({rates}); the sensors of one "
+                             "recording share one rate: export them again at one rate")
     shared = header_rates[0] if len(header_rates) == 1 else None
     sensors: dict[str, SensorSignals] = {}
     notes = [f"Xsens MT Manager export: {len(tables)} sensor file(s)"]
@@ -533,6 +561,9 @@ def read_imu_files(paths: Sequence[str | Path], rate_hz: float | None = None, kn
         stems = {opensense_files(p)["accel"] for p in paths}
         if len(stems) > 1:
             raise IMUImportError(f"{paths[0]}: files of {len(stems)} different OpenSense exports given; import one trial at a time")
+        if rate_hz is not None:
+            raise IMUImportError(f"{paths[0]}: the update rate (--imu-rate {rate_hz:g}) applies to Xsens files only; an "
+                                 "OpenSense export's rate is its DataRate header and time column: leave it out")
         return read_opensense(paths[0])
     if all(n.lower().endswith((".txt", ".csv")) for n in names):
         return read_xsens_files(paths, rate_hz, known)
