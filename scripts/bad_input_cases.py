@@ -1,5 +1,5 @@
 """Try every documented bad-input case (bad recordings, bad IMU files, bad options and files) and print the
-Markdown table of ``docs/bad_input.md``: the case, what was run, the exit status (or
+Markdown table of ``docs/results/bad_input_cases.md``: the case, what was run, the exit status (or
 exception/warning) and the exact message the user sees.
 
 Each case is run in-process (the command lines through their ``main``, stderr captured) on a
@@ -15,7 +15,7 @@ imported with ``sspinn import``, saved as a recording CSV + sidecar with its IMU
 
 Usage::
 
-    python scripts/bad_input_cases.py > docs/bad_input_table.md   # ~30 s
+    python scripts/bad_input_cases.py > docs/results/bad_input_cases.md   # ~30 s
 """
 
 from __future__ import annotations
