@@ -11,7 +11,6 @@ model (new, or the latest checkpoint when resuming) → callbacks (checkpoints, 
 from __future__ import annotations
 
 import csv
-import io
 import math
 import time
 from pathlib import Path
@@ -32,6 +31,7 @@ from agents.checkpoints import (
     CHECKPOINT_PREFIX,
     CONFIG_FILE,
     LoadedAgent,
+    append_csv_row,
     checkpoint_steps,
     latest_checkpoint,
     load_model,
@@ -47,7 +47,7 @@ from agents.rollout import SUMMARY_GAIT_KEYS, run_episode, summarize
 from agents.vec_env import PerEnvVecMonitor, WalkerVecEnv
 from sspinn.data.gait_metrics import winter_or_none
 from sspinn.interrupt import DeferredInterrupt
-from sspinn.run_folder import RunLock, atomic_write_text, claim_run_folder
+from sspinn.run_folder import RunLock, claim_run_folder
 
 #: What a run leaves in its folder (:mod:`agents.checkpoints`), besides its config: a folder
 #: holding any of them holds a run, which only ``--resume`` continues and ``--overwrite`` replaces.
@@ -205,16 +205,7 @@ class WalkerEvalCallback(BaseCallback):
             if value is not None:
                 self.logger.record(f"eval/{key}", value)
         self.logger.record("eval/steps_per_s", (self.num_timesteps - self.start_steps) / max(wall, 1e-9))
-        columns = EVAL_COLUMNS
-        previous = self.csv_path.read_text() if self.csv_path.is_file() else ""
-        if previous:  # a resumed run keeps its file's columns
-            columns = tuple(next(csv.reader(io.StringIO(previous)), EVAL_COLUMNS))
-        buffer = io.StringIO()
-        writer = csv.DictWriter(buffer, fieldnames=columns, extrasaction="ignore", lineterminator="\n")
-        if not previous:
-            writer.writeheader()
-        writer.writerow(row)
-        atomic_write_text(self.csv_path, previous + buffer.getvalue())
+        append_csv_row(self.csv_path, row, EVAL_COLUMNS)  # a resumed run keeps its file's columns
         if summary["mean_return"] > self.best_return:
             self.best_return = summary["mean_return"]
             save_checkpoint(self.model, self.run_dir / "best_model.zip", self.vec_normalize)
@@ -248,7 +239,13 @@ def train(config: AgentConfig, out: str | Path, resume: bool = False, overwrite:
     """
     if resume and overwrite:
         raise ValueError("--resume continues the run in --out and --overwrite replaces it: give one of them")
+    from agents.diff.settings import DIFF_ALGORITHMS
+
     with RunLock(out):
+        if config.algo in DIFF_ALGORITHMS:  # learned through the differentiable simulator (agents.diff)
+            from agents.diff.train import train_diff
+
+            return train_diff(config, Path(out), resume, overwrite)  # type: ignore[return-value]
         return _train(config, Path(out), resume, overwrite)
 
 
