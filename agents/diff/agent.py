@@ -112,6 +112,32 @@ class RunningNorm(nn.Module):
         return ((x - self.mean.to(x.dtype)) / scale).clamp(-self.clip, self.clip)
 
 
+@dataclasses.dataclass
+class Window:
+    """One differentiable window of :meth:`DiffAgent.rollout_window` (h steps × N walkers).
+
+    Attributes:
+        loss: the actor's loss (a scalar with its autograd graph through the physics).
+        obs: normalised observations the actions were taken from (h, N, 22), detached.
+        rewards: the environment's rewards (h, N), detached.
+        next_values: target-critic values of the next states (h, N), 0 after a termination.
+        ends: an episode ended at that step (h, N).
+        actions: the actions (N, 6) of each step, with their gradients kept after ``backward``.
+        cuts: AHAC's cuts in the window. finished_returns, finished_distances: episodes that ended
+            in the window (return; distance in m).
+    """
+
+    loss: torch.Tensor
+    obs: torch.Tensor
+    rewards: torch.Tensor
+    next_values: torch.Tensor
+    ends: torch.Tensor
+    actions: list[torch.Tensor] = dataclasses.field(default_factory=list)
+    cuts: int = 0
+    finished_returns: list[float] = dataclasses.field(default_factory=list)
+    finished_distances: list[float] = dataclasses.field(default_factory=list)
+
+
 class DiffAgent:
     """A policy for the sagittal walker learned through the differentiable simulator.
 
@@ -205,45 +231,31 @@ class DiffAgent:
         return torch.tanh(mean + torch.exp(self.log_std) * eps)
 
     # ------------------------------------------------------------------------------------------
-    def update_window(self, lr_share: float = 1.0) -> dict[str, float]:
-        """Roll out one window with gradients, update the actor (and the critic), return the
-        window's statistics (also appended to :attr:`history`):
-
-        ``steps`` (environment steps after it), ``loss`` (the actor's window loss), ``mean_reward``
-        (per walker and step), ``grad_norm`` (the actor's gradient norm before clipping),
-        ``clipped`` (1 when it exceeded ``max_grad_norm``), ``grad_first_action`` and
-        ``grad_last_action`` (mean over walkers of ‖∂loss/∂a‖ at the first and the last step of
-        the window, times N·h: the gradient of a walker's own window return),
-        ``grad_variance`` (running variance of the gradient vector across windows, mean per
-        parameter), ``cut_rate`` (AHAC: cuts per walker and step), ``critic_loss``, ``episodes``
-        (finished in the window), ``episode_return`` and ``episode_distance`` (means over them; NaN
-        when none finished)."""
+    def rollout_window(self, update_statistics: bool = True) -> Window:
+        """Roll out one window of ``horizon`` steps from the environments' current states with
+        gradients through the physics and return its loss (to be minimised: minus the discounted
+        rewards of each piece closed by the target critic's value, averaged over walkers and steps)
+        and its records. ``update_statistics``: fold the observations into the running
+        normalisation (False: keep it fixed, e.g. to compare two actors on the same batch)."""
         s, env, n, h = self.settings, self.env, self.n_envs, self.settings.horizon
-        for group in self.actor_opt.param_groups:
-            group["lr"] = s.actor_lr * lr_share
         env.set_state(env.q.detach(), env.u.detach())  # the window starts from a constant state
         obs = env.observe()
         bw = float(env.body.body_weight)
         grf_prev = env.grf.detach()
         ret = torch.zeros(n)
         disc = torch.ones(n)
-        loss = torch.zeros(())
-        obs_buf = torch.zeros(h, n, OBS_SIZE)
-        rew_buf = torch.zeros(h, n)
-        next_val = torch.zeros(h, n)
-        ends = torch.zeros(h, n, dtype=torch.bool)
-        actions: list[torch.Tensor] = []
-        finished_returns: list[float] = []
-        finished_distances: list[float] = []
-        cuts = 0
+        total = torch.zeros(())
+        w = Window(loss=total, obs=torch.zeros(h, n, OBS_SIZE), rewards=torch.zeros(h, n),
+                   next_values=torch.zeros(h, n), ends=torch.zeros(h, n, dtype=torch.bool))
         assert self._episode_return is not None
         for t in range(h):
-            self.obs_norm.update(obs)
+            if update_statistics:
+                self.obs_norm.update(obs)
             x = self.obs_norm(obs)
-            obs_buf[t] = x.detach()
+            w.obs[t] = x.detach()
             a = self._action(x, deterministic=False)
             a.retain_grad()
-            actions.append(a)
+            w.actions.append(a)
             obs, r, terminated, truncated, info = env.step(a)
             done = terminated | truncated
             ret = ret + disc * r
@@ -254,18 +266,18 @@ class DiffAgent:
                 value = torch.where(terminated, torch.zeros_like(value), value)
             else:
                 value = torch.zeros(n)
-            rew_buf[t], next_val[t], ends[t] = r.detach(), value.detach(), done
+            w.rewards[t], w.next_values[t], w.ends[t] = r.detach(), value.detach(), done
             closing = done.clone()
             cut = torch.zeros(n, dtype=torch.bool)
             if self.algo == "ahac":
                 rate = (info["grf"].detach()[:, 1::2] - grf_prev[:, 1::2]).abs().amax(-1) / bw
                 cut = (rate > s.cut_grf_rate) & ~done
                 closing |= cut
-                cuts += int(cut.sum())
+                w.cuts += int(cut.sum())
             grf_prev = env.grf.detach()
             if t == h - 1:
                 closing[:] = True
-            loss = loss + torch.where(closing, ret + disc * value, torch.zeros_like(ret)).sum()
+            total = total + torch.where(closing, ret + disc * value, torch.zeros_like(ret)).sum()
             ret = torch.where(closing, torch.zeros_like(ret), ret)
             disc = torch.where(closing, torch.ones_like(disc), disc)
             if bool(cut.any()):  # AHAC: the gradient stops at the stiff contact event
@@ -274,44 +286,63 @@ class DiffAgent:
                 obs = torch.where(keep, obs.detach(), obs)
             self._episode_return += r.detach()
             if bool(done.any()):
-                finished_returns += self._episode_return[done].tolist()
-                finished_distances += info["distance"][done].tolist()
+                w.finished_returns += self._episode_return[done].tolist()
+                w.finished_distances += info["distance"][done].tolist()
                 self._episode_return[done] = 0.0
-        actor_loss = -loss / (n * h)
+        w.loss = -total / (n * h)
+        return w
+
+    def update_window(self, lr_share: float = 1.0) -> dict[str, float]:
+        """One window (:meth:`rollout_window`), one actor step on its loss, the critic's regression
+        (SHAC, AHAC); returns the window's statistics (also appended to :attr:`history`):
+
+        ``steps`` (environment steps after it), ``loss`` (the actor's window loss), ``mean_reward``
+        (per walker and step), ``grad_norm`` (the actor's gradient norm before clipping),
+        ``clipped`` (1 when it exceeded ``max_grad_norm``), ``grad_first_action`` and
+        ``grad_last_action`` (mean over walkers of ‖∂loss/∂a‖ at the first and the last step of
+        the window, times N·h: the gradient of a walker's own window return),
+        ``grad_variance`` (running variance of the gradient vector across windows, mean per
+        parameter), ``cut_rate`` (AHAC: cuts per walker and step), ``critic_loss``, ``episodes``
+        (finished in the window), ``episode_return`` and ``episode_distance`` (means over them; NaN
+        when none finished), ``action_std`` (the exploration noise's mean std before tanh)."""
+        s, n, h = self.settings, self.n_envs, self.settings.horizon
+        for group in self.actor_opt.param_groups:
+            group["lr"] = s.actor_lr * lr_share
+        w = self.rollout_window()
         self.actor_opt.zero_grad(set_to_none=True)
-        actor_loss.backward()
+        w.loss.backward()
         params = self.actor_parameters()
-        grads = [p.grad if p.grad is not None else torch.zeros_like(p) for p in params]
-        flat = torch.cat([g.reshape(-1) for g in grads]).to(torch.float64)
+        flat = torch.cat([(p.grad if p.grad is not None else torch.zeros_like(p)).reshape(-1) for p in params])
+        flat = flat.to(torch.float64)
         finite = bool(torch.isfinite(flat).all())
         grad_norm = float(flat.norm()) if finite else math.inf
-        if finite:
+        if finite:  # a non-finite gradient skips the actor's step
             torch.nn.utils.clip_grad_norm_(params, s.max_grad_norm)
             self.actor_opt.step()
             k = self.updates + 1  # Welford's update of the gradient's mean and variance across windows
             delta = flat - self.grad_mean
             self.grad_mean += delta / k
             self.grad_m2 += (delta * (flat - self.grad_mean)).sum()
-        first = actions[0].grad
-        last = actions[-1].grad
-        critic_loss = self._update_critic(obs_buf, rew_buf, next_val, ends, lr_share) if self.critic is not None else math.nan
-        env.set_state(env.q.detach(), env.u.detach())
+        first, last = w.actions[0].grad, w.actions[-1].grad
+        critic_loss = (self._update_critic(w.obs, w.rewards, w.next_values, w.ends, lr_share)
+                       if self.critic is not None else math.nan)
+        self.env.set_state(self.env.q.detach(), self.env.u.detach())
         self.num_timesteps += n * h
         self.updates += 1
         stats = {
             "steps": float(self.num_timesteps),
-            "loss": float(actor_loss.detach()),
-            "mean_reward": float(rew_buf.mean()),
+            "loss": float(w.loss.detach()),
+            "mean_reward": float(w.rewards.mean()),
             "grad_norm": grad_norm,
             "clipped": float(grad_norm > s.max_grad_norm),
             "grad_first_action": float(first.norm(dim=-1).mean()) * n * h if first is not None else math.nan,
             "grad_last_action": float(last.norm(dim=-1).mean()) * n * h if last is not None else math.nan,
             "grad_variance": float(self.grad_m2 / max(self.updates - 1, 1) / self.grad_mean.numel()),
-            "cut_rate": cuts / (n * h),
+            "cut_rate": w.cuts / (n * h),
             "critic_loss": critic_loss,
-            "episodes": float(len(finished_returns)),
-            "episode_return": float(np.mean(finished_returns)) if finished_returns else math.nan,
-            "episode_distance": float(np.mean(finished_distances)) if finished_distances else math.nan,
+            "episodes": float(len(w.finished_returns)),
+            "episode_return": float(np.mean(w.finished_returns)) if w.finished_returns else math.nan,
+            "episode_distance": float(np.mean(w.finished_distances)) if w.finished_distances else math.nan,
             "action_std": float(torch.exp(self.log_std.detach()).mean()),
         }
         self.history.append(stats)
