@@ -151,6 +151,7 @@ def test_a_foreign_or_pickled_file_is_refused(tmp_path: Path) -> None:
         DiffAgent.load(other)
 
 
+@pytest.mark.slow
 def test_train_resume_and_evaluate_through_the_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     config = write_config(tmp_path)
     run = tmp_path / "run"
@@ -236,3 +237,21 @@ def test_shipped_configs_load(name: str) -> None:
     config = load_config(CONFIGS / f"{name}.yaml")
     assert config.algo == name.split("_")[0] and config.env.target_speed == 1.3
     assert settings_of(config).horizon >= 1 and config.prior.gait is None
+
+
+@pytest.mark.slow
+def test_the_side_by_side_benchmark_runs_quick(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``benchmarks/diff_vs_ppo.py --quick``: every arm trains a few steps and is summarised."""
+    import json
+    import runpy
+
+    bench = runpy.run_path(str(Path(__file__).resolve().parents[1] / "benchmarks" / "diff_vs_ppo.py"),
+                           run_name="diff_vs_ppo")
+    results = bench["main"](["--quick", "--out", str(tmp_path / "runs"), "--json", str(tmp_path / "r.json")])
+    arms = {row["arm"]: row for row in results["arms"]}
+    assert set(arms) == {"ppo_256envs", "sac", "apg", "shac", "ahac"}
+    assert all(row["evaluations"] >= 1 and row["wall_s"] > 0 for row in arms.values())
+    assert arms["ppo_256envs"]["gait_prior"] and not arms["shac"]["gait_prior"]
+    assert all(row["finite"] for row in results["gradients"])
+    assert json.loads((tmp_path / "r.json").read_text())["torch_threads"] == 1
+    assert "walking targets met at" in capsys.readouterr().out

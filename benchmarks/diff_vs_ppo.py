@@ -1,0 +1,175 @@
+"""Learning through the differentiable simulator against the SB3 recipes, side by side on one machine.
+
+    python benchmarks/diff_vs_ppo.py --budget 1_600_000 --out runs/diff_vs_ppo      # the full comparison
+    python benchmarks/diff_vs_ppo.py --gradients                                    # the gradient study only
+    python benchmarks/diff_vs_ppo.py --quick                                        # a smoke run (tiny budgets)
+
+**Arms** (same environment and body, walking at 1.3 m/s, one torch thread each, ``--threads`` for
+numba's vector environment): the 256-environment PPO recipe (``configs/agents/ppo_clock_walk_256envs.yaml``,
+gait clock and reference stride), SAC (``configs/agents/sac_clock_walk.yaml``), and APG, SHAC and AHAC
+(``configs/agents/{apg,shac,ahac}_walk.yaml``, no gait prior). Each arm trains with
+``python -m agents train``'s function into ``<out>/<arm>`` with ``--budget`` environment steps
+(arms one after another, so the wall times are comparable on an otherwise idle machine only) and
+reports, from its ``evaluations.csv``: the environment steps and wall seconds of its best
+evaluation, that evaluation's return, distance in 10 s and falls, and the first evaluation (in
+environment steps) that meets the walking targets of docs/agents.md that the evaluation columns
+hold: ≤ 1/5 falls, ≥ 10 m in 10 s, step-time asymmetry ≤ 10 %, foot slide ≤ 2 cm per step, impact
+≤ 2 BW. The goal of the differentiable arms: the targets met within 1/5 of the PPO recipe's steps.
+
+**Gradient study** (``--gradients``): at the initial policy, the APG window loss of N walkers is
+differentiated for ``substeps`` ∈ {50, 25, 10} and horizons ∈ {1, 4, 16}: the policy's gradient
+norm, ‖∂J/∂a‖ of the window's first and last actions (per walker, of its own window return) and
+whether everything is finite — how the gradient through the contact grows with the window and
+the integration step.
+
+Step counts, not wall clocks, are the results on a shared machine; the wall times are recorded
+beside them (and say so).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from agents.config import load_config
+from agents.diff import DiffAgent, DiffSettings
+from agents.train import train
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs" / "agents"
+#: Arm name → configuration file.
+ARMS: dict[str, str] = {
+    "ppo_256envs": "ppo_clock_walk_256envs.yaml",
+    "sac": "sac_clock_walk.yaml",
+    "apg": "apg_walk.yaml",
+    "shac": "shac_walk.yaml",
+    "ahac": "ahac_walk.yaml",
+}
+#: The walking targets (docs/agents.md) as (evaluation column, bound, "max" | "min").
+TARGETS: tuple[tuple[str, float, str], ...] = (
+    ("falls", 1, "max"), ("mean_distance_m", 10.0, "min"), ("mean_step_time_asymmetry", 10.0, "max"),
+    ("mean_foot_slide_per_step_cm", 2.0, "max"), ("mean_peak_impact_bw", 2.0, "max"),
+)
+MAX_BUDGET = 100_000_000
+
+
+def quick_overrides(arm: str) -> dict[str, Any]:
+    """Tiny budgets and episodes for ``--quick`` (a smoke run, not a result)."""
+    common = {"logging.eval_episodes": 1, "logging.tensorboard": False, "env.kwargs.max_episode_steps": 20,
+              "logging.verbose": 0}
+    if arm == "ppo_256envs":
+        return {**common, "env.n_envs": 4, "hyperparameters.n_steps": 8, "hyperparameters.batch_size": 16,
+                "hyperparameters.n_epochs": 1, "logging.eval_freq": 32, "logging.checkpoint_freq": 32,
+                "total_timesteps": 32}
+    if arm == "sac":
+        return {**common, "env.n_envs": 1, "hyperparameters.learning_starts": 8, "hyperparameters.batch_size": 8,
+                "logging.eval_freq": 16, "logging.checkpoint_freq": 16, "total_timesteps": 16}
+    return {**common, "env.n_envs": 2, "env.kwargs.substeps": 5, "hyperparameters.horizon": 2,
+            "hyperparameters.critic_iterations": 1, "logging.eval_freq": 4, "logging.checkpoint_freq": 4,
+            "total_timesteps": 8}
+
+
+def targets_met(row: dict[str, str]) -> bool:
+    """All walking targets met by an evaluation row (a missing value fails)."""
+    for key, bound, kind in TARGETS:
+        text = row.get(key, "")
+        if text in ("", "None", "nan"):
+            return False
+        value = float(text)
+        if (kind == "max" and value > bound) or (kind == "min" and value < bound):
+            return False
+    return True
+
+
+def summarize_run(run: Path) -> dict[str, Any]:
+    """Best evaluation and first evaluation meeting the targets, from ``<run>/evaluations.csv``."""
+    with (run / "evaluations.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    best = max(rows, key=lambda r: float(r["mean_return"]))
+    met = next((r for r in rows if targets_met(r)), None)
+    return {
+        "evaluations": len(rows),
+        "last_steps": int(rows[-1]["timesteps"]),
+        "best_steps": int(best["timesteps"]),
+        "best_wall_s": float(best["wall_s"]),
+        "best_return": float(best["mean_return"]),
+        "best_distance_m": float(best["mean_distance_m"]),
+        "best_falls": int(best["falls"]),
+        "untrained_return": float(rows[0]["mean_return"]) if int(rows[0]["timesteps"]) == 0 else None,
+        "targets_met_at_steps": int(met["timesteps"]) if met is not None else None,
+    }
+
+
+def run_arm(arm: str, budget: int, out: Path, quick: bool, threads: int | None) -> dict[str, Any]:
+    overrides: dict[str, Any] = quick_overrides(arm) if quick else {"total_timesteps": budget}
+    if threads is not None and arm in ("ppo_256envs", "sac"):
+        overrides["env.threads"] = threads
+    config = load_config(CONFIGS / ARMS[arm], overrides)
+    started = time.perf_counter()
+    train(config, out / arm, overwrite=True)
+    wall = time.perf_counter() - started
+    return {"arm": arm, "config": ARMS[arm], "env_steps": config.total_timesteps, "wall_s": round(wall, 1),
+            "gait_prior": config.prior.gait is not None, **summarize_run(out / arm)}
+
+
+def gradient_study(n_envs: int, substeps: tuple[int, ...], horizons: tuple[int, ...], seed: int) -> list[dict[str, Any]]:
+    """The APG window gradient at the initial policy for each substeps × horizon (module docstring)."""
+    walk = load_config(CONFIGS / "shac_walk.yaml").env.kwargs
+    rows = []
+    for sub in substeps:
+        for h in horizons:
+            agent = DiffAgent("apg", DiffSettings(horizon=h), n_envs=n_envs, env_kwargs={**walk, "substeps": sub},
+                              seed=seed)
+            window = agent.rollout_window()
+            window.loss.backward()
+            grads = torch.cat([p.grad.reshape(-1) for p in agent.actor_parameters() if p.grad is not None])
+            first, last = (float(a.grad.norm(dim=-1).mean()) * n_envs * h for a in (window.actions[0], window.actions[-1]))
+            rows.append({"substeps": sub, "horizon": h, "policy_grad_norm": float(grads.norm()),
+                         "first_action_grad": first, "last_action_grad": last,
+                         "finite": bool(torch.isfinite(grads).all()) and math.isfinite(first)})
+            print(f"  substeps {sub:>3d}  horizon {h:>3d}  |dJ/dθ| {rows[-1]['policy_grad_norm']:10.3g}  "
+                  f"|dJ/da| first {first:10.3g}  last {last:10.3g}  finite {rows[-1]['finite']}", flush=True)
+    return rows
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--budget", type=int, default=1_600_000, help=f"environment steps per arm (1–{MAX_BUDGET:,})")
+    parser.add_argument("--arms", nargs="+", choices=ARMS, default=list(ARMS))
+    parser.add_argument("--out", default="runs/diff_vs_ppo", help="folder of the arms' runs (replaced)")
+    parser.add_argument("--threads", type=int, help="numba threads of the SB3 arms' vector environment (1–64)")
+    parser.add_argument("--gradients", action="store_true", help="the gradient study only")
+    parser.add_argument("--quick", action="store_true", help="tiny budgets: a smoke run, not a result")
+    parser.add_argument("--json", help="write the results here")
+    args = parser.parse_args(argv)
+    if not 1 <= args.budget <= MAX_BUDGET:
+        parser.error(f"--budget must be in [1, {MAX_BUDGET:,}], got {args.budget}")
+    if args.threads is not None and not 1 <= args.threads <= 64:
+        parser.error(f"--threads must be in [1, 64], got {args.threads}")
+    torch.set_num_threads(1)
+    results: dict[str, Any] = {"torch_threads": 1, "numba_threads": args.threads, "quick": args.quick}
+    print("gradient study (APG window loss at the initial policy; per walker):", flush=True)
+    results["gradients"] = (gradient_study(2, (50, 10), (1, 2), 0) if args.quick
+                            else gradient_study(16, (50, 25, 10), (1, 4, 16), 0))
+    if not args.gradients:
+        out = Path(args.out)
+        results["arms"] = []
+        for arm in args.arms:
+            row = run_arm(arm, args.budget, out, args.quick, args.threads)
+            results["arms"].append(row)
+            print(f"{arm:>12s}: {row['env_steps']:>10,d} env steps, {row['wall_s']:8.1f} s wall (1 torch thread), best "
+                  f"return {row['best_return']:7.1f} at {row['best_steps']:,} steps (distance {row['best_distance_m']:.2f} m, "
+                  f"falls {row['best_falls']}), walking targets met at: {row['targets_met_at_steps']}", flush=True)
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=2))
+    return results
+
+
+if __name__ == "__main__":
+    main()
