@@ -3,6 +3,7 @@
     python benchmarks/diff_vs_ppo.py --budget 1_600_000 --out runs/diff_vs_ppo      # the full comparison
     python benchmarks/diff_vs_ppo.py --gradients                                    # the gradient study only
     python benchmarks/diff_vs_ppo.py --quick                                        # a smoke run (tiny budgets)
+    python benchmarks/diff_vs_ppo.py --summarize runs/shac_walk runs/ahac_walk      # curves and gradient health of runs
 
 **Arms** (same environment and body, walking at 1.3 m/s, one torch thread each, ``--threads`` for
 numba's vector environment): the 256-environment PPO recipe (``configs/agents/ppo_clock_walk_256envs.yaml``,
@@ -106,6 +107,41 @@ def summarize_run(run: Path) -> dict[str, Any]:
     }
 
 
+def gradient_health(run: Path) -> dict[str, Any]:
+    """Statistics of ``<run>/training.csv`` (APG/SHAC/AHAC): windows, environment steps, the
+    actor's gradient norm before clipping (median, 90th percentile, max), the share of clipped
+    updates, the running gradient variance at the end (mean per parameter), the median ratio of
+    the first to the last action's gradient in a window, and AHAC's cuts per walker and step."""
+    import numpy as np
+
+    with (run / "training.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    norms = np.array([float(r["grad_norm"]) for r in rows])
+    ratio = np.array([float(r["grad_first_action"]) / max(float(r["grad_last_action"]), 1e-30) for r in rows])
+    return {
+        "windows": len(rows), "env_steps": int(rows[-1]["steps"]),
+        "grad_norm_median": float(np.median(norms)), "grad_norm_p90": float(np.percentile(norms, 90)),
+        "grad_norm_max": float(norms.max()), "clipped_share": float(np.mean([float(r["clipped"]) for r in rows])),
+        "grad_variance_end": float(rows[-1]["grad_variance"]), "first_over_last_median": float(np.median(ratio)),
+        "cut_rate": float(np.mean([float(r["cut_rate"]) for r in rows])),
+    }
+
+
+def print_summary(runs: list[Path]) -> dict[str, Any]:
+    """The evaluation curve (return, distance, falls against environment steps) and the gradient
+    health of each run folder."""
+    out: dict[str, Any] = {}
+    for run in runs:
+        with (run / "evaluations.csv").open() as fh:
+            curve = [(int(r["timesteps"]), float(r["mean_return"]), float(r["mean_distance_m"]), int(r["falls"]))
+                     for r in csv.DictReader(fh)]
+        health = gradient_health(run)
+        out[str(run)] = {"curve": curve, "gradients": health, **summarize_run(run)}
+        print(f"{run}: " + "  ".join(f"{s:,}: {ret:.1f} / {d:.2f} m / {f} falls" for s, ret, d, f in curve))
+        print(f"  gradients: {health}")
+    return out
+
+
 def run_arm(arm: str, budget: int, out: Path, quick: bool, threads: int | None) -> dict[str, Any]:
     overrides: dict[str, Any] = quick_overrides(arm) if quick else {"total_timesteps": budget}
     if threads is not None and arm in ("ppo_256envs", "sac"):
@@ -146,6 +182,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--threads", type=int, help="numba threads of the SB3 arms' vector environment (1–64)")
     parser.add_argument("--gradients", action="store_true", help="the gradient study only")
     parser.add_argument("--quick", action="store_true", help="tiny budgets: a smoke run, not a result")
+    parser.add_argument("--summarize", nargs="+", metavar="RUN", help="only print the curves and gradient health of these runs")
     parser.add_argument("--json", help="write the results here")
     args = parser.parse_args(argv)
     if not 1 <= args.budget <= MAX_BUDGET:
@@ -153,6 +190,11 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     if args.threads is not None and not 1 <= args.threads <= 64:
         parser.error(f"--threads must be in [1, 64], got {args.threads}")
     torch.set_num_threads(1)
+    if args.summarize:
+        summary = print_summary([Path(r) for r in args.summarize])
+        if args.json:
+            Path(args.json).write_text(json.dumps(summary, indent=2))
+        return summary
     results: dict[str, Any] = {"torch_threads": 1, "numba_threads": args.threads, "quick": args.quick}
     print("gradient study (APG window loss at the initial policy; per walker):", flush=True)
     results["gradients"] = (gradient_study(2, (50, 10), (1, 2), 0) if args.quick
