@@ -67,7 +67,7 @@ class DiffSettings:
     actor_hidden: tuple[int, ...] = (128, 64, 32)
     critic_hidden: tuple[int, ...] = (64, 64)
     activation: str = option("elu", choices=DIFF_ACTIVATIONS)
-    cut_grf_rate: float = option(0.5, gt=0, le=100, unit="BW per step")
+    cut_grf_rate: float = option(2.0, gt=0, le=100, unit="BW per step")
 
     def __post_init__(self) -> None:
         for name in ("actor_hidden", "critic_hidden"):
