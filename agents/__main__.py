@@ -112,7 +112,11 @@ def _main(argv: list[str]) -> int:
               f"asymmetry step time {fmt('mean_step_time_asymmetry', 1)} % / step length "
               f"{fmt('mean_step_length_asymmetry', 1)} % / stance {fmt('mean_stance_asymmetry', 1)} %, "
               f"impact {fmt('mean_peak_impact_bw')} BW, flight {fmt('mean_flight_percent', 0)} %, RMSD to Winter hip/knee/ankle {fmt('mean_rmsd_hip_deg', 1)}/"
-              f"{fmt('mean_rmsd_knee_deg', 1)}/{fmt('mean_rmsd_ankle_deg', 1)} deg; written to {args.out}")
+              f"{fmt('mean_rmsd_knee_deg', 1)}/{fmt('mean_rmsd_ankle_deg', 1)} deg, double support "
+              f"{fmt('mean_double_support_percent', 0)} %, taps/step {fmt('mean_taps_per_step', 2)}; written to {args.out}")
+        misses = report["walking_target_misses"]
+        if misses is not None:
+            print("walking targets: all met" if not misses else f"walking targets MISSED ({len(misses)}): " + "; ".join(misses))
     else:
         from agents.evaluate import record
 

@@ -11,7 +11,9 @@ angles, torques and ground reaction forces, and an animation rendered by the env
   gait metrics of :func:`sspinn.data.gait_metrics.gait_metrics`: step time / step length / stance
   asymmetry in %, foot sliding per step in cm, impact peak in BW, cadence, hip/knee/ankle angle RMSD (mean over legs) to
   Winter's walking in degrees when its data is found and the target is below 2 m/s) and their
-  summary (:func:`agents.rollout.summarize`), plus the checkpoint, algorithm and environment arguments;
+  summary (:func:`agents.rollout.summarize`), the walking targets missed (below 2 m/s,
+  :func:`agents.rollout.walking_target_misses`; an empty list: all met), plus the checkpoint,
+  algorithm and environment arguments;
 * ``traces.png``: time series of the first episode (:func:`plot_traces`);
 * ``episode.gif``: the first episode through the environment's ``rgb_array`` mode.
 """
@@ -26,7 +28,7 @@ import numpy as np
 from agents.builders import WALKING_BELOW_M_S, make_env
 from agents.checkpoints import load_agent
 from agents.config import ENV_RATE_HZ, AgentConfig
-from agents.rollout import EpisodeResult, run_episode, summarize
+from agents.rollout import EpisodeResult, run_episode, summarize, walking_target_misses
 from sspinn.data.gait_metrics import winter_or_none
 from sspinn.errors import UserError
 from sspinn.model.drawing import save_figure
@@ -81,6 +83,7 @@ def evaluate(
         "gait_reference": "Winter's normal walking (right leg)" if reference is not None else None,
         "episodes": [r.metrics() for r in results],
         "summary": summarize(results),
+        "walking_target_misses": walking_target_misses(results) if target < WALKING_BELOW_M_S else None,
     }
     atomic_write_json(out_dir / "metrics.json", report)
     plot_traces(results[0], out_dir / "traces.png")

@@ -16,7 +16,11 @@ evaluate``/``record`` (:mod:`agents.evaluate`), so both report the same numbers:
   per step (cm; ``foot_slide_m`` the total), impact peak (BW), hip/knee/ankle angle RMSD to Winter's
   normal walking (deg, mean over the legs with strides, when a reference is given:
   :func:`sspinn.data.gait_metrics.winter_or_none`),
-  cadence (steps/min; human walking at 1.3 m/s: about 110) and the mechanical cost of transport.
+  cadence (steps/min; human walking at 1.3 m/s: about 110), flight (% of the time), double support
+  (% of the stride), taps (contacts too short to be stances, per step), distance per step (m) and
+  the mechanical cost of transport;
+* :func:`walking_target_misses`: the walking targets
+  (:data:`sspinn.data.gait_metrics.WALKING_TARGETS`) the episodes miss.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ from typing import Any, Protocol
 import gymnasium
 import numpy as np
 
-from sspinn.data.gait_metrics import GaitMetrics, ReferenceGait, gait_metrics
+from sspinn.data.gait_metrics import WALKING_TARGETS, GaitMetrics, ReferenceGait, gait_metrics
 from sspinn.model.dynamics import contact_forces
 from sspinn.model.trajectory import Trajectory
 
@@ -197,9 +201,20 @@ def _trajectory(env: Any, q: list[np.ndarray], u: list[np.ndarray], grf: list[np
 #: Gait metrics averaged by :func:`summarize` (``mean_<name>``; over the episodes where defined).
 SUMMARY_GAIT_KEYS: tuple[str, ...] = (
     "step_time_asymmetry", "step_length_asymmetry", "stance_asymmetry", "contact_asymmetry", "foot_slide_per_step_cm",
-    "peak_impact_bw", "flight_percent",
+    "peak_impact_bw", "flight_percent", "double_support_percent", "taps_per_step", "distance_per_step_m",
     "max_vertical_grf_bw", "rmsd_hip_deg", "rmsd_knee_deg", "rmsd_ankle_deg",
 )
+
+
+def walking_target_misses(results: list[EpisodeResult]) -> list[str]:
+    """The walking targets (:data:`sspinn.data.gait_metrics.WALKING_TARGETS`, one definition) the
+    episodes miss: the falls over all episodes, then every other target per episode as ``"seed s:
+    …"``; empty when every target is met."""
+    falls = sum(r.fell for r in results)
+    out = [f"falls {falls} / {len(results)} > {WALKING_TARGETS.max_falls}"] if falls > WALKING_TARGETS.max_falls else []
+    for r in results:
+        out += [f"seed {r.seed}: {miss}" for miss in WALKING_TARGETS.misses(r.gait, distance_m=r.distance, duration_s=r.duration)]
+    return out
 
 
 def _finite_mean(values: list[float]) -> float | None:

@@ -9,7 +9,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sspinn.data.gait_metrics import ReferenceGait, gait_metrics, load_winter, symmetry_index
+from sspinn.data.gait_metrics import (
+    WALKING_TARGETS,
+    GaitMetrics,
+    ReferenceGait,
+    gait_metrics,
+    load_winter,
+    symmetry_index,
+)
 from sspinn.model import kinematics
 from sspinn.model.body import BodyParameters
 from sspinn.model.trajectory import Trajectory
@@ -194,3 +201,146 @@ def test_the_optional_data_is_found_only_where_it_is_told(monkeypatch, tmp_path)
         load_winter()
     with pytest.raises(FileNotFoundError, match=r"opensim_hamner_run: not found"):
         shared_data_folder("opensim_hamner_run")
+
+
+# ---------------------------------------------------------------------------------------------
+# Gaits that must be scored as what they are: taps, hops, shuffles, flight, human walking
+# ---------------------------------------------------------------------------------------------
+def _contacts(contacts: list[tuple[int, float, float]], duration: float, speed: float = 1.2, hip_amplitude: float = 0.3,
+              stride: float = 1.06) -> Trajectory:
+    """A trajectory at 100 Hz whose feet carry 1 BW during the given (foot, start s, end s)
+    contacts (foot 0 right, 1 left) and nothing else; the pelvis moves at ``speed``, the hips swing
+    ±``hip_amplitude`` rad with period ``stride`` (the left half a period later)."""
+    n = int(round(duration / DT)) + 1
+    t = np.arange(n) * DT
+    q, u, grf = np.zeros((n, 9)), np.zeros((n, 9)), np.zeros((n, 4))
+    q[:, 0], u[:, 0], q[:, 1] = speed * t, speed, 0.9
+    for f in range(2):
+        q[:, 3 + 3 * f] = hip_amplitude * np.cos(2 * np.pi * (t / stride - 0.5 * f))
+    for foot, start, end in contacts:
+        grf[int(round(start / DT)) : int(round(end / DT)), 2 * foot + 1] = BW
+    return Trajectory(time=t, q=q, u=u, qdd=np.zeros((n, 9)), tau=np.zeros((n, 6)), grf=grf, w=np.full((n, 2), 0.5))
+
+
+def test_a_tapping_swing_foot_is_no_step() -> None:
+    """The walker that passed every target on taps: single stances of 0.50 s separated by 30 ms
+    of flight, and the swing foot tapping the ground for 60 ms 30 ms after the other foot lands.
+    Steps are the 0.53-s stance-to-stance steps (113 steps/min), not 0.03-s tap-to-landing ones;
+    the taps, the flight and the missing double support miss their targets."""
+    contacts = []
+    for k in range(18):
+        foot, start = k % 2, 0.2 + 0.53 * k
+        contacts += [(foot, start, start + 0.50), (1 - foot, start + 0.03, start + 0.09)]
+    m = gait_metrics(_contacts(contacts, 9.7), BODY)  # ends with the last stance
+    assert m.taps_r + m.taps_l >= 16 and m.taps_per_step == pytest.approx(1.0, abs=0.1)
+    assert m.heel_strikes_r == 9 and m.heel_strikes_l == 9 and m.steps_r + m.steps_l == 17
+    assert m.step_time_r == pytest.approx(0.53) and m.cadence_steps_per_min == pytest.approx(60 / 0.53, rel=1e-6)
+    assert m.flight_percent == pytest.approx(100 * (0.2 + 17 * 0.03) / 9.7, abs=0.2)  # before the first landing and between stances
+    assert m.double_support_percent == 0.0
+    misses = " ".join(WALKING_TARGETS.misses(m))
+    assert "taps" in misses and "flight_percent" in misses and "double_support_percent" in misses
+    assert "cadence" not in misses
+
+
+def test_hopping_on_one_leg_has_no_steps_and_misses_the_targets() -> None:
+    contacts = [(0, 0.2 + 0.6 * k, 0.2 + 0.6 * k + 0.4) for k in range(16)]
+    m = gait_metrics(_contacts(contacts, 9.6), BODY)  # ends with the last hop
+    assert m.heel_strikes_r == 16 and m.heel_strikes_l == 0 and m.steps_r == m.steps_l == 0
+    assert math.isnan(m.cadence_steps_per_min) and m.taps_r + m.taps_l == 0
+    assert m.flight_percent == pytest.approx(100 * 0.2 / 0.6, abs=2.0)
+    misses = " ".join(WALKING_TARGETS.misses(m))
+    assert "cadence" in misses and "step_time_asymmetry" in misses and "flight" in misses
+
+
+def test_a_shuffle_slides_and_its_steps_do_not_carry_the_body() -> None:
+    """Both feet down 90 % of a 1.1-s stride, legs held still while the pelvis moves at 0.5 m/s:
+    the feet slide ~0.5 m per stance and the heels never step past each other, so the step length
+    (0) disagrees with the distance per step (0.275 m)."""
+    contacts = [(f, 0.2 + 0.55 * f + 1.1 * k, 0.2 + 0.55 * f + 1.1 * k + 0.99) for k in range(9) for f in range(2)]
+    m = gait_metrics(_contacts(contacts, 10.0, speed=0.5, hip_amplitude=0.0), BODY, settle_s=1.0)  # after the first stride
+    assert m.double_support_percent == pytest.approx(80.0, abs=2.0) and m.taps_r + m.taps_l == 0
+    assert m.foot_slide_per_step_cm == pytest.approx(0.5 * 99, rel=0.02)
+    assert m.distance_per_step_m == pytest.approx(0.275, rel=0.02) and abs(m.step_length_r) < 1e-9
+    assert any("foot_slide" in miss for miss in WALKING_TARGETS.misses(m))
+
+
+def test_a_walk_with_flight_misses_flight_and_double_support() -> None:
+    """Each foot down 45 % of a 1.1-s stride, half a stride apart: 10 % flight, no double support."""
+    contacts = [(f, 0.2 + 0.55 * f + 1.1 * k, 0.2 + 0.55 * f + 1.1 * k + 0.495) for k in range(9) for f in range(2)]
+    m = gait_metrics(_contacts(contacts, 10.0, stride=1.1), BODY, settle_s=1.0)
+    assert m.flight_percent == pytest.approx(10.0, abs=1.0) and m.double_support_percent == 0.0
+    assert m.taps_r + m.taps_l == 0 and m.cadence_steps_per_min == pytest.approx(60 / 0.55)
+    misses = " ".join(WALKING_TARGETS.misses(m))
+    assert "flight_percent" in misses and "double_support_percent" in misses and "cadence" not in misses
+
+
+def test_cadence_and_step_length_agree_with_distance_per_step() -> None:
+    """The 1.3 m/s optimal-control walk (configs/agents/gaits/walk_1.3.npz, feet planted by the
+    contact model), repeated for 8 strides: the mean step length is the pelvis's travel per step,
+    and cadence × distance per step is the speed."""
+    gait = np.load(Path(__file__).resolve().parents[1] / "configs" / "agents" / "gaits" / "walk_1.3.npz")
+    n, period = len(gait["time"]) - 1, float(gait["time"][-1])
+    advance = gait["q"][-1, 0] - gait["q"][0, 0]
+    reps = 8
+    q = np.concatenate([gait["q"][:n] + np.eye(9)[0] * advance * k for k in range(reps)])
+    walk = Trajectory(time=np.arange(reps * n) * DT, q=q, u=np.tile(gait["u"][:n], (reps, 1)), qdd=np.zeros((reps * n, 9)),
+                      tau=np.tile(gait["tau"][:n], (reps, 1)), grf=np.tile(gait["grf"][:n], (reps, 1)),
+                      w=np.tile(gait["w"][:n], (reps, 1)))
+    m = gait_metrics(walk, BODY)
+    speed = advance / period
+    step_length = 0.5 * (m.step_length_r + m.step_length_l)
+    assert m.distance_per_step_m == pytest.approx(speed * period / 2, rel=0.02)
+    assert step_length == pytest.approx(m.distance_per_step_m, rel=0.05)
+    assert m.cadence_steps_per_min / 60 * m.distance_per_step_m == pytest.approx(speed, rel=0.02)
+    assert m.taps_r + m.taps_l == 0 and m.flight_percent == 0.0 and m.double_support_percent > 5.0
+
+
+def test_winters_walking_is_scored_as_human_walking() -> None:
+    """Winter's averaged stride (both legs' angles and GRF, 1.325 m/s), repeated: no taps, no
+    flight, ≈ 20 % double support, ≈ 105 steps/min, symmetric steps, and its own angles' RMSD to
+    its reference is small."""
+    folder = SHARED / "winter_walking"
+    if not folder.is_dir():
+        pytest.skip("../shared/data/winter_walking is not available")
+    winter = load_winter(SHARED)
+    data = np.genfromtxt(folder / "signals.csv", delimiter=",", names=True)
+    body = BodyParameters.from_anthropometry(1.62, 56.7)
+    reps, rate = 8, len(data) / winter.duration
+    n = reps * len(data)
+    t = np.arange(n) / rate
+    q, u = np.zeros((n, 9)), np.zeros((n, 9))
+    q[:, 0], u[:, 0], q[:, 1] = winter.speed * t, winter.speed, 0.85
+    for j, name in enumerate(("hip_flexion", "knee_angle", "ankle_angle")):
+        q[:, 3 + j], q[:, 6 + j] = np.tile(data[f"{name}_r_angle"], reps), np.tile(data[f"{name}_l_angle"], reps)
+    grf = np.tile(np.stack([data["grf_x_r"], data["grf_y_r"], data["grf_x_l"], data["grf_y_l"]], axis=1), (reps, 1))
+    walk = Trajectory(time=t, q=q, u=u, qdd=np.zeros((n, 9)), tau=np.zeros((n, 6)), grf=grf * body.body_weight,
+                      w=np.full((n, 2), 0.5))
+    m = gait_metrics(walk, body, reference=winter)
+    assert m.taps_r + m.taps_l == 0 and m.flight_percent == 0.0
+    assert m.double_support_percent == pytest.approx(20.0, abs=3.0)
+    assert m.cadence_steps_per_min == pytest.approx(60 / (winter.duration / 2), rel=0.03)
+    assert m.step_time_asymmetry < 5.0 and m.stance_asymmetry < 5.0
+    assert m.rmsd_knee_deg < 5.0 and m.rmsd_hip_deg < 5.0
+    assert m.distance_per_step_m == pytest.approx(winter.speed * winter.duration / 2, rel=0.03)
+    misses = " ".join(WALKING_TARGETS.misses(m))
+    for target in ("taps", "flight", "double_support", "cadence", "step_time_asymmetry", "stance_asymmetry"):
+        assert target not in misses, misses
+
+
+def test_each_walking_target_is_checked_once() -> None:
+    """A gait inside every target has no misses; pushing one metric out misses that target alone,
+    and an undefined metric (too few steps) misses it too."""
+    from dataclasses import replace
+
+    good = replace(GaitMetrics.undefined(), steps_r=8, steps_l=8, step_time_asymmetry=1.0, step_length_asymmetry=2.0,
+                   stance_asymmetry=1.0, foot_slide_per_step_cm=1.0, peak_impact_bw=1.5, flight_percent=0.0,
+                   double_support_percent=20.0, cadence_steps_per_min=110.0)
+    assert WALKING_TARGETS.misses(good, distance_m=12.0) == []
+    for field, value, word in [("step_length_asymmetry", 12.0, "step_length_asymmetry"), ("foot_slide_per_step_cm", 2.5, "foot_slide"),
+                               ("peak_impact_bw", 2.1, "peak_impact"), ("flight_percent", 5.0, "flight"),
+                               ("double_support_percent", 8.0, "double_support"), ("cadence_steps_per_min", 1225.0, "cadence"),
+                               ("cadence_steps_per_min", float("nan"), "cadence"), ("taps_r", 1, "taps")]:
+        misses = WALKING_TARGETS.misses(replace(good, **{field: value}), distance_m=12.0)
+        assert len(misses) == 1 and word in misses[0], (field, misses)
+    assert WALKING_TARGETS.misses(good, fell=True, distance_m=4.0) == ["fell", "distance 4.00 m < 10 m"]
+    assert WALKING_TARGETS.misses(good, distance_m=6.0, duration_s=5.0) == []  # 10 m per 10 s

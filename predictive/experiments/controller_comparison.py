@@ -34,7 +34,10 @@ plus passive torques — it measures how far the 100 Hz samples are from satisfy
 equations, i.e. mostly the sampling of impacts; the same computation for every method), joint
 angle RMSD to Winter's walking (deg; right hip/knee/ankle, the mean normalised cycle from right
 heel strikes after the first 2 s; speeds < 2 m/s and when Winter's data is at hand: ``data_dir`` or ``$SSPINN_SHARED_DATA``), jitter
-(mean |d³θ/dt³|, rad/s³), and the wall-clock **time to obtain the controller** (one-off training)
+(mean |d³θ/dt³|, rad/s³), the gait metrics of :func:`sspinn.data.gait_metrics.gait_metrics`
+(asymmetries, sliding, impact, cadence, flight, double support, taps per step), the share of
+episodes meeting every walking target (:data:`sspinn.data.gait_metrics.WALKING_TARGETS`; speeds
+< 2 m/s), and the wall-clock **time to obtain the controller** (one-off training)
 and **time per new speed** (what a new target speed costs: a forward pass + LQR; an OCP solve +
 LQR; retraining the agent).
 
@@ -70,7 +73,7 @@ from predictive.generator.controllers import GeneratorControllers, OCPController
 from predictive.ocp.collocation import OCPError
 from predictive.synth.cache import jsonable, stable_hash
 from sspinn.data.gait_events import contact_onsets
-from sspinn.data.gait_metrics import winter_or_none
+from sspinn.data.gait_metrics import WALKING_TARGETS, winter_or_none
 from sspinn.estimator.calibration_files import file_sha256
 from sspinn.estimator.evaluation import angle_jitter
 from sspinn.model.body import BodyParameters
@@ -85,7 +88,7 @@ CYCLE_POINTS = 100
 SETTLE_S = 2.0
 #: Gait-quality metrics (:class:`sspinn.data.gait_metrics.GaitMetrics`) averaged over the episodes.
 GAIT_KEYS = ("step_time_asymmetry", "step_length_asymmetry", "stance_asymmetry", "foot_slide_per_step_cm",
-             "peak_impact_bw")
+             "peak_impact_bw", "cadence_steps_per_min", "flight_percent", "double_support_percent", "taps_per_step")
 #: ``env.reset`` options a disturbance condition may set (:class:`envs.disturbances.Disturbances`).
 CONDITION_OPTIONS = ("reset_noise_scale", "disturbances")
 
@@ -364,6 +367,8 @@ class CellResult:
             "rmsd_ankle_deg": mean("rmsd_ankle_deg"),
             "jitter_rad_s3": mean("jitter_rad_s3"),
             **{key: mean(key) for key in GAIT_KEYS},
+            "walking_targets_met": (float(np.mean([not e["walking_target_misses"] for e in eps]))
+                                    if all(e.get("walking_target_misses") is not None for e in eps) else None),
             "condition_success": {name: float(np.mean([not e["fell"] for e in rows])) for name, rows in self.conditions.items()},
             "setup_time_s": self.setup_time_s, "per_speed_time_s": self.per_speed_time_s,
         }
@@ -387,6 +392,8 @@ def evaluate_controller(
         m["jitter_rad_s3"] = angle_jitter(res.trajectory.q[1:, 3:], 1.0 / e.dt)
         c = mean_right_cycle(res.trajectory, e.body.body_weight, e.dt) if not res.fell else None
         m.update(winter_rmsd(c, reference) if speed < 2.0 else {})
+        m["walking_target_misses"] = (WALKING_TARGETS.misses(res.gait, fell=res.fell, distance_m=res.distance, duration_s=res.duration)
+                                      if speed < 2.0 else None)
         rows.append(m)
         if c is not None and cycle is None:
             cycle, states = c, res.trajectory.q[1:]
@@ -606,7 +613,10 @@ def write_report(config: ComparisonConfig, cells: list[CellResult], out: Path, r
             ("jitter_rad_s3", "jitter (rad/s³)", "{:.0f}"),
             ("step_time_asymmetry", "asym. step time (%)", "{:.1f}"), ("step_length_asymmetry", "asym. step length (%)", "{:.1f}"),
             ("stance_asymmetry", "asym. stance (%)", "{:.1f}"), ("foot_slide_per_step_cm", "slide/step (cm)", "{:.1f}"),
-            ("peak_impact_bw", "impact (BW)", "{:.2f}"), ("setup_time_s", "one-off time (s)", "{:.0f}"),
+            ("peak_impact_bw", "impact (BW)", "{:.2f}"), ("cadence_steps_per_min", "cadence (steps/min)", "{:.0f}"),
+            ("flight_percent", "flight (% of time)", "{:.1f}"), ("double_support_percent", "double support (% of stride)", "{:.1f}"),
+            ("taps_per_step", "taps/step", "{:.2f}"), ("walking_targets_met", "all walking targets met", "{:.0%}"),
+            ("setup_time_s", "one-off time (s)", "{:.0f}"),
             ("per_speed_time_s", "time per speed (s)", "{:.1f}")]
     lines = [f"# Predictive simulation comparison ({config.height} m, {config.mass} kg; seeds {config.seeds})", "",
              "| method | speed (m/s) | " + " | ".join(c[1] for c in cols) + " | note |",

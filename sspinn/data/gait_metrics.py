@@ -9,20 +9,38 @@ removed); foot positions and speeds from the model's kinematics (:func:`sspinn.m
 
 Definitions (each over the events at or after ``settle_s``; NaN where there are too few events):
 
+* **stance** and **tap**: a contact (vertical GRF above the detector's threshold) shorter than
+  :data:`sspinn.data.gait_events.TAP_FRACTION` (0.4) of the trajectory's typical contact is a
+  **tap** — a swing foot brushing the ground — not a stance
+  (:func:`sspinn.data.gait_events.split_taps`). Taps are counted (per foot, and per step) and
+  take no part in steps, strides, stance %, impacts, double support or the angle cycles; a heel
+  strike is the first sample of a stance.
 * **step** of foot X: from the other foot's heel strike to X's next heel strike, alternating
-  feet only (two strikes of the same foot in a row are not a step). Step time (s); step length
-  (m): forward distance from the other foot's heel to X's heel at X's heel strike.
-* **stance %** of foot X: contact duration from a heel strike to its toe-off, in % of that
-  stride (heel strike to X's next heel strike; strides of 0.3–3 s, :func:`sspinn.data.gait_events.strides`).
-  Undefined for a foot that never leaves the ground (no strides): the **contact share** — the
-  share of the time from ``settle_s`` to the end in contact, % — is defined for every gait and
-  shows such a dragging foot (100 %).
+  feet only (two stances of the same foot in a row, a hop, are not a step;
+  :func:`sspinn.data.gait_events.alternating_steps`). Step time (s); step length (m): forward
+  distance from the other foot's heel to X's heel at X's heel strike.
+* **stride** of foot X: from a heel strike of X to X's next one (0.3–3 s,
+  :func:`sspinn.data.gait_events.strides`).
+* **stance %** of foot X: stance duration from a heel strike to its toe-off, in % of that
+  stride. Undefined for a foot that never leaves the ground (no strides): the **contact share** —
+  the share of the time from ``settle_s`` to the end in contact, taps included, % — is defined for
+  every gait and shows such a dragging foot (100 %).
+* **double support %**: the share of each stride (both feet's strides, mean) in which both feet
+  are in stance (taps excluded), % (:func:`sspinn.data.gait_events.phase_fractions`); human
+  walking ≈ 20 % (two periods of ≈ 10 %), running 0.
+* **flight %**: the share of the time from ``settle_s`` to the end in which no foot is above the
+  contact threshold (taps count as contact), % (:func:`sspinn.data.gait_events.phase_fractions`);
+  0 in walking.
+* **distance per step** (m): the pelvis's forward travel from the first to the last heel strike
+  (both feet) divided by the heel strikes in between minus one; for a steady gait it equals the
+  mean step length, and cadence / 60 × distance per step is the speed. Two figures that disagree
+  mean that the steps are not the gait's (the consistency check of the tests).
 * **asymmetry** of a quantity with right/left means R and L: the symmetry index
   SI = 100 · |R − L| / ((R + L) / 2) in % (Robinson, Herzog & Nigg 1987, *J Manipulative Physiol
   Ther* 10:172–176); 0 for a symmetric gait.
 * **foot sliding**: ∫ |v_x| dt of the foot's contact point (the foot-fixed point at fraction w of
-  the trajectory, where the friction law acts) over each complete contact phase; its mean per step
-  (cm) and the total over all contact phases (m).
+  the trajectory, where the friction law acts) over each complete stance; its mean per stance
+  (cm), and the total over all contact phases, taps included (m).
 * **impact peak**: the largest vertical GRF of a foot within 0.1 s after its heel strike (BW), the
   mean over heel strikes; and the largest vertical GRF of the whole trajectory (BW).
 * **angle RMSD** to a reference cycle (Winter's normal walking, right leg, :func:`load_winter`):
@@ -35,6 +53,10 @@ Definitions (each over the events at or after ``settle_s``; NaN where there are 
   environment's convention; the environment reports the same quantity in ``info``), over the
   whole trajectory; NaN when the hip moved less than 1 cm forward.
 * **cadence**: 60 / mean step time, steps/min.
+
+:data:`WALKING_TARGETS` (:class:`WalkingTargets`) holds the project's walking targets at 1.3 m/s,
+the one definition every walker (agents, differentiable controller, optimal control) is scored
+against (:meth:`WalkingTargets.misses`).
 """
 
 from __future__ import annotations
@@ -47,7 +69,17 @@ from typing import Any, Final
 
 import numpy as np
 
-from sspinn.data.gait_events import CONTACT_THRESHOLD_BW, MIN_PHASE_S, detect_events, normalise_cycles, strides
+from sspinn.data.gait_events import (
+    CONTACT_THRESHOLD_BW,
+    MIN_PHASE_S,
+    TAP_FRACTION,
+    alternating_steps,
+    detect_events,
+    normalise_cycles,
+    phase_fractions,
+    split_taps,
+    strides,
+)
 from sspinn.data.shared_data import shared_data_folder
 from sspinn.model import kinematics
 from sspinn.model.body import BodyParameters
@@ -112,17 +144,21 @@ class GaitMetrics:
     in ``_r``/``_l``; NaN where undefined (too few events, no reference).
 
     Attributes:
-        steps_r, steps_l: steps counted per foot (alternating heel strikes).
-        heel_strikes_r, heel_strikes_l: heel strikes per foot.
+        steps_r, steps_l: steps counted per foot (alternating heel strikes of stances).
+        heel_strikes_r, heel_strikes_l: heel strikes (stances, taps excluded) per foot.
+        taps_r, taps_l: taps per foot (contacts too short to be stances).
+        taps_per_step: (taps_r + taps_l) / steps (NaN without steps).
         step_time_r, step_time_l: mean step time, s.
         step_length_r, step_length_l: mean step length, m.
         stance_percent_r, stance_percent_l: mean stance phase, % of the stride.
         contact_share_r, contact_share_l: share of the analysed time in contact, %.
         flight_percent: share of the analysed time with neither foot in contact, % (running's
             flight phase; 0 in walking).
+        double_support_percent: mean share of the strides with both feet in stance, %.
+        distance_per_step_m: pelvis travel per heel strike between the first and the last, m.
         step_time_asymmetry, step_length_asymmetry, stance_asymmetry, contact_asymmetry: symmetry
             indices, %.
-        foot_slide_per_step_cm: mean sliding of the contact point per contact phase, cm.
+        foot_slide_per_step_cm: mean sliding of the contact point per stance, cm.
         foot_slide_m: total sliding over all contact phases, both feet, m.
         peak_impact_bw: mean impact peak (vertical GRF within 0.1 s after heel strike), BW.
         max_vertical_grf_bw: largest vertical GRF of either foot, BW.
@@ -135,6 +171,9 @@ class GaitMetrics:
     steps_l: int
     heel_strikes_r: int
     heel_strikes_l: int
+    taps_r: int
+    taps_l: int
+    taps_per_step: float
     step_time_r: float
     step_time_l: float
     step_length_r: float
@@ -144,6 +183,8 @@ class GaitMetrics:
     contact_share_r: float
     contact_share_l: float
     flight_percent: float
+    double_support_percent: float
+    distance_per_step_m: float
     step_time_asymmetry: float
     step_length_asymmetry: float
     stance_asymmetry: float
@@ -179,6 +220,28 @@ def _mean(values: list[float]) -> float:
     return float(np.mean(values)) if values else float("nan")
 
 
+def angle_rmsd(q: np.ndarray, leg_strides: list[list[tuple[int, int]]], reference: ReferenceGait | None) -> dict[str, float]:
+    """Hip, knee and ankle RMSD (deg) of each leg's mean cycle to a reference cycle, averaged over
+    the legs with strides: ``{"hip": …, "knee": …, "ankle": …}``, NaN without a reference or strides.
+
+    Args:
+        q: (T, 9) coordinates (:mod:`sspinn.model.conventions`; joints in rad from column 3,
+            right hip, knee, ankle, then left).
+        leg_strides: the right and the left leg's heel-strike-to-heel-strike cycles (sample
+            indices, :func:`sspinn.data.gait_events.strides`).
+        reference: the reference cycle (e.g. :func:`load_winter`), or None.
+    """
+    per_leg: dict[str, list[float]] = {"hip": [], "knee": [], "ankle": []}
+    for f, cycles in enumerate(leg_strides):
+        if reference is None or not cycles:
+            continue
+        for j, name in enumerate(("hip", "knee", "ankle")):
+            cycle = normalise_cycles(q[:, 3 + 3 * f + j], cycles).mean(axis=0)
+            sim = np.interp(reference.percent, np.linspace(0.0, 100.0, len(cycle)), cycle)
+            per_leg[name].append(float(np.degrees(np.sqrt(np.mean((sim - getattr(reference, name)) ** 2)))))
+    return {name: _mean(values) for name, values in per_leg.items()}
+
+
 def gait_metrics(
     trajectory: Trajectory,
     body: BodyParameters,
@@ -187,6 +250,7 @@ def gait_metrics(
     settle_s: float = 0.0,
     threshold_bw: float = CONTACT_THRESHOLD_BW,
     min_phase_s: float = MIN_PHASE_S,
+    tap_fraction: float = TAP_FRACTION,
 ) -> GaitMetrics:
     """The :class:`GaitMetrics` of a trajectory sampled at a constant rate (fewer than 3 samples:
     :meth:`GaitMetrics.undefined`).
@@ -199,6 +263,8 @@ def gait_metrics(
         settle_s: events before this time (s from the first sample) are ignored (gait initiation).
         threshold_bw, min_phase_s: the contact detector's threshold (BW) and shortest phase (s),
             :func:`sspinn.data.gait_events.detect_events`.
+        tap_fraction: contacts shorter than this fraction of the typical contact are taps
+            (:func:`sspinn.data.gait_events.split_taps`).
     """
     t = trajectory.time
     if len(t) < 3:
@@ -209,51 +275,46 @@ def gait_metrics(
     grf = trajectory.grf
     zeros = np.zeros_like(trajectory.q)
     points = np.asarray(kinematics.point_kinematics(trajectory.q, trajectory.u, zeros, trajectory.w, body))
-    events = [detect_events(grf[:, 2 * f + 1], bw, rate, threshold_bw, min_phase_s) for f in range(2)]
+    contacts = [detect_events(grf[:, 2 * f + 1], bw, rate, threshold_bw, min_phase_s).contact for f in range(2)]
+    feet = split_taps(contacts, rate, tap_fraction)
     first = int(np.searchsorted(t - t[0], settle_s - 1e-9))
+    heel = [ft.heel_strikes[ft.heel_strikes >= first] for ft in feet]
 
-    # steps: alternating heel strikes
-    strikes = sorted((int(h), f) for f in range(2) for h in events[f].heel_strikes if h >= first)
+    # steps: alternating heel strikes of stances
     step_time: list[list[float]] = [[], []]
     step_length: list[list[float]] = [[], []]
-    for (a, fa), (b, fb) in zip(strikes[:-1], strikes[1:]):
-        if fa != fb:
-            step_time[fb].append(float(t[b] - t[a]))
-            step_length[fb].append(float(points[b, _HEEL[fb], 0] - points[b, _HEEL[fa], 0]))
+    for a, b, fb in alternating_steps(*heel):
+        step_time[fb].append(float(t[b] - t[a]))
+        step_length[fb].append(float(points[b, _HEEL[fb], 0] - points[b, _HEEL[1 - fb], 0]))
+    strikes = np.sort(np.concatenate(heel))
+    distance_per_step = (float((trajectory.q[strikes[-1], 0] - trajectory.q[strikes[0], 0]) / (len(strikes) - 1))
+                         if len(strikes) >= 2 else float("nan"))
 
-    # stance %, foot sliding, impact peaks per foot
+    # stance %, double support, foot sliding, impact peaks per foot
     stance: list[list[float]] = [[], []]
-    contact_share = [float(100.0 * np.mean(ev.contact[first:])) if first < len(t) else float("nan") for ev in events]
+    double_support: list[float] = []
+    contact_share = [float(100.0 * np.mean(c[first:])) if first < len(t) else float("nan") for c in contacts]
     slide_steps: list[float] = []
     impacts: list[float] = []
     slide_total = 0.0
     window = max(1, int(round(IMPACT_WINDOW_S * rate)))
+    leg_strides = [strides(h, rate) for h in heel]
     for f in range(2):
-        ev = events[f]
-        heel = ev.heel_strikes[ev.heel_strikes >= first]
+        ft = feet[f]
         vx = np.abs(points[:, _CONTACT[f], 2])  # columns x, y, vx, vy, ax, ay
-        slide_total += float(np.sum(vx[first:][ev.contact[first:]]) * dt)
-        for a, b in strides(heel, rate):
-            offs = ev.toe_offs[(ev.toe_offs > a) & (ev.toe_offs <= b)]
+        slide_total += float(np.sum(vx[first:][contacts[f][first:]]) * dt)
+        for a, b in leg_strides[f]:
+            offs = ft.toe_offs[(ft.toe_offs > a) & (ft.toe_offs <= b)]
             if len(offs):
                 stance[f].append(100.0 * (offs[0] - a) / (b - a))
-        for h in heel:
+            double_support.append(100.0 * phase_fractions(feet[0].stance[a:b], feet[1].stance[a:b]).double_support)
+        for h in heel[f]:
             impacts.append(float(grf[h : h + window, 2 * f + 1].max() / bw))
-            offs = ev.toe_offs[ev.toe_offs > h]
+            offs = ft.toe_offs[ft.toe_offs > h]
             if len(offs):
                 slide_steps.append(float(np.sum(vx[h : offs[0]]) * dt))
 
-    # angle RMSD of each leg's mean cycle, averaged over the legs with strides
-    per_leg: dict[str, list[float]] = {"hip": [], "knee": [], "ankle": []}
-    for f in range(2):
-        leg_strides = strides(events[f].heel_strikes[events[f].heel_strikes >= first], rate)
-        if reference is None or not leg_strides:
-            continue
-        for j, name in enumerate(("hip", "knee", "ankle")):
-            cycle = normalise_cycles(trajectory.q[:, 3 + 3 * f + j], leg_strides).mean(axis=0)
-            sim = np.interp(reference.percent, np.linspace(0.0, 100.0, len(cycle)), cycle)
-            per_leg[name].append(float(np.degrees(np.sqrt(np.mean((sim - getattr(reference, name)) ** 2)))))
-    rmsd = {name: _mean(values) for name, values in per_leg.items()}
+    rmsd = angle_rmsd(trajectory.q, leg_strides, reference)
 
     # cost of transport over the whole trajectory
     angles = trajectory.q[:, 3:]
@@ -262,12 +323,16 @@ def gait_metrics(
     cot = work / (bw * distance) if distance > 0.01 else float("nan")
 
     times = step_time[0] + step_time[1]
+    taps = [sum(1 for start, _ in ft.taps if start >= first) for ft in feet]
     means = {name: [_mean(v[0]), _mean(v[1])] for name, v in (("time", step_time), ("length", step_length), ("stance", stance))}
     return GaitMetrics(
         steps_r=len(step_time[0]),
         steps_l=len(step_time[1]),
-        heel_strikes_r=int(np.sum(events[0].heel_strikes >= first)),
-        heel_strikes_l=int(np.sum(events[1].heel_strikes >= first)),
+        heel_strikes_r=len(heel[0]),
+        heel_strikes_l=len(heel[1]),
+        taps_r=taps[0],
+        taps_l=taps[1],
+        taps_per_step=sum(taps) / len(times) if times else float("nan"),
         step_time_r=means["time"][0],
         step_time_l=means["time"][1],
         step_length_r=means["length"][0],
@@ -276,8 +341,10 @@ def gait_metrics(
         stance_percent_l=means["stance"][1],
         contact_share_r=contact_share[0],
         contact_share_l=contact_share[1],
-        flight_percent=float(100.0 * np.mean(~(events[0].contact[first:] | events[1].contact[first:])))
+        flight_percent=100.0 * phase_fractions(contacts[0][first:], contacts[1][first:]).flight
         if first < len(t) else float("nan"),
+        double_support_percent=_mean(double_support),
+        distance_per_step_m=distance_per_step,
         step_time_asymmetry=symmetry_index(*means["time"]),
         step_length_asymmetry=symmetry_index(*means["length"]),
         stance_asymmetry=symmetry_index(*means["stance"]),
@@ -294,5 +361,76 @@ def gait_metrics(
     )
 
 
-__all__ = ["IMPACT_WINDOW_S", "GaitMetrics", "ReferenceGait", "gait_metrics", "load_winter",
-           "symmetry_index", "winter_or_none"]
+@dataclass(frozen=True)
+class WalkingTargets:
+    """The walking targets at 1.3 m/s a biomechanist checks, for every walker of the project (the
+    one definition; :data:`WALKING_TARGETS`). Human walking at 1.3 m/s has no flight, ≈ 20 %
+    double support of the stride, 95–125 steps/min (:mod:`sspinn.data.gait_norms` for the
+    sources) and no taps.
+
+    Attributes:
+        max_falls: falls allowed among the evaluated episodes.
+        min_distance_per_10_s_m: forward distance in 10 s of episode, m.
+        max_asymmetry_percent: step-time, step-length and stance asymmetry, each, %.
+        max_slide_per_step_cm: foot sliding per stance, cm.
+        max_impact_bw: impact peak, BW.
+        max_flight_percent: flight, % of the time.
+        min_double_support_percent: double support, % of the stride.
+        cadence_steps_per_min: (low, high) cadence, steps/min.
+        max_taps: taps allowed per episode.
+    """
+
+    max_falls: int = 0
+    min_distance_per_10_s_m: float = 10.0
+    max_asymmetry_percent: float = 10.0
+    max_slide_per_step_cm: float = 2.0
+    max_impact_bw: float = 2.0
+    max_flight_percent: float = 1.0
+    min_double_support_percent: float = 10.0
+    cadence_steps_per_min: tuple[float, float] = (95.0, 125.0)
+    max_taps: int = 0
+
+    def misses(self, gait: GaitMetrics, *, fell: bool = False, distance_m: float | None = None,
+               duration_s: float = 10.0) -> list[str]:
+        """The targets one episode misses, each as a short phrase with its value (empty: all met).
+        An undefined metric (NaN: too few steps) misses its target. ``distance_m`` over
+        ``duration_s`` seconds (None: the distance is not checked); ``fell`` counts one fall."""
+
+        def bad(value: float, ok: bool) -> bool:
+            return not (math.isfinite(value) and ok)
+
+        out = []
+        if int(fell) > self.max_falls:
+            out.append("fell")
+        if distance_m is not None and distance_m < self.min_distance_per_10_s_m * duration_s / 10.0:
+            out.append(f"distance {distance_m:.2f} m < {self.min_distance_per_10_s_m * duration_s / 10.0:g} m")
+        for name in ("step_time_asymmetry", "step_length_asymmetry", "stance_asymmetry"):
+            value = getattr(gait, name)
+            if bad(value, value <= self.max_asymmetry_percent):
+                out.append(f"{name} {value:.1f} % > {self.max_asymmetry_percent:g} %")
+        checks = [
+            ("foot_slide_per_step_cm", "cm", gait.foot_slide_per_step_cm <= self.max_slide_per_step_cm, f"> {self.max_slide_per_step_cm:g}"),
+            ("peak_impact_bw", "BW", gait.peak_impact_bw <= self.max_impact_bw, f"> {self.max_impact_bw:g}"),
+            ("flight_percent", "%", gait.flight_percent <= self.max_flight_percent, f"> {self.max_flight_percent:g}"),
+            ("double_support_percent", "%", gait.double_support_percent >= self.min_double_support_percent,
+             f"< {self.min_double_support_percent:g}"),
+            ("cadence_steps_per_min", "steps/min",
+             self.cadence_steps_per_min[0] <= gait.cadence_steps_per_min <= self.cadence_steps_per_min[1],
+             f"outside {self.cadence_steps_per_min[0]:g}–{self.cadence_steps_per_min[1]:g}"),
+        ]
+        for name, unit, ok, rule in checks:
+            value = getattr(gait, name)
+            if bad(value, ok):
+                out.append(f"{name} {value:.2f} {unit} {rule}")
+        taps = gait.taps_r + gait.taps_l
+        if taps > self.max_taps:
+            out.append(f"taps {taps} > {self.max_taps}")
+        return out
+
+
+#: The project's walking targets at 1.3 m/s (:class:`WalkingTargets`).
+WALKING_TARGETS: Final = WalkingTargets()
+
+
+__all__ = ["IMPACT_WINDOW_S", "WALKING_TARGETS", "GaitMetrics", "ReferenceGait", "WalkingTargets", "angle_rmsd", "gait_metrics",
+           "load_winter", "symmetry_index", "winter_or_none"]
