@@ -249,18 +249,26 @@ def train(config: AgentConfig, out: str | Path, resume: bool = False, overwrite:
         return _train(config, Path(out), resume, overwrite)
 
 
+def open_run_folder(config: AgentConfig, run_dir: Path, checkpoint: Path | None, resume: bool, overwrite: bool,
+                    outputs: tuple[str, ...]) -> None:
+    """Make ``run_dir`` this run's: with ``resume`` a ``checkpoint`` must exist; without it the
+    folder must hold none of ``outputs`` unless ``overwrite`` (which deletes them); then the
+    configuration is written and torch's threads set."""
+    if resume and checkpoint is None:
+        raise FileNotFoundError(f"--resume: no checkpoint in {run_dir / CHECKPOINT_DIR}")
+    if not resume:
+        claim_run_folder(run_dir, outputs, overwrite, "continue it with --resume, " if checkpoint is not None else "")
+    run_dir.mkdir(parents=True, exist_ok=True)
+    save_config(config, run_dir / CONFIG_FILE)
+    torch.set_num_threads(config.logging.torch_threads)
+
+
 def _train(config: AgentConfig, out: Path, resume: bool, overwrite: bool) -> BaseAlgorithm:
     # 1. run directory, threads, seeds (a resumed run continues from seed + steps done, so that its
     #    environments do not replay the initial states of the first part)
     run_dir = Path(out)
     checkpoint = latest_checkpoint(run_dir)
-    if resume and checkpoint is None:
-        raise FileNotFoundError(f"--resume: no checkpoint in {run_dir / CHECKPOINT_DIR}")
-    if not resume:
-        claim_run_folder(run_dir, RUN_OUTPUTS, overwrite, "continue it with --resume, " if checkpoint is not None else "")
-    run_dir.mkdir(parents=True, exist_ok=True)
-    save_config(config, run_dir / CONFIG_FILE)
-    torch.set_num_threads(config.logging.torch_threads)
+    open_run_folder(config, run_dir, checkpoint, resume, overwrite, RUN_OUTPUTS)
     seed = (config.seed + (checkpoint_steps(checkpoint) if resume else 0)) % 2**32  # numpy takes 32-bit seeds
     set_random_seed(seed)
     algo_cls = algorithm_class(config)

@@ -254,4 +254,5 @@ def test_the_side_by_side_benchmark_runs_quick(tmp_path: Path, capsys: pytest.Ca
     assert arms["ppo_256envs"]["gait_prior"] and not arms["shac"]["gait_prior"]
     assert all(row["finite"] for row in results["gradients"])
     assert json.loads((tmp_path / "r.json").read_text())["torch_threads"] == 1
-    assert "walking targets met at" in capsys.readouterr().out
+    assert "walking targets met by the best model" in capsys.readouterr().out
+    assert all(isinstance(row["walking_target_misses"], list) for row in arms.values())

@@ -21,17 +21,14 @@ import time
 from pathlib import Path
 from typing import Any
 
-import torch
-
 from agents.builders import WALKING_BELOW_M_S, make_env
-from agents.checkpoints import CHECKPOINT_DIR, CHECKPOINT_PREFIX, CONFIG_FILE, append_csv_row, latest_checkpoint
-from agents.config import AgentConfig, save_config
+from agents.checkpoints import CHECKPOINT_DIR, CHECKPOINT_PREFIX, append_csv_row, latest_checkpoint
+from agents.config import AgentConfig
 from agents.diff.agent import DiffAgent
 from agents.diff.settings import settings_of
 from agents.rollout import run_episode, summarize
 from sspinn.data.gait_metrics import winter_or_none
 from sspinn.interrupt import DeferredInterrupt
-from sspinn.run_folder import claim_run_folder
 
 #: What a run of these algorithms leaves in its folder besides its config (see the module docstring).
 DIFF_RUN_OUTPUTS: tuple[str, ...] = ("final_model.pt", "best_model.pt", "evaluations.csv", "training.csv", CHECKPOINT_DIR)
@@ -83,16 +80,11 @@ class DiffEvaluator:
 
 def train_diff(config: AgentConfig, run_dir: Path, resume: bool, overwrite: bool) -> DiffAgent:
     """Train ``config`` (algo apg/shac/ahac) into ``run_dir``; the caller holds the run's lock."""
+    from agents.train import open_run_folder
+
     checkpoint = latest_checkpoint(run_dir, suffix=".pt")
-    if resume and checkpoint is None:
-        raise FileNotFoundError(f"--resume: no checkpoint in {run_dir / CHECKPOINT_DIR}")
-    if not resume:
-        claim_run_folder(run_dir, DIFF_RUN_OUTPUTS, overwrite, "continue it with --resume, " if checkpoint is not None else "")
-    run_dir.mkdir(parents=True, exist_ok=True)
-    save_config(config, run_dir / CONFIG_FILE)
-    torch.set_num_threads(config.logging.torch_threads)
-    if resume:
-        assert checkpoint is not None
+    open_run_folder(config, run_dir, checkpoint, resume, overwrite, DIFF_RUN_OUTPUTS)
+    if checkpoint is not None and resume:
         agent = DiffAgent.load(checkpoint, config=config)
         print(f"resuming from {checkpoint} at {agent.num_timesteps:,} steps", flush=True)
     else:
