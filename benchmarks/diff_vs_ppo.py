@@ -1,7 +1,8 @@
 """Learning through the differentiable simulator against the SB3 recipes, side by side on one machine.
 
     python benchmarks/diff_vs_ppo.py --budget 1_600_000 --out runs/diff_vs_ppo      # the full comparison
-    python benchmarks/diff_vs_ppo.py --gradients                                    # the gradient study only
+    python benchmarks/diff_vs_ppo.py --gradients                                    # the gradient study and contact rates
+    python benchmarks/diff_vs_ppo.py --rates                                        # the contact force rates only
     python benchmarks/diff_vs_ppo.py --quick                                        # a smoke run (tiny budgets)
     python benchmarks/diff_vs_ppo.py --summarize runs/shac_walk runs/ahac_walk      # curves and gradient health of runs
 
@@ -20,7 +21,8 @@ The goal of the differentiable arms: the targets met within 1/5 of the PPO recip
 differentiated for ``substeps`` ∈ {50, 25, 10} and horizons ∈ {1, 4, 16}: the policy's gradient
 norm, ‖∂J/∂a‖ of the window's first and last actions (per walker, of its own window return) and
 whether everything is finite — how the gradient through the contact grows with the window and
-the integration step.
+the integration step; and the distribution of AHAC's cut measure, the per-step change of the
+vertical ground reaction force, under a fresh policy (64 walkers × 60 steps).
 
 Step counts, not wall clocks, are the results on a shared machine; the wall times are recorded
 beside them (and say so).
@@ -42,7 +44,7 @@ from agents.builders import make_env
 from agents.checkpoints import load_agent
 from agents.config import load_config
 from agents.diff import DiffAgent, DiffSettings
-from agents.rollout import run_episode, walking_target_misses
+from agents.rollout import run_episode, summarize, walking_target_misses
 from agents.train import train
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs" / "agents"
@@ -124,10 +126,30 @@ def gradient_health(run: Path) -> dict[str, Any]:
     }
 
 
+def zero_action_baseline(run: Path) -> dict[str, Any]:
+    """The trivial baseline of a run's evaluations: zero actions (no actuator torque) on the same
+    environment, target speed and evaluation seeds (``logging.eval_seed`` …)."""
+    import numpy as np
+
+    from agents.checkpoints import find_config
+
+    config = find_config(run / "config.yaml")
+    env = make_env(config)
+    lg = config.logging
+    try:
+        results = [run_episode(lambda obs: np.zeros(6, dtype=np.float32), env, lg.eval_seed + i, config.env.target_speed)
+                   for i in range(lg.eval_episodes)]
+    finally:
+        env.close()
+    summary = summarize(results)
+    return {k: summary[k] for k in ("mean_return", "mean_distance_m", "falls", "episodes", "mean_steps")}
+
+
 def print_summary(runs: list[Path]) -> dict[str, Any]:
     """The evaluation curve (return, distance, falls against environment steps) and the gradient
-    health of each run folder."""
-    out: dict[str, Any] = {}
+    health of each run folder, after the zero-action baseline on the first run's evaluation episodes."""
+    out: dict[str, Any] = {"zero_action": zero_action_baseline(runs[0])}
+    print(f"zero-action baseline: {out['zero_action']}")
     for run in runs:
         with (run / "evaluations.csv").open() as fh:
             curve = [(int(r["timesteps"]), float(r["mean_return"]), float(r["mean_distance_m"]), int(r["falls"]))
@@ -173,13 +195,41 @@ def gradient_study(n_envs: int, substeps: tuple[int, ...], horizons: tuple[int, 
     return rows
 
 
+def contact_rates(n_envs: int, steps: int, seed: int) -> dict[str, float]:
+    """Distribution of the per-step change of the larger vertical ground reaction force (BW per
+    control step; AHAC's cut measure) of ``n_envs`` walkers under a fresh SHAC agent's stochastic
+    policy for ``steps`` steps (falls auto-reset; the terminating steps left out)."""
+    import numpy as np
+
+    walk = load_config(CONFIGS / "shac_walk.yaml").env.kwargs
+    agent = DiffAgent("shac", n_envs=n_envs, env_kwargs=walk, seed=seed)
+    env = agent.env
+    bw = float(env.body.body_weight)
+    rates, previous = [], env.grf[:, 1::2].clone()
+    with torch.no_grad():
+        obs = env.observe()
+        for _ in range(steps):
+            agent.obs_norm.update(obs)
+            obs, _, terminated, truncated, info = env.step(agent.predict(obs.numpy(), deterministic=False)[0])
+            rate = (info["grf"][:, 1::2] - previous).abs().amax(-1) / bw
+            rates.append(rate[~(terminated | truncated)].numpy())
+            previous = env.grf[:, 1::2].clone()
+    r = np.concatenate(rates)
+    out = {f"p{q}": float(np.percentile(r, q)) for q in (50, 75, 90, 95, 99)}
+    out |= {f"share_above_{t:g}": float((r > t).mean()) for t in (0.5, 1.0, 2.0)}
+    print(f"contact force rate (BW per step), {n_envs} walkers × {steps} steps: "
+          + ", ".join(f"{k} {v:.3f}" for k, v in out.items()), flush=True)
+    return out
+
+
 def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--budget", type=int, default=1_600_000, help=f"environment steps per arm (1–{MAX_BUDGET:,})")
     parser.add_argument("--arms", nargs="+", choices=ARMS, default=list(ARMS))
     parser.add_argument("--out", default="runs/diff_vs_ppo", help="folder of the arms' runs (replaced)")
     parser.add_argument("--threads", type=int, help="numba threads of the SB3 arms' vector environment (1–64)")
-    parser.add_argument("--gradients", action="store_true", help="the gradient study only")
+    parser.add_argument("--gradients", action="store_true", help="the gradient study and contact rates only")
+    parser.add_argument("--rates", action="store_true", help="the contact force rates only")
     parser.add_argument("--quick", action="store_true", help="tiny budgets: a smoke run, not a result")
     parser.add_argument("--summarize", nargs="+", metavar="RUN", help="only print the curves and gradient health of these runs")
     parser.add_argument("--json", help="write the results here")
@@ -195,9 +245,13 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             Path(args.json).write_text(json.dumps(summary, indent=2))
         return summary
     results: dict[str, Any] = {"torch_threads": 1, "numba_threads": args.threads, "quick": args.quick}
+    if args.rates:
+        results["contact_rates"] = contact_rates(64, 60, 3)
+        return results
     print("gradient study (APG window loss at the initial policy; per walker):", flush=True)
     results["gradients"] = (gradient_study(2, (50, 10), (1, 2), 0) if args.quick
                             else gradient_study(16, (50, 25, 10), (1, 4, 16), 0))
+    results["contact_rates"] = contact_rates(2, 3, 3) if args.quick else contact_rates(64, 60, 3)
     if not args.gradients:
         out = Path(args.out)
         results["arms"] = []
