@@ -155,7 +155,7 @@ def test_a_foreign_or_pickled_file_is_refused(tmp_path: Path) -> None:
 def test_train_resume_and_evaluate_through_the_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     config = write_config(tmp_path)
     run = tmp_path / "run"
-    assert main(["train", "--config", str(config), "--out", str(run)]) == 0
+    assert main(["train", "--algo", "shac", "--config", str(config), "--out", str(run)]) == 0
     assert (run / "final_model.pt").is_file() and (run / "best_model.pt").is_file()
     assert latest_checkpoint(run, suffix=".pt").name == "model_18_steps.pt"
     rows = (run / "training.csv").read_text().splitlines()
