@@ -63,7 +63,7 @@ from agents.diff.settings import DIFF_ACTIVATIONS, DIFF_ALGORITHMS, MAX_ENVS, Di
 from envs.batched import BatchedSagittalWalker
 from envs.task import OBS_SIZE
 from sspinn.model.conventions import N_TAU
-from sspinn.torch_files import check_finite_weights, load_torch_file, save_torch_file
+from sspinn.torch_files import ModelFileError, check_finite_weights, load_torch_file, save_torch_file
 from sspinn.yaml_config import ConfigError, config_from_mapping
 
 #: The ``format`` entry of a saved agent (:mod:`sspinn.torch_files`).
@@ -477,8 +477,6 @@ class DiffAgent:
             agent.grad_mean = state.get("grad_mean", agent.grad_mean)
             agent.grad_m2 = state.get("grad_m2", agent.grad_m2)
         except (KeyError, RuntimeError, ValueError, TypeError, ConfigError) as exc:
-            from sspinn.torch_files import ModelFileError
-
             raise ModelFileError(f"{path}: not a usable {DIFF_AGENT_KIND} file ({str(exc).splitlines()[0]}); {_HINT}") from None
         return agent
 
