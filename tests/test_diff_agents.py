@@ -227,6 +227,8 @@ def test_bad_constructor_values_name_their_bounds() -> None:
         DiffAgent("ppo")
     with pytest.raises(ValueError, match=r"total_env_steps must be an integer in \[1, 1e11\]"):
         DiffAgent("apg", n_envs=1).learn(10**12)
+    with pytest.raises(ValueError, match=r"4096 walkers × 256 steps × 50 substeps keeps about \d+ GB"):
+        DiffAgent("apg", DiffSettings(horizon=256), n_envs=4096)
 
 
 @pytest.mark.parametrize("name", ["apg_walk", "shac_walk", "ahac_walk"])

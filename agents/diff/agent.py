@@ -51,6 +51,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import os
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -61,6 +62,7 @@ from torch import nn
 
 from agents.diff.settings import DIFF_ACTIVATIONS, DIFF_ALGORITHMS, MAX_ENVS, DiffSettings
 from envs.batched import BatchedSagittalWalker
+from envs.config import SUBSTEPS
 from envs.task import OBS_SIZE
 from sspinn.model.conventions import N_TAU
 from sspinn.torch_files import ModelFileError, check_finite_weights, load_torch_file, save_torch_file
@@ -68,8 +70,29 @@ from sspinn.yaml_config import ConfigError, config_from_mapping
 
 #: The ``format`` entry of a saved agent (:mod:`sspinn.torch_files`).
 DIFF_AGENT_KIND = "sspinn-diff-agent"
+#: Autograd memory a window keeps per walker and physics substep, bytes: measured as the resident
+#: size of a training process with 64 walkers × 16 steps × 50 substeps (8.3 GB, one CPU thread).
+BYTES_PER_WALKER_SUBSTEP = 160_000
+#: Largest share of the machine's physical memory one window's graph may need.
+MAX_MEMORY_SHARE = 0.8
 #: What to do with a file that is not a usable agent.
 _HINT = "train one with `python -m agents train --config configs/agents/shac_walk.yaml --out <run>`"
+
+
+def check_window_memory(n_envs: int, horizon: int, substeps: int) -> None:
+    """Refuse a window whose autograd graph (≈ :data:`BYTES_PER_WALKER_SUBSTEP` per walker and
+    substep, all kept until the backward pass) would need more than :data:`MAX_MEMORY_SHARE` of
+    the machine's physical memory: a ``ValueError`` naming the sizes."""
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):  # not POSIX: no check
+        return
+    need = n_envs * horizon * substeps * BYTES_PER_WALKER_SUBSTEP
+    if need > MAX_MEMORY_SHARE * total:
+        raise ValueError(
+            f"a window of {n_envs} walkers × {horizon} steps × {substeps} substeps keeps about {need / 1e9:.0f} GB of "
+            f"autograd graph (≈ {BYTES_PER_WALKER_SUBSTEP // 1000} kB per walker-substep), more than "
+            f"{MAX_MEMORY_SHARE:.0%} of this machine's {total / 1e9:.0f} GB: lower n_envs or horizon")
 
 
 def mlp(sizes: list[int], activation: str) -> nn.Sequential:
@@ -172,6 +195,7 @@ class DiffAgent:
             raise ValueError(f"obs_clip must be a number in (0, 1000], got {obs_clip!r}")
         self.algo = algo
         self.settings = settings if settings is not None else DiffSettings()
+        check_window_memory(n_envs, self.settings.horizon, int((env_kwargs or {}).get("substeps", SUBSTEPS)))
         self.n_envs = n_envs
         self.env_kwargs = dict(env_kwargs or {})
         self.seed = seed
