@@ -48,7 +48,7 @@ def build_parser() -> argparse.ArgumentParser:
     for name, text in (("evaluate", "deterministic evaluation: JSON, plot, animation"),
                        ("record", "render one deterministic episode to a GIF or MP4")):
         p = sub.add_parser(name, help=text)
-        p.add_argument("--checkpoint", required=True, help="SB3 .zip (its run's config.yaml is found next to it)")
+        p.add_argument("--checkpoint", required=True, help="SB3 .zip or APG/SHAC/AHAC .pt (its run's config.yaml is found next to it)")
         p.add_argument("--target-speed", type=bounded(float, 0.0, MAX_TARGET_SPEED, " m/s"),
                        help=f"m/s, 0–{MAX_TARGET_SPEED:g} (default: the config's evaluation target)")
         p.add_argument("--seed", type=bounded(int, 0, MAX_SEED), default=0, help=f"first episode seed (0–{MAX_SEED})")

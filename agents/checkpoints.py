@@ -28,6 +28,7 @@ model's ``.zip`` last: a checkpoint whose ``.zip`` exists has its statistics and
 
 from __future__ import annotations
 
+import csv
 import io
 import json
 import pickle
@@ -42,7 +43,7 @@ import numpy as np
 from agents.builders import action_noise, algorithm_class, hyperparameter, make_env, policy_kwargs
 from agents.config import AgentConfig, ConfigError, load_config
 from sspinn.errors import UserError, one_line
-from sspinn.run_folder import atomic_path
+from sspinn.run_folder import atomic_path, atomic_write_text
 
 if TYPE_CHECKING:  # imports stable-baselines3, which loading waits for
     from agents.gait_prior import GaitPrior
@@ -50,7 +51,7 @@ if TYPE_CHECKING:  # imports stable-baselines3, which loading waits for
 CHECKPOINT_DIR = "checkpoints"
 CHECKPOINT_PREFIX = "model"
 CONFIG_FILE = "config.yaml"
-_STEPS = re.compile(r"^(?P<prefix>.+)_(?P<steps>\d+)_steps\.zip$")
+_STEPS = re.compile(r"^(?P<prefix>.+)_(?P<steps>\d+)_steps\.(?:zip|pt)$")
 
 
 def vecnormalize_path(model_path: str | Path) -> Path:
@@ -80,10 +81,11 @@ def checkpoint_steps(checkpoint: str | Path) -> int:
     return int(match["steps"])
 
 
-def latest_checkpoint(run_dir: str | Path) -> Path | None:
-    """The periodic checkpoint with the most timesteps in ``<run_dir>/checkpoints`` (None if none)."""
+def latest_checkpoint(run_dir: str | Path, suffix: str = ".zip") -> Path | None:
+    """The periodic checkpoint with the most timesteps in ``<run_dir>/checkpoints`` (None if none):
+    SB3's ``.zip`` files, or with ``suffix=".pt"`` those of :mod:`agents.diff`."""
     folder = Path(run_dir) / CHECKPOINT_DIR
-    found = [(int(m["steps"]), p) for p in folder.glob(f"{CHECKPOINT_PREFIX}_*_steps.zip") if (m := _STEPS.match(p.name))]
+    found = [(int(m["steps"]), p) for p in folder.glob(f"{CHECKPOINT_PREFIX}_*_steps{suffix}") if (m := _STEPS.match(p.name))]
     return max(found)[1] if found else None
 
 
@@ -172,6 +174,12 @@ def load_agent(checkpoint: str | Path, config: AgentConfig | None = None, device
     if not path.is_file():
         raise FileNotFoundError(f"checkpoint {path} does not exist")
     config = config if config is not None else find_config(path)
+    from agents.diff.settings import DIFF_ALGORITHMS
+
+    if config.algo in DIFF_ALGORITHMS:  # learned through the differentiable simulator: a .pt of tensors
+        from agents.diff.agent import DiffAgent
+
+        return DiffAgent.load(path, config=config)  # type: ignore[return-value]  # same predict protocol
     from agents.gait_prior import load_prior
 
     prior = load_prior(config) if config.prior.clock else None
@@ -187,6 +195,21 @@ def load_agent(checkpoint: str | Path, config: AgentConfig | None = None, device
     elif config.normalize.obs:
         raise FileNotFoundError(f"{path} was trained with observation normalisation but {stats} is missing")
     return agent
+
+
+def append_csv_row(path: str | Path, row: dict[str, Any], columns: tuple[str, ...]) -> None:
+    """Append ``row`` to the CSV log ``path`` (atomically rewritten); a new file gets ``columns`` as
+    its header, an existing one keeps its own (a resumed run's)."""
+    path = Path(path)
+    previous = path.read_text() if path.is_file() else ""
+    if previous:
+        columns = tuple(next(csv.reader(io.StringIO(previous)), columns))
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=columns, extrasaction="ignore", lineterminator="\n")
+    if not previous:
+        writer.writeheader()
+    writer.writerow(row)
+    atomic_write_text(path, previous + buffer.getvalue())
 
 
 class UnsafeCheckpointError(UserError):

@@ -51,6 +51,9 @@ from sspinn.yaml_config import ConfigError, option
 ENV_RATE_HZ = 100
 #: Algorithms supported by :mod:`agents.train` (lower-case name → SB3 class name).
 ALGORITHMS: dict[str, str] = {"ppo": "PPO", "sac": "SAC", "td3": "TD3"}
+#: Algorithms that learn through the differentiable simulator (:mod:`agents.diff`; lower-case name →
+#: display name); their ``hyperparameters`` are :class:`agents.diff.settings.DiffSettings`.
+DIFF_ALGORITHMS: dict[str, str] = {"apg": "APG", "shac": "SHAC", "ahac": "AHAC"}
 #: Vectorised-environment kinds (see :class:`EnvConfig`).
 VEC_ENVS: tuple[str, ...] = ("native", "dummy", "subproc")
 #: Activation functions accepted in ``policy.activation`` (name → ``torch.nn`` class name).
@@ -216,12 +219,14 @@ class AgentConfig:
     SB3 hyperparameters and logging (see the module docstring for the YAML layout).
 
     Attributes:
-        algo: the SB3 algorithm, one of :data:`ALGORITHMS`.
+        algo: the SB3 algorithm, one of :data:`ALGORITHMS`, or one of :data:`DIFF_ALGORITHMS`
+            (learned through the differentiable simulator: ``env.n_envs`` batched walkers, the
+            ``hyperparameters`` of :class:`agents.diff.settings.DiffSettings`, no gait prior).
         seed: seeds SB3 (torch, numpy, random) and the environments (0 to 2³² − 1).
         total_timesteps: environment steps summed over all parallel environments (at most 10¹¹).
     """
 
-    algo: str = option(choices=ALGORITHMS)
+    algo: str = option(choices=(*ALGORITHMS, *DIFF_ALGORITHMS))
     seed: int = option(0, ge=0, le=2**32 - 1)
     total_timesteps: int = option(1_000_000, gt=0, le=10**11)
     env: EnvConfig = field(default_factory=EnvConfig)
@@ -314,6 +319,9 @@ def validate(config: AgentConfig, source: str = "config") -> None:
     _check(len(p.net_arch) > 0 and all(h > 0 for h in p.net_arch), source, "policy.net_arch",
            "a non-empty list of positive layer sizes", p.net_arch)
 
+    if c.algo in DIFF_ALGORITHMS:
+        _validate_diff(config, source)
+        return
     reserved = sorted(set(c.hyperparameters) & RESERVED_HYPERPARAMETERS)
     _check(not reserved, source, "hyperparameters", "free of keys set by agents.train "
            f"({', '.join(sorted(RESERVED_HYPERPARAMETERS))}; use seed/env/policy/logging)", reserved)
@@ -383,6 +391,22 @@ def _check_buffer_memory(c: AgentConfig, source: str) -> None:
         check_allocation(transitions * BYTES_PER_TRANSITION, f"{what} (transitions in the buffer)")
     except ResourceLimitError as exc:
         raise ConfigError(f"{source}: {exc}") from None
+
+
+def _validate_diff(config: AgentConfig, source: str) -> None:
+    """The checks of an APG/SHAC/AHAC configuration: its settings (ranges with upper bounds) and
+    the options that only SB3 runs have."""
+    from agents.diff.settings import settings_of
+
+    settings_of(config, source)
+    _check(config.env.id == "sspinn/SagittalWalker-v0", source, "env.id",
+           f"sspinn/SagittalWalker-v0 for algo {config.algo} (the batched torch environment)", config.env.id)
+    _check(config.prior.gait is None, source, "prior.gait", f"null for algo {config.algo} (no gait prior yet)",
+           config.prior.gait)
+    _check(not config.normalize.reward, source, "normalize.reward",
+           f"false for algo {config.algo} (the return is differentiated unscaled)", config.normalize.reward)
+    _check(config.normalize.obs, source, "normalize.obs", f"true for algo {config.algo} (running mean/std)",
+           config.normalize.obs)
 
 
 def algorithm_parameters(algo: str) -> set[str]:

@@ -11,7 +11,6 @@ model (new, or the latest checkpoint when resuming) → callbacks (checkpoints, 
 from __future__ import annotations
 
 import csv
-import io
 import math
 import time
 from pathlib import Path
@@ -32,6 +31,7 @@ from agents.checkpoints import (
     CHECKPOINT_PREFIX,
     CONFIG_FILE,
     LoadedAgent,
+    append_csv_row,
     checkpoint_steps,
     latest_checkpoint,
     load_algorithm,
@@ -47,7 +47,7 @@ from agents.rollout import SUMMARY_GAIT_KEYS, run_episode, summarize
 from agents.vec_env import PerEnvVecMonitor, WalkerVecEnv
 from sspinn.data.gait_metrics import winter_or_none
 from sspinn.interrupt import DeferredInterrupt
-from sspinn.run_folder import RunLock, atomic_write_text, claim_run_folder
+from sspinn.run_folder import RunLock, claim_run_folder
 
 #: What a run leaves in its folder (:mod:`agents.checkpoints`), besides its config: a folder
 #: holding any of them holds a run, which only ``--resume`` continues and ``--overwrite`` replaces.
@@ -205,16 +205,7 @@ class WalkerEvalCallback(BaseCallback):
             if value is not None:
                 self.logger.record(f"eval/{key}", value)
         self.logger.record("eval/steps_per_s", (self.num_timesteps - self.start_steps) / max(wall, 1e-9))
-        columns = EVAL_COLUMNS
-        previous = self.csv_path.read_text() if self.csv_path.is_file() else ""
-        if previous:  # a resumed run keeps its file's columns
-            columns = tuple(next(csv.reader(io.StringIO(previous)), EVAL_COLUMNS))
-        buffer = io.StringIO()
-        writer = csv.DictWriter(buffer, fieldnames=columns, extrasaction="ignore", lineterminator="\n")
-        if not previous:
-            writer.writeheader()
-        writer.writerow(row)
-        atomic_write_text(self.csv_path, previous + buffer.getvalue())
+        append_csv_row(self.csv_path, row, EVAL_COLUMNS)  # a resumed run keeps its file's columns
         if summary["mean_return"] > self.best_return:
             self.best_return = summary["mean_return"]
             save_checkpoint(self.model, self.run_dir / "best_model.zip", self.vec_normalize)
@@ -248,8 +239,28 @@ def train(config: AgentConfig, out: str | Path, resume: bool = False, overwrite:
     """
     if resume and overwrite:
         raise ValueError("--resume continues the run in --out and --overwrite replaces it: give one of them")
+    from agents.diff.settings import DIFF_ALGORITHMS
+
     with RunLock(out):
+        if config.algo in DIFF_ALGORITHMS:  # learned through the differentiable simulator (agents.diff)
+            from agents.diff.train import train_diff
+
+            return train_diff(config, Path(out), resume, overwrite)  # type: ignore[return-value]
         return _train(config, Path(out), resume, overwrite)
+
+
+def open_run_folder(config: AgentConfig, run_dir: Path, checkpoint: Path | None, resume: bool, overwrite: bool,
+                    outputs: tuple[str, ...]) -> None:
+    """Make ``run_dir`` this run's: with ``resume`` a ``checkpoint`` must exist; without it the
+    folder must hold none of ``outputs`` unless ``overwrite`` (which deletes them); then the
+    configuration is written and torch's threads set."""
+    if resume and checkpoint is None:
+        raise FileNotFoundError(f"--resume: no checkpoint in {run_dir / CHECKPOINT_DIR}")
+    if not resume:
+        claim_run_folder(run_dir, outputs, overwrite, "continue it with --resume, " if checkpoint is not None else "")
+    run_dir.mkdir(parents=True, exist_ok=True)
+    save_config(config, run_dir / CONFIG_FILE)
+    torch.set_num_threads(config.logging.torch_threads)
 
 
 def _train(config: AgentConfig, out: Path, resume: bool, overwrite: bool) -> BaseAlgorithm:
@@ -257,13 +268,7 @@ def _train(config: AgentConfig, out: Path, resume: bool, overwrite: bool) -> Bas
     #    environments do not replay the initial states of the first part)
     run_dir = Path(out)
     checkpoint = latest_checkpoint(run_dir)
-    if resume and checkpoint is None:
-        raise FileNotFoundError(f"--resume: no checkpoint in {run_dir / CHECKPOINT_DIR}")
-    if not resume:
-        claim_run_folder(run_dir, RUN_OUTPUTS, overwrite, "continue it with --resume, " if checkpoint is not None else "")
-    run_dir.mkdir(parents=True, exist_ok=True)
-    save_config(config, run_dir / CONFIG_FILE)
-    torch.set_num_threads(config.logging.torch_threads)
+    open_run_folder(config, run_dir, checkpoint, resume, overwrite, RUN_OUTPUTS)
     seed = (config.seed + (checkpoint_steps(checkpoint) if resume else 0)) % 2**32  # numpy takes 32-bit seeds
     set_random_seed(seed)
     algo_cls = algorithm_class(config)
