@@ -15,7 +15,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 #: the packages whose names examples may use (their ``__all__`` says which)
-PACKAGES = ("sspinn", "sspinn.model", "sspinn.data", "sspinn.imu", "sspinn.estimator", "envs", "agents", "predictive",
+PACKAGES = ("sspinn", "sspinn.model", "sspinn.data", "sspinn.imu", "sspinn.estimator", "envs", "agents", "agents.diff", "predictive",
             "predictive.ocp", "predictive.synth", "predictive.generator")
 #: example → (arguments, expected words in its output, slow); slow: more than ~10 s on one core
 RUNS = {

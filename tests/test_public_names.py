@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 PACKAGES = (
-    "sspinn", "sspinn.model", "sspinn.data", "sspinn.imu", "sspinn.estimator", "envs", "agents", "predictive",
+    "sspinn", "sspinn.model", "sspinn.data", "sspinn.imu", "sspinn.estimator", "envs", "agents", "agents.diff", "predictive",
     "predictive.ocp", "predictive.synth", "predictive.generator",
 )
 
