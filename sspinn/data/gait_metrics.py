@@ -179,6 +179,28 @@ def _mean(values: list[float]) -> float:
     return float(np.mean(values)) if values else float("nan")
 
 
+def angle_rmsd(q: np.ndarray, leg_strides: list[list[tuple[int, int]]], reference: ReferenceGait | None) -> dict[str, float]:
+    """Hip, knee and ankle RMSD (deg) of each leg's mean cycle to a reference cycle, averaged over
+    the legs with strides: ``{"hip": …, "knee": …, "ankle": …}``, NaN without a reference or strides.
+
+    Args:
+        q: (T, 9) coordinates (:mod:`sspinn.model.conventions`; joints in rad from column 3,
+            right hip, knee, ankle, then left).
+        leg_strides: the right and the left leg's heel-strike-to-heel-strike cycles (sample
+            indices, :func:`sspinn.data.gait_events.strides`).
+        reference: the reference cycle (e.g. :func:`load_winter`), or None.
+    """
+    per_leg: dict[str, list[float]] = {"hip": [], "knee": [], "ankle": []}
+    for f, cycles in enumerate(leg_strides):
+        if reference is None or not cycles:
+            continue
+        for j, name in enumerate(("hip", "knee", "ankle")):
+            cycle = normalise_cycles(q[:, 3 + 3 * f + j], cycles).mean(axis=0)
+            sim = np.interp(reference.percent, np.linspace(0.0, 100.0, len(cycle)), cycle)
+            per_leg[name].append(float(np.degrees(np.sqrt(np.mean((sim - getattr(reference, name)) ** 2)))))
+    return {name: _mean(values) for name, values in per_leg.items()}
+
+
 def gait_metrics(
     trajectory: Trajectory,
     body: BodyParameters,
@@ -244,16 +266,8 @@ def gait_metrics(
                 slide_steps.append(float(np.sum(vx[h : offs[0]]) * dt))
 
     # angle RMSD of each leg's mean cycle, averaged over the legs with strides
-    per_leg: dict[str, list[float]] = {"hip": [], "knee": [], "ankle": []}
-    for f in range(2):
-        leg_strides = strides(events[f].heel_strikes[events[f].heel_strikes >= first], rate)
-        if reference is None or not leg_strides:
-            continue
-        for j, name in enumerate(("hip", "knee", "ankle")):
-            cycle = normalise_cycles(trajectory.q[:, 3 + 3 * f + j], leg_strides).mean(axis=0)
-            sim = np.interp(reference.percent, np.linspace(0.0, 100.0, len(cycle)), cycle)
-            per_leg[name].append(float(np.degrees(np.sqrt(np.mean((sim - getattr(reference, name)) ** 2)))))
-    rmsd = {name: _mean(values) for name, values in per_leg.items()}
+    rmsd = angle_rmsd(trajectory.q, [strides(events[f].heel_strikes[events[f].heel_strikes >= first], rate) for f in range(2)],
+                      reference)
 
     # cost of transport over the whole trajectory
     angles = trajectory.q[:, 3:]
@@ -294,5 +308,5 @@ def gait_metrics(
     )
 
 
-__all__ = ["IMPACT_WINDOW_S", "GaitMetrics", "ReferenceGait", "gait_metrics", "load_winter",
+__all__ = ["IMPACT_WINDOW_S", "GaitMetrics", "ReferenceGait", "angle_rmsd", "gait_metrics", "load_winter",
            "symmetry_index", "winter_or_none"]
