@@ -52,7 +52,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
                        help="put the nodes on a sampling grid of this rate, e.g. 100 (instead of --nodes; "
                        f"{RATE_RANGE_HZ[0]:g}–{RATE_RANGE_HZ[1]:g} Hz, at most {NODES_RANGE[1]} nodes)")
     solve.add_argument("--cycle", choices=("half", "full"), default="half", help="symmetric half or full cycle")
-    solve.add_argument("--effort", choices=("squared", "cubed"), default="squared")
+    solve.add_argument("--effort", choices=("squared", "cubed"), default="cubed",
+                       help="exponent of the normalised torques in the effort (default cubed)")
     solve.add_argument("--duration", type=bounded(float, *DURATION_RANGE_S, " s"), default=None,
                        help=f"stride duration, {DURATION_RANGE_S[0]:g}–{DURATION_RANGE_S[1]:g} s (default: typical)")
     solve.add_argument("--free-duration", action="store_true", help="optimise the stride duration")

@@ -103,11 +103,18 @@ from predictive.ocp.generic_gait import generic_gait, typical_stride_duration
 from predictive.ocp.limits import NODES_RANGE, check_nodes, check_speed
 from predictive.ocp.settings import (
     ACC_SCALE,
+    WALK_RUN_SPEED,
+    Effort,
     ProblemSettings,
     acceleration_regularisation,
+    angle_prior,
     default_joint_limits,
+    effort_power,
+    grf_cap_bw,
+    grf_cap_penalty,
     nlp_scales,
     strength_scaled,
+    winter_angles,
 )
 from predictive.ocp.solution import GaitSolution, mirror_states
 from sspinn.model import dynamics as dyn
@@ -115,7 +122,6 @@ from sspinn.model.body import BodyParameters, JointLimits
 from sspinn.model.contact import ContactParameters
 from sspinn.model.conventions import N_Q, N_TAU
 
-Effort = Literal["squared", "cubed"]
 GaitCycle = Literal["full", "half"]
 
 #: IPOPT return statuses that count as a solved problem.
@@ -170,14 +176,13 @@ class OCPSettings(ProblemSettings):
     """Settings of :func:`solve_predictive` (stored with every solution): the periodic problem's
     own fields below plus the model, bounds, effort and IPOPT fields of
     :class:`~predictive.ocp.settings.ProblemSettings` (keyword-only; ``tau_max``, ``tau_bound``,
-    ``w_acc``, ``ankle_strength_slope``, ``pelvis_height_bounds``, ``tilt_bounds``, ``tol``,
-    ``constr_tol`` 1e-8, ``max_iter`` 3000).
+    ``effort``, the human priors' weights, ``w_acc``, ``ankle_strength_slope``,
+    ``pelvis_height_bounds``, ``tilt_bounds``, ``tol``, ``constr_tol`` 1e-8, ``max_iter`` 3000).
 
     Attributes:
         speed: average forward speed v, m/s (pelvis_tx advances v·T per cycle); with
             ``free_speed`` only the initial guess.
         n_nodes: collocation nodes per simulated interval (the whole cycle, or half of it).
-        effort: "squared" or "cubed" exponent of the normalised torques.
         gait_cycle: "full" (one periodic cycle, no symmetry assumed) or "half" (half a cycle,
             the second half is the first with left and right swapped).
         duration: stride (cycle) duration in s; None: :func:`typical_stride_duration` of the speed.
@@ -190,7 +195,6 @@ class OCPSettings(ProblemSettings):
 
     speed: float
     n_nodes: int = 50
-    effort: Effort = "squared"
     gait_cycle: GaitCycle = "half"
     duration: float | None = None
     free_duration: bool = False
@@ -203,8 +207,6 @@ class OCPSettings(ProblemSettings):
             raise ValueError(f"speed must be a finite number >= 0 m/s, got {self.speed!r}")
         if not NODES_RANGE[0] <= self.n_nodes <= NODES_RANGE[1]:
             raise ValueError(f"n_nodes must be in {NODES_RANGE[0]}–{NODES_RANGE[1]}, got {self.n_nodes}")
-        if self.effort not in ("squared", "cubed"):
-            raise ValueError(f"effort must be 'squared' or 'cubed', got {self.effort!r}")
         if self.gait_cycle not in ("full", "half"):
             raise ValueError(f"gait_cycle must be 'full' or 'half', got {self.gait_cycle!r}")
         lo, hi = self.duration_bounds
@@ -392,15 +394,30 @@ class PredictiveGaitProblem:
         reg = 0
         for k in range(self.layout.n):
             tn = strength_scaled(x.tau_scaled[k], x.q[k], s.ankle_strength_slope)
-            effort += ca.sum1(tn**2) if s.effort == "squared" else ca.sum1(ca.fabs(tn) ** 3)
+            effort += ca.sum1(effort_power(tn, s.effort))
             reg += acceleration_regularisation(x.a[k], x.T)
         return effort / self.layout.n, reg / self.layout.n
 
+    def _prior_terms(self, x: NodeExpressions) -> Any:
+        """The human priors (:mod:`predictive.ocp.settings`), averaged over the nodes: w_grf_cap ×
+        the GRF cap's excess (BW²) and, when walking, w_angle_prior × the angle prior against
+        Winter's walking with the right heel strike at node 0 (the left leg half a cycle later)."""
+        s, n = self.settings, self.layout.n
+        total = 0
+        if s.w_grf_cap:
+            cap = grf_cap_bw(s.speed, s.grf_cap_fraction)
+            total += s.w_grf_cap * sum(grf_cap_penalty(x.grf[k][[1, 3]] / self.bw, cap) for k in range(n)) / n
+        if s.w_angle_prior and 0 < s.speed < WALK_RUN_SPEED:
+            phase = np.arange(n) / self._n_intervals_per_cycle
+            ref = np.concatenate([winter_angles(phase), winter_angles((phase + 0.5) % 1.0)], axis=1)  # JOINTS order
+            total += s.w_angle_prior * sum(angle_prior(x.q[k][3:], ca.DM(ref[k]), s.angle_prior_sd_deg) for k in range(n)) / n
+        return total
+
     def _objective(self, x: NodeExpressions) -> Any:
-        """The NLP objective (dimensionless): effort + w_acc · regularisation (module docstring).
-        Subclasses override this to add terms (e.g. tracking errors)."""
+        """The NLP objective (dimensionless): effort + w_acc · regularisation + the human priors
+        (module docstring). Subclasses override this to add terms (e.g. tracking errors)."""
         effort, reg = self._effort_terms(x)
-        return effort + self.settings.w_acc * reg
+        return effort + self.settings.w_acc * reg + self._prior_terms(x)
 
     def prepare(self, ipopt_options: Mapping[str, Any] | None = None, verbose: bool = False) -> None:
         """Build the IPOPT solver of these options now rather than on the first :meth:`solve`
@@ -640,7 +657,7 @@ def solve_predictive(
     body: BodyParameters | None = None,
     *,
     n_nodes: int | None = None,
-    effort: Effort = "squared",
+    effort: Effort = "cubed",
     gait_cycle: GaitCycle = "half",
     guess: GaitSolution | None = None,
     duration: float | None = None,

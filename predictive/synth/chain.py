@@ -259,7 +259,7 @@ def simulate_chain(
             if rung in ("nominal", "smaller_change", "previous_speed") and plan == planned:
                 continue  # nothing new to try on this rung
             horizon = [plan] + padded[k + 1 : k + 1 + lookahead]
-            guess_q, guess_tau, target = _horizon_guess(
+            guess_q, guess_tau, target, prior_q = _horizon_guess(
                 rung, horizon, reference, h, q_prev, carried if rung == "warm" else None, k,
                 rests=_rests(padded, k, len(horizon), start is not None, targets, reference, h),
             )
@@ -267,7 +267,7 @@ def simulate_chain(
             n_try += 1
             cache = rest_solvers if rest_solvers is not None and plan.speed == 0 else solvers
             problem = cache.get([p.n_nodes for p in horizon], warm=rung == "warm")
-            result = problem.solve(body, q_prev, u_prev, horizon, q_ref, u_ref, guess_q, guess_tau)
+            result = problem.solve(body, q_prev, u_prev, horizon, q_ref, u_ref, guess_q, guess_tau, prior_q)
             total_iter += result.iterations
             total_time += result.solve_time
             if result.status in ACCEPTED_STATUSES and result.max_residual <= s.residual_tol:
@@ -329,9 +329,10 @@ def _horizon_guess(
     carried: tuple[np.ndarray, np.ndarray] | None,
     index: int,
     rests: Mapping[int, np.ndarray | None] | None = None,
-) -> tuple[np.ndarray, np.ndarray, ReferenceStride]:
-    """Initial guess (q, τ) of a horizon on ``rung`` and the terminal target (the reference stride
-    of the horizon's last plan). ``warm``: the carried lookahead stride (if any) or the reference
+) -> tuple[np.ndarray, np.ndarray, ReferenceStride, np.ndarray]:
+    """Initial guess (q, τ) of a horizon on ``rung``, the terminal target (the reference stride
+    of the horizon's last plan) and the angle prior's target q (the guess before the ``perturbed``
+    rung's perturbation; :meth:`~predictive.ocp.stride_nlp.StrideProblem.solve`'s ``prior_q``). ``warm``: the carried lookahead stride (if any) or the reference
     blended from the previous guess; other rungs: the reference blended into ``q_prev``, on
     ``perturbed`` with a deterministic relative perturbation of the angles and torques.
 
@@ -358,12 +359,13 @@ def _horizon_guess(
         x_last, q_last = qs[-1][-1, 0], qs[-1][-1]
     assert target is not None
     q, tau = np.vstack(qs), np.vstack(taus)
+    prior = q
     if rung == "perturbed":
         rng = np.random.default_rng([index, 7])
         q = q.copy()
         q[:, 2:] += PERTURBATION * np.abs(q[:, 2:]).max(axis=0) * rng.standard_normal(q[:, 2:].shape)
         tau = tau * (1 + PERTURBATION * rng.standard_normal(tau.shape))
-    return q, tau, target
+    return q, tau, target, prior
 
 
 #: Parts of the reference cycle (phases from the stride boundary, which lies 0.12 of the cycle
