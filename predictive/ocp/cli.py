@@ -4,8 +4,10 @@
 
 Solves the predictive gait problem (:func:`predictive.ocp.collocation.solve_predictive`), prints
 IPOPT's status, iterations, solve time, the Kane residual at the nodes, stance fractions and —
-when Winter's walking is at hand (``--data-dir`` or ``$SSPINN_SHARED_DATA``) — the RMSD against Winter's normal walking, and
-writes ``<out>.npz``/``<out>.json`` (the solution), ``<out>_summary.json`` and ``<out>.png``
+when Winter's walking is at hand (``--data-dir`` or ``$SSPINN_SHARED_DATA``) — the RMSD against Winter's normal walking,
+the gait against the human norms at its speed (``human_norms``: per-stance vertical GRF peak and
+valley, stance / double-support / flight shares, cadence, angle RMSD;
+:func:`predictive.ocp.gait_analysis.solution_norms`), and writes ``<out>.npz``/``<out>.json`` (the solution), ``<out>_summary.json`` and ``<out>.png``
 (angles and GRF versus % gait cycle). When ``--out`` already holds a solution, it writes to the
 first free ``<out>_2``, ``<out>_3``, … and says so, unless ``--overwrite``.
 """
@@ -20,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from predictive.ocp.collocation import OCPError, solve_predictive
-from predictive.ocp.gait_analysis import compare_with_reference, load_winter, plot_gait
+from predictive.ocp.gait_analysis import compare_with_reference, load_winter, plot_gait, solution_norms
 from predictive.ocp.limits import (
     DURATION_RANGE_S,
     NODES_RANGE,
@@ -126,6 +128,10 @@ def run(args: argparse.Namespace) -> int:
             print(f"(no comparison with Winter: {exc})")
         else:
             summary.update({f"winter_{k}": v for k, v in compare_with_reference(sol, reference).items()})
+    if sol.speed > 0:  # human norms (sspinn.data.gait_norms); the RMSD where Winter's walking is at hand
+        norms = solution_norms(sol, reference)
+        summary["human_norms"] = norms.summary()
+        summary["human_norms_passed"] = norms.passed
     summary_path = args.out.with_name(args.out.name + "_summary.json")
     summary_text = json_text(summary, label=summary_path)  # refuses NaN before anything is written
     npz = sol.save(args.out)

@@ -113,6 +113,7 @@ from predictive.ocp.settings import (
     grf_cap_bw,
     grf_cap_penalty,
     nlp_scales,
+    sliding_power,
     strength_scaled,
     winter_angles,
 )
@@ -274,6 +275,7 @@ class NodeExpressions:
         grf: ground reaction forces [Fx_r, Fy_r, Fx_l, Fy_l], N (contact model).
         T: cycle duration, s.
         v: average speed, m/s.
+        slip: each foot's sliding power F_x·ẋ_c / BW (2), m/s (:func:`~predictive.ocp.settings.sliding_power`).
     """
 
     q: list[Any]
@@ -284,6 +286,7 @@ class NodeExpressions:
     grf: list[Any]
     T: Any
     v: Any
+    slip: list[Any] = field(default_factory=list)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -322,11 +325,12 @@ class PredictiveGaitProblem:
 
     # ----------------------------------------------------------------- building blocks
     def _build_node_function(self) -> ca.Function:
-        """(q, u, a, tau) → (scaled Kane residual (9), grf (4) in N, w (2))."""
+        """(q, u, a, tau) → (scaled Kane residual (9), grf (4) in N, w (2), sliding power (2) in BW·m/s)."""
         q, u, a, tau = (ca.SX.sym(name, n) for name, n in (("q", N_Q), ("u", N_Q), ("a", N_Q), ("tau", N_TAU)))
         grf, w = dyn.contact_forces(q, u, self.body, self.contact)
         r = dyn.kane_residual(q, u, a, tau, grf, w, self.body)
-        return ca.Function("node", [q, u, a, tau], [r / ca.DM(self.res_scale), grf, w])
+        slip = sliding_power(q, u, a, grf, w, self.body) / self.bw
+        return ca.Function("node", [q, u, a, tau], [r / ca.DM(self.res_scale), grf, w, slip])
 
     @property
     def _n_intervals_per_cycle(self) -> int:
@@ -358,7 +362,7 @@ class PredictiveGaitProblem:
         h = T / self._n_intervals_per_cycle
 
         g: list[Any] = []
-        grf = []
+        grf, slip = [], []
         for k in range(lay.n):
             if k == 0:
                 q_prev, u_prev = self._previous_state(q[-1], u[-1], T, v)
@@ -366,11 +370,14 @@ class PredictiveGaitProblem:
                 q_prev, u_prev = q[k - 1], u[k - 1]
             g.append(((q[k] - q_prev) / h - u[k]) / us)
             g.append(((u[k] - u_prev) / h - a[k]) / as_)
-            res, grf_k, _ = self._node_fun(q[k], u[k], a[k], tau[k])
+            res, grf_k, _, slip_k = self._node_fun(q[k], u[k], a[k], tau[k])
             g.append(res)
             grf.append(grf_k)
+            slip.append(slip_k)
         tau_scaled = [nodes[sl["tau"], k] for k in range(lay.n)]
-        objective = self._objective(NodeExpressions(q=q, u=u, a=a, tau=tau, tau_scaled=tau_scaled, grf=grf, T=T, v=v))
+        objective = self._objective(
+            NodeExpressions(q=q, u=u, a=a, tau=tau, tau_scaled=tau_scaled, grf=grf, T=T, v=v, slip=slip)
+        )
         nlp = {"x": z, "f": objective, "g": ca.vertcat(*g)}
 
         # bounds (physical → scaled)
@@ -400,10 +407,13 @@ class PredictiveGaitProblem:
 
     def _prior_terms(self, x: NodeExpressions) -> Any:
         """The human priors (:mod:`predictive.ocp.settings`), averaged over the nodes: w_grf_cap ×
-        the GRF cap's excess (BW²) and, when walking, w_angle_prior × the angle prior against
-        Winter's walking with the right heel strike at node 0 (the left leg half a cycle later)."""
+        the GRF cap's excess (BW²), w_slip × the squared sliding power ((BW·m/s)²) and, when
+        walking, w_angle_prior × the angle prior against Winter's walking with the right heel
+        strike at node 0 (the left leg half a cycle later)."""
         s, n = self.settings, self.layout.n
         total = 0
+        if s.w_slip:
+            total += s.w_slip * sum(ca.sumsqr(x.slip[k]) for k in range(n)) / n
         if s.w_grf_cap:
             cap = grf_cap_bw(s.speed, s.grf_cap_fraction)
             total += s.w_grf_cap * sum(grf_cap_penalty(x.grf[k][[1, 3]] / self.bw, cap) for k in range(n)) / n

@@ -44,6 +44,7 @@ import numpy as np
 
 from predictive.ocp import perturbation
 from sspinn.data.gait_norms import SPEED_LIMITS, human_ranges
+from sspinn.model import kinematics
 from sspinn.model.body import BodyParameters, JointLimits
 from sspinn.model.conventions import JOINTS, N_Q, N_TAU
 from sspinn.model.trajectory import residual_scale
@@ -84,6 +85,12 @@ class ProblemSettings:
         w_angle_prior: weight of the angle prior (dimensionless, mean squared deviation in units
             of ``angle_prior_sd_deg``; 0: none).
         angle_prior_sd_deg: tolerance of the angle prior, degrees.
+        w_slip: weight of the sliding-power term Σ_feet (F_x·ẋ_c/BW)² (BW·m/s, :func:`sliding_power`;
+            0: none): the power of the friction force on a sliding contact point. The smooth
+            contact lets a swinging foot carry a few per cent of body weight millimetres above
+            the floor and skid — a free brake, and with the GRF cap a way to let the heel down
+            before it lands (a 0.1 BW heel skim through late swing, counted as taps by the norms
+            check) — which the term makes cost what a skid costs.
         w_acc: weight of the q̈ regularisation (dimensionless, see :func:`acceleration_regularisation`).
         ankle_strength_slope: k in the ankle's relative strength exp(±k·θ_ankle), 1/rad
             (0: angle-independent strength; see :func:`strength_scaled`).
@@ -101,6 +108,7 @@ class ProblemSettings:
     grf_cap_fraction: float = 0.92
     w_angle_prior: float = 0.1
     angle_prior_sd_deg: float = 5.0
+    w_slip: float = 100.0
     w_acc: float = 0.1
     ankle_strength_slope: float = 1.0
     pelvis_height_bounds: tuple[float, float] = (0.3, 0.7)
@@ -118,6 +126,7 @@ class ProblemSettings:
         "grf_cap_fraction",
         "w_angle_prior",
         "angle_prior_sd_deg",
+        "w_slip",
         "w_acc",
         "ankle_strength_slope",
         "pelvis_height_bounds",
@@ -127,7 +136,7 @@ class ProblemSettings:
     def __post_init__(self) -> None:
         if self.effort not in EFFORT_EXPONENTS:
             raise ValueError(f"effort must be 'squared' or 'cubed', got {self.effort!r}")
-        for name in ("w_acc", "w_grf_cap", "w_angle_prior"):
+        for name in ("w_acc", "w_grf_cap", "w_angle_prior", "w_slip"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be finite and >= 0, got {value}")
@@ -264,3 +273,10 @@ def winter_angles(phase: np.ndarray | float) -> np.ndarray:
 def angle_prior(joints: Any, reference: Any, sd_deg: float) -> Any:
     """Mean over the six joints of ((θ − θ_ref)/sd)² (CasADi), JOINTS order, sd in degrees."""
     return ca.sumsqr((joints - reference) / math.radians(sd_deg)) / N_TAU
+
+
+def sliding_power(q: Any, u: Any, a: Any, grf: Any, w: Any, body: Any) -> Any:
+    """(2,) F_x·ẋ_c per foot (CasADi; N·m/s): the power of each foot's friction force on its
+    contact point's sliding (contact point at the fractions ``w``; ``body`` numeric or symbolic)."""
+    pk = kinematics.point_kinematics(q, u, a, w, body)
+    return ca.vertcat(*(grf[2 * k] * pk[kinematics.point_index(f"contact_{side}"), 2] for k, side in enumerate("rl")))

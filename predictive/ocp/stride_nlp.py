@@ -73,7 +73,6 @@ from predictive.ocp import perturbation
 from predictive.ocp import settings as ocp
 from predictive.ocp.collocation import OCPSettings
 from sspinn.model import dynamics as dyn
-from sspinn.model import kinematics
 from sspinn.model.body import N_PARAMETERS, BodyParameters, JointLimits
 from sspinn.model.contact import ContactParameters
 from sspinn.model.conventions import N_Q, N_TAU
@@ -113,8 +112,6 @@ class StrideSettings(ocp.ProblemSettings):
     Attributes:
         h: time step, s (backward Euler; the sample interval of the recordings).
         w_terminal: weight of the terminal tracking term (dimensionless, see the module docstring).
-        w_slip: weight of the sliding-power term (dimensionless, see the module docstring); 0
-            (the default) leaves it out.
         sigma_q: terminal tolerance of q (except pelvis_tx), m or rad.
         sigma_u_joint: terminal tolerance of the angular speeds, rad/s.
         sigma_u_ty: terminal tolerance of the vertical pelvis speed, m/s.
@@ -127,7 +124,6 @@ class StrideSettings(ocp.ProblemSettings):
 
     h: float = 0.01
     w_terminal: float = 2.0
-    w_slip: float = 0.0
     sigma_q: float = 0.05
     sigma_u_joint: float = 0.5
     sigma_u_ty: float = 0.2
@@ -143,8 +139,6 @@ class StrideSettings(ocp.ProblemSettings):
         super().__post_init__()
         if self.w_terminal < 0:
             raise ValueError(f"w_terminal must be >= 0, got {self.w_terminal}")
-        if not self.w_slip >= 0:
-            raise ValueError(f"w_slip must be >= 0, got {self.w_slip}")
         if not self.buckets or min(self.buckets) < 2:
             raise ValueError(f"buckets must be node counts >= 2, got {self.buckets}")
 
@@ -316,9 +310,7 @@ class StrideProblem:
         if s.w_angle_prior:
             effort = effort + s.w_angle_prior * ocp.angle_prior(q[3:], joints_prior, s.angle_prior_sd_deg)
         if s.w_slip:  # the power of the friction forces on sliding contact points, in BW·m/s
-            pk = kinematics.point_kinematics(q, u, a, w, body)
-            slip = ca.vertcat(*(grf[2 * k] * pk[kinematics.point_index(f"contact_{side}"), 2] for k, side in enumerate("rl")))
-            effort = effort + s.w_slip * ca.sumsqr(slip / res_scale[0])
+            effort = effort + s.w_slip * ca.sumsqr(ocp.sliding_power(q, u, a, grf, w, body) / res_scale[0])
         g = active * g_active + (1 - active) * g_copy
         cost = active * effort * inv_n + (1 - active) * 1e-3 * ca.sumsqr(tn)
         return ca.Function("stride_node", [z, zp, body, res_scale, tau_max, us, x0, npar], [g, cost])
