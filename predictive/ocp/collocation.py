@@ -116,6 +116,7 @@ from predictive.ocp.settings import (
     sliding_power,
     strength_scaled,
     winter_angles,
+    winter_grf,
 )
 from predictive.ocp.solution import GaitSolution, mirror_states
 from sspinn.model import dynamics as dyn
@@ -417,10 +418,15 @@ class PredictiveGaitProblem:
         if s.w_grf_cap:
             cap = grf_cap_bw(s.speed, s.grf_cap_fraction)
             total += s.w_grf_cap * sum(grf_cap_penalty(x.grf[k][[1, 3]] / self.bw, cap) for k in range(n)) / n
-        if s.w_angle_prior and 0 < s.speed < WALK_RUN_SPEED:
-            phase = np.arange(n) / self._n_intervals_per_cycle
+        walking = 0 < s.speed < WALK_RUN_SPEED
+        phase = np.arange(n) / self._n_intervals_per_cycle
+        if s.w_angle_prior and walking:
             ref = np.concatenate([winter_angles(phase), winter_angles((phase + 0.5) % 1.0)], axis=1)  # JOINTS order
             total += s.w_angle_prior * sum(angle_prior(x.q[k][3:], ca.DM(ref[k]), s.angle_prior_sd_deg) for k in range(n)) / n
+        if s.w_grf_prior and walking:
+            fy = np.stack([winter_grf(phase), winter_grf((phase + 0.5) % 1.0)], axis=1)
+            dev = [(x.grf[k][[1, 3]] / self.bw - ca.DM(fy[k])) / s.grf_prior_sd_bw for k in range(n)]
+            total += s.w_grf_prior * sum(ca.sumsqr(d) for d in dev) / (2 * n)
         return total
 
     def _objective(self, x: NodeExpressions) -> Any:

@@ -16,8 +16,8 @@ lengthens stance and double support to people's (62 %, 24 %) but keeps a 1.6 BW 
 impact goes with two soft priors, both plain costs (the solution may still leave them when the
 dynamics demand it):
 
-* :func:`grf_cap_penalty`: the squared excess of each foot's vertical GRF over
-  ``grf_cap_fraction`` × the upper end of the human per-stance peak range at the speed
+* :func:`grf_cap_penalty`: the squared excess of each foot's vertical GRF over a cap at
+  ``grf_cap_fraction`` of the way up the human per-stance peak range at the speed
   (:func:`grf_cap_bw`, ranges of :func:`sspinn.data.gait_norms.human_ranges`), weight ``w_grf_cap``;
 * :func:`angle_prior`: walking's hip, knee and ankle angles near Winter's normal walking
   (:data:`WINTER_FOURIER`, a Fourier fit of the averaged stride of Winter 1991, The Biomechanics
@@ -67,6 +67,13 @@ WINTER_FOURIER: Final = {
     "knee": (-0.4325, (0.0673, 0.268, 0.0192, 0.0198, 0.0072, -0.0031), (0.3481, -0.1506, -0.087, -0.0126, -0.0175, -0.0058)),
     "ankle": (-0.0086, (-0.0111, 0.0295, -0.0652, 0.0337, 0.0062, 0.0054), (0.1391, -0.115, 0.0041, 0.0016, -0.0201, -0.0008)),
 }
+#: Winter's normal walking, right vertical GRF (BW) from right heel strike: a0 and harmonics 1–10
+#: (as :data:`WINTER_FOURIER`; RMS misfit 0.007 BW).
+WINTER_GRF_FOURIER: Final = (
+    0.4861,
+    (-0.1669, 0.0927, -0.2001, -0.0044, -0.0715, 0.0058, -0.0212, -0.008, -0.0106, -0.0085),
+    (0.5257, 0.0709, 0.148, -0.0111, 0.0019, 0.0068, -0.0019, 0.0113, -0.0017, 0.0034),
+)
 
 _S = TypeVar("_S", bound="ProblemSettings")
 
@@ -81,10 +88,14 @@ class ProblemSettings:
         tau_bound: torque bound as a multiple of ``tau_max``.
         effort: "squared" or "cubed": exponent of the normalised torques in the effort.
         w_grf_cap: weight of the GRF cap prior (dimensionless, per BW² of excess; 0: none).
-        grf_cap_fraction: the cap as a fraction of the upper end of the human peak range (:func:`grf_cap_bw`).
+        grf_cap_fraction: where the cap lies in the human peak range, 0 (its low end) … 1 (its
+            high end) (:func:`grf_cap_bw`).
         w_angle_prior: weight of the angle prior (dimensionless, mean squared deviation in units
             of ``angle_prior_sd_deg``; 0: none).
         angle_prior_sd_deg: tolerance of the angle prior, degrees.
+        w_grf_prior: weight of the vertical-GRF prior (walking; dimensionless, mean squared
+            deviation from Winter's vertical GRF in units of ``grf_prior_sd_bw``; 0: none).
+        grf_prior_sd_bw: tolerance of the GRF prior, BW.
         w_slip: weight of the sliding-power term Σ_feet (F_x·ẋ_c/BW)² (BW·m/s, :func:`sliding_power`;
             0: none): the power of the friction force on a sliding contact point. The smooth
             contact lets a swinging foot carry a few per cent of body weight millimetres above
@@ -105,9 +116,11 @@ class ProblemSettings:
     tau_bound: float = 3.0
     effort: Effort = "cubed"
     w_grf_cap: float = 100.0
-    grf_cap_fraction: float = 0.92
+    grf_cap_fraction: float = 0.5
     w_angle_prior: float = 0.1
     angle_prior_sd_deg: float = 5.0
+    w_grf_prior: float = 0.0
+    grf_prior_sd_bw: float = 0.15
     w_slip: float = 100.0
     w_acc: float = 0.1
     ankle_strength_slope: float = 1.0
@@ -126,6 +139,8 @@ class ProblemSettings:
         "grf_cap_fraction",
         "w_angle_prior",
         "angle_prior_sd_deg",
+        "w_grf_prior",
+        "grf_prior_sd_bw",
         "w_slip",
         "w_acc",
         "ankle_strength_slope",
@@ -136,12 +151,14 @@ class ProblemSettings:
     def __post_init__(self) -> None:
         if self.effort not in EFFORT_EXPONENTS:
             raise ValueError(f"effort must be 'squared' or 'cubed', got {self.effort!r}")
-        for name in ("w_acc", "w_grf_cap", "w_angle_prior", "w_slip"):
+        for name in ("w_acc", "w_grf_cap", "w_angle_prior", "w_grf_prior", "w_slip"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be finite and >= 0, got {value}")
-        if not 0 < self.grf_cap_fraction <= 2:
-            raise ValueError(f"grf_cap_fraction must be in (0, 2], got {self.grf_cap_fraction}")
+        if not 0 <= self.grf_cap_fraction <= 1:
+            raise ValueError(f"grf_cap_fraction must be in [0, 1], got {self.grf_cap_fraction}")
+        if not 0 < self.grf_prior_sd_bw <= 10:
+            raise ValueError(f"grf_prior_sd_bw must be in (0, 10] BW, got {self.grf_prior_sd_bw}")
         if not 0 < self.angle_prior_sd_deg <= 90:
             raise ValueError(f"angle_prior_sd_deg must be in (0, 90] degrees, got {self.angle_prior_sd_deg}")
 
@@ -245,12 +262,14 @@ def effort_power(tn: Any, effort: str) -> Any:
 
 
 def grf_cap_bw(speed: float, fraction: float) -> float:
-    """The GRF cap at ``speed`` (m/s), BW: ``fraction`` × the upper end of the human per-stance
+    """The GRF cap at ``speed`` (m/s), BW: ``fraction`` of the way up the human per-stance
     vertical GRF peak range (:func:`sspinn.data.gait_norms.human_ranges`, walking below
-    :data:`WALK_RUN_SPEED`, running above; speeds clipped to the ranges' speeds)."""
+    :data:`WALK_RUN_SPEED`, running above; speeds clipped to the ranges' speeds): with 0.5 1.10,
+    1.18 and 1.35 BW at 0.8, 1.3 and 1.8 m/s, 2.6 BW running."""
     mode = "run" if speed >= WALK_RUN_SPEED else "walk"
     low, high = SPEED_LIMITS[mode]
-    return fraction * human_ranges(float(np.clip(speed, low, high)), mode).peak_bw[1]
+    peak_low, peak_high = human_ranges(float(np.clip(speed, low, high)), mode).peak_bw
+    return peak_low + fraction * (peak_high - peak_low)
 
 
 def grf_cap_penalty(fy_bw: Any, cap_bw: Any) -> Any:
@@ -258,16 +277,22 @@ def grf_cap_penalty(fy_bw: Any, cap_bw: Any) -> Any:
     return ca.sumsqr(ca.fmax(fy_bw - cap_bw, 0))
 
 
+def _fourier(phase: np.ndarray | float, a0: float, cos: tuple[float, ...], sin: tuple[float, ...]) -> np.ndarray:
+    ph = np.asarray(phase, dtype=float)[..., None]
+    k = np.arange(1, len(cos) + 1)
+    return a0 + np.cos(2 * math.pi * k * ph) @ np.array(cos) + np.sin(2 * math.pi * k * ph) @ np.array(sin)
+
+
 def winter_angles(phase: np.ndarray | float) -> np.ndarray:
     """Winter's normal-walking hip, knee and ankle angles (rad) at stride phases from heel
     strike (:data:`WINTER_FOURIER`); shape (..., 3)."""
-    ph = np.asarray(phase, dtype=float)[..., None]
-    k = np.arange(1, 7)
-    out = []
-    for name in ("hip", "knee", "ankle"):
-        a0, cos, sin = WINTER_FOURIER[name]
-        out.append(a0 + (np.cos(2 * math.pi * k * ph) @ np.array(cos) + np.sin(2 * math.pi * k * ph) @ np.array(sin)))
-    return np.stack(out, axis=-1)
+    return np.stack([_fourier(phase, *WINTER_FOURIER[name]) for name in ("hip", "knee", "ankle")], axis=-1)
+
+
+def winter_grf(phase: np.ndarray | float) -> np.ndarray:
+    """Winter's normal-walking vertical GRF (BW, ≥ 0) of one foot at stride phases from its heel
+    strike (:data:`WINTER_GRF_FOURIER`)."""
+    return np.maximum(_fourier(phase, *WINTER_GRF_FOURIER), 0.0)
 
 
 def angle_prior(joints: Any, reference: Any, sd_deg: float) -> Any:
