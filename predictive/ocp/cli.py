@@ -61,6 +61,10 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     solve.add_argument("--free-duration", action="store_true", help="optimise the stride duration")
     solve.add_argument("--w-acc", type=bounded(float, *WEIGHT_RANGE), default=None,
                        help=f"weight of the acceleration regularisation ({WEIGHT_RANGE[0]:g}–{WEIGHT_RANGE[1]:g})")
+    for flag, what in (("--w-grf-cap", "GRF cap prior"), ("--w-angle-prior", "Winter angle prior (walking)"),
+                       ("--w-grf-prior", "Winter vertical-GRF prior (walking)"), ("--w-slip", "sliding-power term")):
+        solve.add_argument(flag, type=bounded(float, *WEIGHT_RANGE), default=None,
+                           help=f"weight of the {what} (default: predictive.ocp.settings.ProblemSettings; 0 leaves it out)")
     solve.add_argument("--guess", type=Path, default=None, help="previous solution (.npz/.json) as initial guess")
     solve.add_argument("--height", type=float, default=1.75, help="body height, m")
     solve.add_argument("--mass", type=float, default=70.0, help="body mass, kg")
@@ -89,7 +93,8 @@ def run(args: argparse.Namespace) -> int:
     _check_solve_args(args)
     args.out = output_target(args.out, stem_outputs(SOLUTION_OUTPUTS), args.overwrite, "a solution")
     body = BodyParameters.from_anthropometry(args.height, args.mass)
-    extra = {} if args.w_acc is None else {"w_acc": args.w_acc}
+    extra = {name: getattr(args, name) for name in ("w_acc", "w_grf_cap", "w_angle_prior", "w_grf_prior", "w_slip")
+             if getattr(args, name) is not None}
     guess = GaitSolution.load(args.guess) if args.guess is not None else None
     try:
         sol = solve_predictive(

@@ -119,7 +119,7 @@ class ProblemSettings:
     grf_cap_fraction: float = 0.5
     w_angle_prior: float = 0.1
     angle_prior_sd_deg: float = 5.0
-    w_grf_prior: float = 0.0
+    w_grf_prior: float = 3.0
     grf_prior_sd_bw: float = 0.15
     w_slip: float = 100.0
     w_acc: float = 0.1

@@ -27,7 +27,8 @@ problem (:class:`~predictive.ocp.settings.ProblemSettings`, the base of :class:`
   — instead of Winter's angles, whose phase a stride of a chain does not know — the angle prior
   towards the stride's guess (the subject's periodic gait at that speed and phase, blended from
   the previous state; the posture at rest for strides from and to rest: ``prior_q`` of
-  :meth:`StrideProblem.solve`), plus a terminal tracking term
+  :meth:`StrideProblem.solve`) and the vertical-GRF prior towards that gait's forces
+  (``prior_grf``), plus a terminal tracking term
   ``w_terminal · (Σ_{i≥1} ((q_i − q_ref,i)/σ_q)² + Σ_i ((u_i − u_ref,i)/σ_u,i)²) / 18`` at the
   horizon's last node toward the periodic gait at that stride's speed and phase. Without it the
   end state is free and a chain of greedy strides drifts (a single stride's effort is lowest
@@ -90,7 +91,7 @@ WARM_START_IPOPT: Final[dict[str, Any]] = {
 }
 
 _PER_NODE: Final = 3 * N_Q + N_TAU  # q_rel, u, q̈, τ (scaled)
-_NODE_PAR: Final = 4 + 2 * N_TAU  # active, 1/N, T, effort weights, GRF cap (BW), prior joint angles (rad)
+_NODE_PAR: Final = 6 + 2 * N_TAU  # active, 1/N, T, effort weights, GRF cap (BW), prior joint angles (rad), prior F_y (BW)
 
 
 def bucket_for(n_nodes: int, buckets: Sequence[int] = DEFAULT_BUCKETS) -> int:
@@ -284,7 +285,8 @@ class StrideProblem:
 
         Inputs: the node's scaled variables (33); the previous node's scaled (q_rel, u) (18);
         body (41), residual scale (9), τmax (6), u scale (9), previous pelvis_tx (1); the node
-        parameters (active, 1/N, T, effort weights (6), GRF cap (BW), prior joint angles (6)).
+        parameters (active, 1/N, T, effort weights (6), GRF cap (BW), prior joint angles (6),
+        prior vertical GRF (2, BW)).
         """
         s = self.settings
         z, zp = ca.SX.sym("z", _PER_NODE), ca.SX.sym("zp", 2 * N_Q)
@@ -293,7 +295,7 @@ class StrideProblem:
         x0 = ca.SX.sym("x0")
         npar = ca.SX.sym("node", _NODE_PAR)
         active, inv_n, T, c = npar[0], npar[1], npar[2], npar[3 : 3 + N_TAU]
-        cap, joints_prior = npar[3 + N_TAU], npar[4 + N_TAU :]
+        cap, joints_prior, fy_prior = npar[3 + N_TAU], npar[4 + N_TAU : 4 + 2 * N_TAU], npar[4 + 2 * N_TAU :]
         as_ = ca.DM(self.a_scale)
         q_rel, u, a = z[0:N_Q], z[N_Q : 2 * N_Q] * us, z[2 * N_Q : 3 * N_Q] * as_
         tn = z[3 * N_Q :]
@@ -309,6 +311,9 @@ class StrideProblem:
             effort = effort + s.w_grf_cap * ocp.grf_cap_penalty(ca.vertcat(grf[1], grf[3]) / res_scale[0], cap)
         if s.w_angle_prior:
             effort = effort + s.w_angle_prior * ocp.angle_prior(q[3:], joints_prior, s.angle_prior_sd_deg)
+        if s.w_grf_prior:
+            dev = (ca.vertcat(grf[1], grf[3]) / res_scale[0] - fy_prior) / s.grf_prior_sd_bw
+            effort = effort + s.w_grf_prior * ca.sumsqr(dev) / 2
         if s.w_slip:  # the power of the friction forces on sliding contact points, in BW·m/s
             effort = effort + s.w_slip * ca.sumsqr(ocp.sliding_power(q, u, a, grf, w, body) / res_scale[0])
         g = active * g_active + (1 - active) * g_copy
@@ -360,6 +365,7 @@ class StrideProblem:
         guess_q: np.ndarray,
         guess_tau: np.ndarray,
         prior_q: np.ndarray | None = None,
+        prior_grf: np.ndarray | None = None,
     ) -> StrideResult:
         """Solve the horizon ``plans`` (one per bucket) from the fixed previous state.
 
@@ -373,6 +379,8 @@ class StrideProblem:
             guess_tau: (Σ n_nodes, 6) initial guess of τ, N·m.
             prior_q: (Σ n_nodes, 9) the angle prior's target (its joint angles, rad); default
                 ``guess_q``.
+            prior_grf: (Σ n_nodes, 4) the GRF prior's target (its vertical forces, N); needed
+                when ``settings.w_grf_prior`` > 0.
         """
         s = self.settings
         if len(plans) != len(self.buckets):
@@ -382,6 +390,12 @@ class StrideProblem:
             raise ValueError(f"strides of {counts} nodes do not fit the buckets {self.buckets}")
         n_active = sum(counts)
         prior_q = guess_q if prior_q is None else prior_q
+        if prior_grf is None:
+            if s.w_grf_prior:
+                raise ValueError("w_grf_prior > 0 needs prior_grf, the GRF prior's target")
+            prior_grf = np.zeros((n_active, 4))
+        if prior_grf.shape != (n_active, 4):
+            raise ValueError(f"prior_grf must be ({n_active}, 4), got {prior_grf.shape}")
         if guess_q.shape != (n_active, N_Q) or guess_tau.shape != (n_active, N_TAU) or prior_q.shape != guess_q.shape:
             raise ValueError(
                 f"guess and prior must be ({n_active}, 9), ({n_active}, 6) and ({n_active}, 9), got {guess_q.shape}, "
@@ -400,7 +414,8 @@ class StrideProblem:
             node[2, cols] = plan.n_nodes * s.h
             node[3 : 3 + N_TAU, cols] = np.asarray(plan.effort_weights)[:, None]
             node[3 + N_TAU, cols] = ocp.grf_cap_bw(plan.speed, s.grf_cap_fraction)
-            node[4 + N_TAU :, start : start + plan.n_nodes] = prior_q[done : done + plan.n_nodes, 3:].T
+            node[4 + N_TAU : 4 + 2 * N_TAU, start : start + plan.n_nodes] = prior_q[done : done + plan.n_nodes, 3:].T
+            node[4 + 2 * N_TAU :, start : start + plan.n_nodes] = prior_grf[done : done + plan.n_nodes][:, [1, 3]].T / body.body_weight
             active[start : start + plan.n_nodes] = True
             start += bucket
             done += plan.n_nodes
