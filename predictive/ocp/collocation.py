@@ -42,8 +42,10 @@ ankle dorsiflexion +, a positive pelvis_tilt leans the trunk back):
   first-order discretisation error between the nodes (see
   :meth:`GaitSolution.resampled_residual`).
 * **Objective** (dimensionless), per unit distance up to the constant factor 1/v:
-  ``mean_k Σ_j |τ_kj/τmax_j|^e  +  w_acc · mean_k Σ_i (q̈_ki·T²/(4π²))²`` with ``e = 2``
-  ("squared") or ``3`` ("cubed"), τmax = 0.1·BW·H (≈120 N·m for 1.75 m, 70 kg) for every joint,
+  ``mean_k Σ_j |τ_kj/τmax_j|^e  +  w_acc · mean_k Σ_i (q̈_ki·T²/(4π²))²  +  human priors`` with
+  ``e = 3`` ("cubed", the default; Ackermann & van den Bogert 2010, J Biomech 43:1055: high
+  exponents give more realistic double support and GRF) or ``2`` ("squared"), τmax = 0.1·BW·H
+  (≈120 N·m for 1.75 m, 70 kg) for every joint,
   except that the ankle's strength depends on its angle θ (muscle force–length relation):
   plantarflexor torque (τ < 0) is divided by exp(k·θ), dorsiflexor torque by exp(−k·θ), with
   k = 1 /rad (plantarflexors at half strength near 40° plantarflexion, as in human
@@ -56,7 +58,14 @@ ankle dorsiflexion +, a positive pelvis_tilt leans the trunk back):
   of transport of this effort measure. The second term regularises accelerations and smooths the
   motion (fewer impact spikes, no chattering): q̈·T²/(4π²) is the acceleration on the
   normalised cycle (for q = A·sin(2πt/T) its amplitude is A, in rad or m), so the term does
-  not favour slow or fast strides when the duration is free.
+  not favour slow or fast strides when the duration is free. The **human priors**
+  (:meth:`PredictiveGaitProblem._prior_terms`; why and their sources in
+  :mod:`predictive.ocp.settings`): the power of friction on sliding contact points
+  (``w_slip``), a soft cap of the vertical GRF inside the human peak range at the speed
+  (``w_grf_cap``) and, when walking, Winter's joint angles (``w_angle_prior``) and vertical GRF
+  (``w_grf_prior``) with the right heel strike at node 0. With the squared effort and no priors
+  the model walked stiff-legged (1.77 BW heel-strike peak, 8 % double support, 54 % stance at
+  1.3 m/s; docs/results/gait_norms.md has the figures arm by arm).
 * **Bounds.** Joint ranges from :class:`sspinn.model.body.JointLimits` (default:
   :func:`~predictive.ocp.settings.default_joint_limits`, knee ≤ 0), pelvis height and trunk tilt
   ranges, |τ| ≤ 3·τmax, duration bounds.
