@@ -652,12 +652,15 @@ class PredictiveGaitProblem:
         u = nodes[sl["u"]].T * self.u_scale
         a = nodes[sl["a"]].T * self.a_scale
         tau = nodes[sl["tau"]].T * self.tau_max
+        grf, w = (np.asarray(x) for x in dyn.contact_forces(q, u, self.body, self.contact))
         if s.gait_cycle == "half":
             q2 = mirror_states(q.T).T
             q2[:, 0] += v * T / 2
             q = np.vstack([q, q2])
             u, a, tau = (np.vstack([x, mirror_states(x.T).T]) for x in (u, a, tau))
-        grf, w = dyn.contact_forces(q, u, self.body, self.contact)
+            # the second half is the first with the feet swapped (the forces too: recomputed on the
+            # mirrored states, a body with unequal legs would sink one foot into the floor)
+            grf, w = np.vstack([grf, grf[:, [2, 3, 0, 1]]]), np.vstack([w, w[:, ::-1]])
         n_cycle = q.shape[0]
         return GaitSolution(
             time=np.arange(n_cycle) * T / n_cycle,
@@ -665,8 +668,8 @@ class PredictiveGaitProblem:
             u=u,
             qdd=a,
             tau=tau,
-            grf=np.asarray(grf),
-            w=np.asarray(w),
+            grf=grf,
+            w=w,
             speed=v,
             duration=float(T),
             body_parameters=self.body.to_dict(),
