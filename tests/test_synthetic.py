@@ -182,7 +182,7 @@ def test_cli_reports_size_time_and_residual(generated, tmp_path: Path, capsys: p
     path = tmp_path / "tiny.yaml"
     path.write_text(yaml.safe_dump(config.to_dict()))
     assert SynthConfig.from_yaml(path) == config
-    args = ["synth", "--config", str(path), "--out", str(tmp_path / "cli"), "--no-progress", "--allow-outside-norms"]
+    args = ["synth", "--config", str(path), "--out", str(tmp_path / "cli"), "--no-progress"]
     code = cli_main(args)
     out = capsys.readouterr().out
     assert code == 0
@@ -194,8 +194,8 @@ def test_cli_reports_size_time_and_residual(generated, tmp_path: Path, capsys: p
 
 def test_cli_refuses_a_dataset_outside_the_norms(generated, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                  capsys: pytest.CaptureFixture[str]) -> None:
-    """Unless told --allow-outside-norms, ``predictive synth`` writes nothing when a recording has
-    too few stances inside the human ranges (here: a share above 100 % is asked, so every one fails)."""
+    """With --require-norms, ``predictive synth`` writes nothing when a recording has too few
+    stances inside the human ranges (here: a share above 100 % is asked, so every one fails)."""
     from predictive.synth import norms
 
     config, _, dataset, _ = generated
@@ -204,7 +204,7 @@ def test_cli_refuses_a_dataset_outside_the_norms(generated, tmp_path: Path, monk
     monkeypatch.setattr(norms, "MIN_INSIDE", 1.01)
     path = tmp_path / "tiny.yaml"
     path.write_text(yaml.safe_dump(config.to_dict()))
-    code = cli_main(["synth", "--config", str(path), "--out", str(tmp_path / "refused"), "--no-progress"])
+    code = cli_main(["synth", "--config", str(path), "--out", str(tmp_path / "refused"), "--no-progress", "--require-norms"])
     err = capsys.readouterr().err
     assert code != 0 and "human gait norms" in err and "nothing written" in err
     assert not (tmp_path / "refused" / "dataset.json").exists()

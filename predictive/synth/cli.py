@@ -44,9 +44,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     p.add_argument("--seed", type=bounded(int, 0, MAX_SEED), default=None, help=f"override the config's seed (0–{MAX_SEED})")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--allow-outside-norms", action="store_true",
-                   help="write the dataset even if a recording has fewer than 95 %% of its stances inside the human "
-                   "gait norms (default: refuse, nothing written)")
+    p.add_argument("--require-norms", action="store_true",
+                   help="refuse (write nothing) if a recording has fewer than 95 %% of its stances inside the human "
+                   "gait norms (default: write it, print every recording against the norms and warn)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace a dataset of another configuration in --out (the same configuration is written again anyway)")
     return p
@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     dataset = generate_dataset(config, args.out, progress=not args.no_progress, cache_dir=args.cache_dir,
                                overwrite=args.overwrite,
-                               outside_norms="warn" if args.allow_outside_norms else "refuse")
+                               outside_norms="refuse" if args.require_norms else "warn")
     elapsed = time.perf_counter() - t0
     info = dataset.info
     size = sum(p.stat().st_size for p in Path(args.out).iterdir() if p.is_file())

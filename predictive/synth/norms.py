@@ -8,8 +8,9 @@ begins) and then judges every stance against :func:`sspinn.data.gait_norms.human
 speed label of its first sample (clipped to the ranges' speeds). A tap (a contact too short to be
 a stance) counts as a stance outside the norms. :class:`RecordingNorms` holds the counts, the
 share inside and the medians; :func:`outside_norms` lists the recordings with fewer than
-:data:`MIN_INSIDE` of their stances inside, which ``python -m predictive synth`` refuses to write
-unless told ``--allow-outside-norms`` (:func:`predictive.synth.pipeline.generate_dataset`).
+:data:`MIN_INSIDE` of their stances inside: ``python -m predictive synth`` prints every recording's
+line, warns about those and, with ``--require-norms``, refuses to write such a dataset
+(:func:`predictive.synth.pipeline.generate_dataset`).
 """
 
 from __future__ import annotations

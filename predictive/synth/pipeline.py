@@ -266,7 +266,7 @@ def generate_dataset(
         raise NormsError(
             f"{len(failing)} of {len(norms)} recording(s) have fewer than {100 * MIN_INSIDE:.0f} % of their stances inside "
             "the human gait norms: " + "; ".join(norms[n].line() for n in failing)
-            + " (nothing written; --allow-outside-norms writes it anyway)"
+            + " (nothing written: --require-norms)"
         )
     events += [{"recording": n, "event": "outside_norms", "detail": norms[n].line()} for n in failing]
     for e in events:
