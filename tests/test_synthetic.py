@@ -87,17 +87,19 @@ def _sliding_power(rec: Recording) -> float:
 
 
 def test_the_sliding_power_term_stops_the_feet_skidding(generated, tmp_path: Path) -> None:
-    """``stride.w_slip`` penalises the power of friction on sliding contact points: the same tiny
-    dataset skids less (the smooth contact model otherwise lets the optimiser brake a foot by
-    dragging it), and its labels still satisfy the equations of motion."""
+    """``stride.w_slip`` (default 100) penalises the power of friction on sliding contact points:
+    the tiny dataset skids less than the same one made with ``w_slip = 0`` (the smooth contact model
+    otherwise lets the optimiser brake a foot by dragging it), and its labels still satisfy the
+    equations of motion."""
     from predictive.ocp.stride_nlp import StrideSettings
 
-    config, root, _, _ = generated
-    slip = dataclasses.replace(config, stride=StrideSettings(w_slip=100.0), cache_dir=str(tmp_path / "cache"))
-    assert slip.key() != config.key()
-    dataset = generate_dataset(slip, tmp_path / "out", progress=False)
-    before = {r.name: _sliding_power(r) for split in ("train", "test") for r in Dataset.open(root / "out").load(split)}
-    after = {r.name: _sliding_power(r) for split in ("train", "test") for r in dataset.load(split)}
+    config, root, dataset, _ = generated
+    assert config.stride.w_slip == 100.0
+    no_slip = dataclasses.replace(config, stride=StrideSettings(w_slip=0.0), cache_dir=str(tmp_path / "cache"))
+    assert no_slip.key() != config.key()
+    skidding = generate_dataset(no_slip, tmp_path / "out", progress=False)
+    before = {r.name: _sliding_power(r) for split in ("train", "test") for r in skidding.load(split)}
+    after = {r.name: _sliding_power(r) for split in ("train", "test") for r in Dataset.open(root / "out").load(split)}
     assert after.keys() == before.keys()
     for name in before:
         assert after[name] < 0.5 * before[name], (name, before[name], after[name])
@@ -180,11 +182,32 @@ def test_cli_reports_size_time_and_residual(generated, tmp_path: Path, capsys: p
     path = tmp_path / "tiny.yaml"
     path.write_text(yaml.safe_dump(config.to_dict()))
     assert SynthConfig.from_yaml(path) == config
-    code = cli_main(["synth", "--config", str(path), "--out", str(tmp_path / "cli"), "--no-progress"])
+    args = ["synth", "--config", str(path), "--out", str(tmp_path / "cli"), "--no-progress"]
+    code = cli_main(args)
     out = capsys.readouterr().out
     assert code == 0
     assert "Kane residual" in out and "MB" in out and "time" in out
     assert (tmp_path / "cli" / "dataset.json").exists()
+    # every recording against the human norms, one line each
+    assert "human gait norms" in out and all(f"{name} " in out for name in generated[2].info["recordings"])
+
+
+def test_cli_refuses_a_dataset_outside_the_norms(generated, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """With --require-norms, ``predictive synth`` writes nothing when a recording has too few
+    stances inside the human ranges (here: a share above 100 % is asked, so every one fails)."""
+    from predictive.synth import norms
+
+    config, _, dataset, _ = generated
+    for rec in dataset.info["recordings"].values():
+        assert {"fraction_inside", "peak_median_bw", "passed", "line"} <= rec["norms"].keys()
+    monkeypatch.setattr(norms, "MIN_INSIDE", 1.01)
+    path = tmp_path / "tiny.yaml"
+    path.write_text(yaml.safe_dump(config.to_dict()))
+    code = cli_main(["synth", "--config", str(path), "--out", str(tmp_path / "refused"), "--no-progress", "--require-norms"])
+    err = capsys.readouterr().err
+    assert code != 0 and "human gait norms" in err and "nothing written" in err
+    assert not (tmp_path / "refused" / "dataset.json").exists()
 
 
 # ------------------------------------------------------------------------------ unit tests

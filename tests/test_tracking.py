@@ -34,12 +34,15 @@ DORSCHKY = SHARED_DATA / "dorschky_P03_walking"
 #: objectives 0.18–1.68 (sometimes with a flight phase) under 1e-9 guess perturbations; on 2 × 20
 #: nodes 0.203–0.204 (scripts/check_robustness.py).
 SPEED, DURATION, HALF_NODES = 1.2, 1.2, 20
+#: The tracking problems' own objective (TrackingSettings: squared effort, no human priors), so that
+#: a predictive gait solved with it is an optimum of the tracking problem too.
+TRACKING_OBJECTIVE = {"effort": "squared", "w_grf_cap": 0.0, "w_angle_prior": 0.0, "w_grf_prior": 0.0, "w_slip": 0.0}
 
 
 @pytest.fixture(scope="module")
 def reference() -> GaitSolution:
     """The predictive gait, started at its right heel strike like an averaged stride."""
-    sol = solve_predictive(SPEED, n_nodes=HALF_NODES, duration=DURATION)
+    sol = solve_predictive(SPEED, n_nodes=HALF_NODES, duration=DURATION, **TRACKING_OBJECTIVE)
     return roll_cycle(sol, sol.right_heel_strike())
 
 
@@ -49,7 +52,7 @@ def test_tracking_own_kinematics_recovers_the_solution(reference: GaitSolution) 
     # default guess when the kinematics are tracked: data kinematics, inverse-dynamics torques)
     # and from a different gait (the predictive one at 0.9 m/s, in the same phase) — returns
     # the lowest objective, which must be that optimum.
-    other = solve_predictive(0.9, n_nodes=HALF_NODES, duration=DURATION)
+    other = solve_predictive(0.9, n_nodes=HALF_NODES, duration=DURATION, **TRACKING_OBJECTIVE)
     other = roll_cycle(other, other.right_heel_strike())
     names = [c for c in COORDINATES if c != "pelvis_tx"]
     signals = [TrackedSignal(s.name, s.target, s.scale, weight=100.0) for s in signals_from_solution(reference, names)]

@@ -9,7 +9,7 @@ Recordings (``$SSPINN_SHARED_DATA`` or ``--data``; a missing folder is skipped w
   the speed is not recorded, the walking ranges at 1.3 m/s are applied; the IK angles (60 Hz) with
   the GRF resampled to them give the hip/knee/ankle RMSD to Winter's walking.
 * ``opensim_hamner_run``: treadmill running, 60 Hz GRF, 65.9 kg, belt speed estimated from the IK
-  and the GRF (:func:`sspinn.validation.semi_real_running.estimate_belt_speed`).
+  and the GRF (``estimate_belt_speed`` of ``benchmarks/accuracy/semi_real_running.py``).
 * ``cmu_treadmill_imu_grf``: six adults at Froude 0.25 (0.73–0.77 m/s, ``subjects.csv``), 100 Hz
   treadmill GRF, the normal (``CSBaseline``) and the mock stiff-knee (``CSStiffKnee``) trials; the
   walking ranges of the slowest tabulated speed (0.8 m/s) apply.
@@ -86,7 +86,7 @@ def _subject01(data: Path) -> list[tuple[str, Any]]:
 
 def _hamner(data: Path) -> list[tuple[str, Any]]:
     from sspinn.data.gait_norms import check_gait_norms
-    from sspinn.validation.semi_real_running import estimate_belt_speed, read_hamner_files
+    from benchmarks.accuracy.semi_real_running import estimate_belt_speed, read_hamner_files
 
     files = read_hamner_files(data / "opensim_hamner_run")
     speed = estimate_belt_speed(files).speed

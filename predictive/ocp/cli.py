@@ -4,8 +4,10 @@
 
 Solves the predictive gait problem (:func:`predictive.ocp.collocation.solve_predictive`), prints
 IPOPT's status, iterations, solve time, the Kane residual at the nodes, stance fractions and —
-when Winter's walking is at hand (``--data-dir`` or ``$SSPINN_SHARED_DATA``) — the RMSD against Winter's normal walking, and
-writes ``<out>.npz``/``<out>.json`` (the solution), ``<out>_summary.json`` and ``<out>.png``
+when Winter's walking is at hand (``--data-dir`` or ``$SSPINN_SHARED_DATA``) — the RMSD against Winter's normal walking,
+the gait against the human norms at its speed (``human_norms``: per-stance vertical GRF peak and
+valley, stance / double-support / flight shares, cadence, angle RMSD;
+:func:`predictive.ocp.gait_analysis.solution_norms`), and writes ``<out>.npz``/``<out>.json`` (the solution), ``<out>_summary.json`` and ``<out>.png``
 (angles and GRF versus % gait cycle). When ``--out`` already holds a solution, it writes to the
 first free ``<out>_2``, ``<out>_3``, … and says so, unless ``--overwrite``.
 """
@@ -20,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from predictive.ocp.collocation import OCPError, solve_predictive
-from predictive.ocp.gait_analysis import compare_with_reference, load_winter, plot_gait
+from predictive.ocp.gait_analysis import compare_with_reference, load_winter, plot_gait, solution_norms
 from predictive.ocp.limits import (
     DURATION_RANGE_S,
     NODES_RANGE,
@@ -52,12 +54,17 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
                        help="put the nodes on a sampling grid of this rate, e.g. 100 (instead of --nodes; "
                        f"{RATE_RANGE_HZ[0]:g}–{RATE_RANGE_HZ[1]:g} Hz, at most {NODES_RANGE[1]} nodes)")
     solve.add_argument("--cycle", choices=("half", "full"), default="half", help="symmetric half or full cycle")
-    solve.add_argument("--effort", choices=("squared", "cubed"), default="squared")
+    solve.add_argument("--effort", choices=("squared", "cubed"), default="cubed",
+                       help="exponent of the normalised torques in the effort (default cubed)")
     solve.add_argument("--duration", type=bounded(float, *DURATION_RANGE_S, " s"), default=None,
                        help=f"stride duration, {DURATION_RANGE_S[0]:g}–{DURATION_RANGE_S[1]:g} s (default: typical)")
     solve.add_argument("--free-duration", action="store_true", help="optimise the stride duration")
     solve.add_argument("--w-acc", type=bounded(float, *WEIGHT_RANGE), default=None,
                        help=f"weight of the acceleration regularisation ({WEIGHT_RANGE[0]:g}–{WEIGHT_RANGE[1]:g})")
+    for flag, what in (("--w-grf-cap", "GRF cap prior"), ("--w-angle-prior", "Winter angle prior (walking)"),
+                       ("--w-grf-prior", "Winter vertical-GRF prior (walking)"), ("--w-slip", "sliding-power term")):
+        solve.add_argument(flag, type=bounded(float, *WEIGHT_RANGE), default=None,
+                           help=f"weight of the {what} (default: predictive.ocp.settings.ProblemSettings; 0 leaves it out)")
     solve.add_argument("--guess", type=Path, default=None, help="previous solution (.npz/.json) as initial guess")
     solve.add_argument("--height", type=float, default=1.75, help="body height, m")
     solve.add_argument("--mass", type=float, default=70.0, help="body mass, kg")
@@ -86,7 +93,8 @@ def run(args: argparse.Namespace) -> int:
     _check_solve_args(args)
     args.out = output_target(args.out, stem_outputs(SOLUTION_OUTPUTS), args.overwrite, "a solution")
     body = BodyParameters.from_anthropometry(args.height, args.mass)
-    extra = {} if args.w_acc is None else {"w_acc": args.w_acc}
+    extra = {name: getattr(args, name) for name in ("w_acc", "w_grf_cap", "w_angle_prior", "w_grf_prior", "w_slip")
+             if getattr(args, name) is not None}
     guess = GaitSolution.load(args.guess) if args.guess is not None else None
     try:
         sol = solve_predictive(
@@ -125,6 +133,10 @@ def run(args: argparse.Namespace) -> int:
             print(f"(no comparison with Winter: {exc})")
         else:
             summary.update({f"winter_{k}": v for k, v in compare_with_reference(sol, reference).items()})
+    if sol.speed > 0:  # human norms (sspinn.data.gait_norms); the RMSD where Winter's walking is at hand
+        norms = solution_norms(sol, reference)
+        summary["human_norms"] = norms.summary()
+        summary["human_norms_passed"] = norms.passed
     summary_path = args.out.with_name(args.out.name + "_summary.json")
     summary_text = json_text(summary, label=summary_path)  # refuses NaN before anything is written
     npz = sol.save(args.out)

@@ -42,8 +42,10 @@ ankle dorsiflexion +, a positive pelvis_tilt leans the trunk back):
   first-order discretisation error between the nodes (see
   :meth:`GaitSolution.resampled_residual`).
 * **Objective** (dimensionless), per unit distance up to the constant factor 1/v:
-  ``mean_k Σ_j |τ_kj/τmax_j|^e  +  w_acc · mean_k Σ_i (q̈_ki·T²/(4π²))²`` with ``e = 2``
-  ("squared") or ``3`` ("cubed"), τmax = 0.1·BW·H (≈120 N·m for 1.75 m, 70 kg) for every joint,
+  ``mean_k Σ_j |τ_kj/τmax_j|^e  +  w_acc · mean_k Σ_i (q̈_ki·T²/(4π²))²  +  human priors`` with
+  ``e = 3`` ("cubed", the default; Ackermann & van den Bogert 2010, J Biomech 43:1055: high
+  exponents give more realistic double support and GRF) or ``2`` ("squared"), τmax = 0.1·BW·H
+  (≈120 N·m for 1.75 m, 70 kg) for every joint,
   except that the ankle's strength depends on its angle θ (muscle force–length relation):
   plantarflexor torque (τ < 0) is divided by exp(k·θ), dorsiflexor torque by exp(−k·θ), with
   k = 1 /rad (plantarflexors at half strength near 40° plantarflexion, as in human
@@ -56,7 +58,14 @@ ankle dorsiflexion +, a positive pelvis_tilt leans the trunk back):
   of transport of this effort measure. The second term regularises accelerations and smooths the
   motion (fewer impact spikes, no chattering): q̈·T²/(4π²) is the acceleration on the
   normalised cycle (for q = A·sin(2πt/T) its amplitude is A, in rad or m), so the term does
-  not favour slow or fast strides when the duration is free.
+  not favour slow or fast strides when the duration is free. The **human priors**
+  (:meth:`PredictiveGaitProblem._prior_terms`; why and their sources in
+  :mod:`predictive.ocp.settings`): the power of friction on sliding contact points
+  (``w_slip``), a soft cap of the vertical GRF inside the human peak range at the speed
+  (``w_grf_cap``) and, when walking, Winter's joint angles (``w_angle_prior``) and vertical GRF
+  (``w_grf_prior``) with the right heel strike at node 0. With the squared effort and no priors
+  the model walked stiff-legged (1.77 BW heel-strike peak, 8 % double support, 54 % stance at
+  1.3 m/s; docs/results/gait_norms.md has the figures arm by arm).
 * **Bounds.** Joint ranges from :class:`sspinn.model.body.JointLimits` (default:
   :func:`~predictive.ocp.settings.default_joint_limits`, knee ≤ 0), pelvis height and trunk tilt
   ranges, |τ| ≤ 3·τmax, duration bounds.
@@ -103,11 +112,20 @@ from predictive.ocp.generic_gait import generic_gait, typical_stride_duration
 from predictive.ocp.limits import NODES_RANGE, check_nodes, check_speed
 from predictive.ocp.settings import (
     ACC_SCALE,
+    WALK_RUN_SPEED,
+    Effort,
     ProblemSettings,
     acceleration_regularisation,
+    angle_prior,
     default_joint_limits,
+    effort_power,
+    grf_cap_bw,
+    grf_cap_penalty,
     nlp_scales,
+    sliding_power,
     strength_scaled,
+    winter_angles,
+    winter_grf,
 )
 from predictive.ocp.solution import GaitSolution, mirror_states
 from sspinn.model import dynamics as dyn
@@ -115,7 +133,6 @@ from sspinn.model.body import BodyParameters, JointLimits
 from sspinn.model.contact import ContactParameters
 from sspinn.model.conventions import N_Q, N_TAU
 
-Effort = Literal["squared", "cubed"]
 GaitCycle = Literal["full", "half"]
 
 #: IPOPT return statuses that count as a solved problem.
@@ -170,14 +187,13 @@ class OCPSettings(ProblemSettings):
     """Settings of :func:`solve_predictive` (stored with every solution): the periodic problem's
     own fields below plus the model, bounds, effort and IPOPT fields of
     :class:`~predictive.ocp.settings.ProblemSettings` (keyword-only; ``tau_max``, ``tau_bound``,
-    ``w_acc``, ``ankle_strength_slope``, ``pelvis_height_bounds``, ``tilt_bounds``, ``tol``,
-    ``constr_tol`` 1e-8, ``max_iter`` 3000).
+    ``effort``, the human priors' weights, ``w_acc``, ``ankle_strength_slope``,
+    ``pelvis_height_bounds``, ``tilt_bounds``, ``tol``, ``constr_tol`` 1e-8, ``max_iter`` 3000).
 
     Attributes:
         speed: average forward speed v, m/s (pelvis_tx advances v·T per cycle); with
             ``free_speed`` only the initial guess.
         n_nodes: collocation nodes per simulated interval (the whole cycle, or half of it).
-        effort: "squared" or "cubed" exponent of the normalised torques.
         gait_cycle: "full" (one periodic cycle, no symmetry assumed) or "half" (half a cycle,
             the second half is the first with left and right swapped).
         duration: stride (cycle) duration in s; None: :func:`typical_stride_duration` of the speed.
@@ -190,7 +206,6 @@ class OCPSettings(ProblemSettings):
 
     speed: float
     n_nodes: int = 50
-    effort: Effort = "squared"
     gait_cycle: GaitCycle = "half"
     duration: float | None = None
     free_duration: bool = False
@@ -203,8 +218,6 @@ class OCPSettings(ProblemSettings):
             raise ValueError(f"speed must be a finite number >= 0 m/s, got {self.speed!r}")
         if not NODES_RANGE[0] <= self.n_nodes <= NODES_RANGE[1]:
             raise ValueError(f"n_nodes must be in {NODES_RANGE[0]}–{NODES_RANGE[1]}, got {self.n_nodes}")
-        if self.effort not in ("squared", "cubed"):
-            raise ValueError(f"effort must be 'squared' or 'cubed', got {self.effort!r}")
         if self.gait_cycle not in ("full", "half"):
             raise ValueError(f"gait_cycle must be 'full' or 'half', got {self.gait_cycle!r}")
         lo, hi = self.duration_bounds
@@ -272,6 +285,7 @@ class NodeExpressions:
         grf: ground reaction forces [Fx_r, Fy_r, Fx_l, Fy_l], N (contact model).
         T: cycle duration, s.
         v: average speed, m/s.
+        slip: each foot's sliding power F_x·ẋ_c / BW (2), m/s (:func:`~predictive.ocp.settings.sliding_power`).
     """
 
     q: list[Any]
@@ -282,6 +296,7 @@ class NodeExpressions:
     grf: list[Any]
     T: Any
     v: Any
+    slip: list[Any] = field(default_factory=list)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -320,11 +335,12 @@ class PredictiveGaitProblem:
 
     # ----------------------------------------------------------------- building blocks
     def _build_node_function(self) -> ca.Function:
-        """(q, u, a, tau) → (scaled Kane residual (9), grf (4) in N, w (2))."""
+        """(q, u, a, tau) → (scaled Kane residual (9), grf (4) in N, w (2), sliding power (2) in BW·m/s)."""
         q, u, a, tau = (ca.SX.sym(name, n) for name, n in (("q", N_Q), ("u", N_Q), ("a", N_Q), ("tau", N_TAU)))
         grf, w = dyn.contact_forces(q, u, self.body, self.contact)
         r = dyn.kane_residual(q, u, a, tau, grf, w, self.body)
-        return ca.Function("node", [q, u, a, tau], [r / ca.DM(self.res_scale), grf, w])
+        slip = sliding_power(q, u, a, grf, w, self.body) / self.bw
+        return ca.Function("node", [q, u, a, tau], [r / ca.DM(self.res_scale), grf, w, slip])
 
     @property
     def _n_intervals_per_cycle(self) -> int:
@@ -356,7 +372,7 @@ class PredictiveGaitProblem:
         h = T / self._n_intervals_per_cycle
 
         g: list[Any] = []
-        grf = []
+        grf, slip = [], []
         for k in range(lay.n):
             if k == 0:
                 q_prev, u_prev = self._previous_state(q[-1], u[-1], T, v)
@@ -364,11 +380,14 @@ class PredictiveGaitProblem:
                 q_prev, u_prev = q[k - 1], u[k - 1]
             g.append(((q[k] - q_prev) / h - u[k]) / us)
             g.append(((u[k] - u_prev) / h - a[k]) / as_)
-            res, grf_k, _ = self._node_fun(q[k], u[k], a[k], tau[k])
+            res, grf_k, _, slip_k = self._node_fun(q[k], u[k], a[k], tau[k])
             g.append(res)
             grf.append(grf_k)
+            slip.append(slip_k)
         tau_scaled = [nodes[sl["tau"], k] for k in range(lay.n)]
-        objective = self._objective(NodeExpressions(q=q, u=u, a=a, tau=tau, tau_scaled=tau_scaled, grf=grf, T=T, v=v))
+        objective = self._objective(
+            NodeExpressions(q=q, u=u, a=a, tau=tau, tau_scaled=tau_scaled, grf=grf, T=T, v=v, slip=slip)
+        )
         nlp = {"x": z, "f": objective, "g": ca.vertcat(*g)}
 
         # bounds (physical → scaled)
@@ -392,15 +411,38 @@ class PredictiveGaitProblem:
         reg = 0
         for k in range(self.layout.n):
             tn = strength_scaled(x.tau_scaled[k], x.q[k], s.ankle_strength_slope)
-            effort += ca.sum1(tn**2) if s.effort == "squared" else ca.sum1(ca.fabs(tn) ** 3)
+            effort += ca.sum1(effort_power(tn, s.effort))
             reg += acceleration_regularisation(x.a[k], x.T)
         return effort / self.layout.n, reg / self.layout.n
 
+    def _prior_terms(self, x: NodeExpressions) -> Any:
+        """The human priors (:mod:`predictive.ocp.settings`), averaged over the nodes: w_grf_cap ×
+        the GRF cap's excess (BW²), w_slip × the squared sliding power ((BW·m/s)²) and, when
+        walking, w_angle_prior × the angle prior against Winter's walking with the right heel
+        strike at node 0 (the left leg half a cycle later)."""
+        s, n = self.settings, self.layout.n
+        total = 0
+        if s.w_slip:
+            total += s.w_slip * sum(ca.sumsqr(x.slip[k]) for k in range(n)) / n
+        if s.w_grf_cap:
+            cap = grf_cap_bw(s.speed, s.grf_cap_fraction)
+            total += s.w_grf_cap * sum(grf_cap_penalty(x.grf[k][[1, 3]] / self.bw, cap) for k in range(n)) / n
+        walking = 0 < s.speed < WALK_RUN_SPEED
+        phase = np.arange(n) / self._n_intervals_per_cycle
+        if s.w_angle_prior and walking:
+            ref = np.concatenate([winter_angles(phase), winter_angles((phase + 0.5) % 1.0)], axis=1)  # JOINTS order
+            total += s.w_angle_prior * sum(angle_prior(x.q[k][3:], ca.DM(ref[k]), s.angle_prior_sd_deg) for k in range(n)) / n
+        if s.w_grf_prior and walking:
+            fy = np.stack([winter_grf(phase), winter_grf((phase + 0.5) % 1.0)], axis=1)
+            dev = [(x.grf[k][[1, 3]] / self.bw - ca.DM(fy[k])) / s.grf_prior_sd_bw for k in range(n)]
+            total += s.w_grf_prior * sum(ca.sumsqr(d) for d in dev) / (2 * n)
+        return total
+
     def _objective(self, x: NodeExpressions) -> Any:
-        """The NLP objective (dimensionless): effort + w_acc · regularisation (module docstring).
-        Subclasses override this to add terms (e.g. tracking errors)."""
+        """The NLP objective (dimensionless): effort + w_acc · regularisation + the human priors
+        (module docstring). Subclasses override this to add terms (e.g. tracking errors)."""
         effort, reg = self._effort_terms(x)
-        return effort + self.settings.w_acc * reg
+        return effort + self.settings.w_acc * reg + self._prior_terms(x)
 
     def prepare(self, ipopt_options: Mapping[str, Any] | None = None, verbose: bool = False) -> None:
         """Build the IPOPT solver of these options now rather than on the first :meth:`solve`
@@ -610,12 +652,15 @@ class PredictiveGaitProblem:
         u = nodes[sl["u"]].T * self.u_scale
         a = nodes[sl["a"]].T * self.a_scale
         tau = nodes[sl["tau"]].T * self.tau_max
+        grf, w = (np.asarray(x) for x in dyn.contact_forces(q, u, self.body, self.contact))
         if s.gait_cycle == "half":
             q2 = mirror_states(q.T).T
             q2[:, 0] += v * T / 2
             q = np.vstack([q, q2])
             u, a, tau = (np.vstack([x, mirror_states(x.T).T]) for x in (u, a, tau))
-        grf, w = dyn.contact_forces(q, u, self.body, self.contact)
+            # the second half is the first with the feet swapped (the forces too: recomputed on the
+            # mirrored states, a body with unequal legs would sink one foot into the floor)
+            grf, w = np.vstack([grf, grf[:, [2, 3, 0, 1]]]), np.vstack([w, w[:, ::-1]])
         n_cycle = q.shape[0]
         return GaitSolution(
             time=np.arange(n_cycle) * T / n_cycle,
@@ -623,8 +668,8 @@ class PredictiveGaitProblem:
             u=u,
             qdd=a,
             tau=tau,
-            grf=np.asarray(grf),
-            w=np.asarray(w),
+            grf=grf,
+            w=w,
             speed=v,
             duration=float(T),
             body_parameters=self.body.to_dict(),
@@ -640,7 +685,7 @@ def solve_predictive(
     body: BodyParameters | None = None,
     *,
     n_nodes: int | None = None,
-    effort: Effort = "squared",
+    effort: Effort = "cubed",
     gait_cycle: GaitCycle = "half",
     guess: GaitSolution | None = None,
     duration: float | None = None,

@@ -13,10 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
+from predictive.ocp.settings import WALK_RUN_SPEED
 from predictive.ocp.solution import CONTACT_THRESHOLD_BW, GaitSolution
 
 # the reference gait and its loader live with the gait metrics (usable by envs and agents too)
 from sspinn.data.gait_metrics import ReferenceGait, load_winter  # noqa: F401 (re-exported)
+from sspinn.data.gait_norms import SPEED_LIMITS, GaitNormsReport, check_gait_norms
 from sspinn.model.drawing import save_figure
 
 #: Compared signals: name → (sspinn column in q (rad) or grf (BW), Winter column).
@@ -46,6 +48,22 @@ def normalised_cycle(sol: GaitSolution, n: int = 100, threshold_bw: float = CONT
         speed=sol.speed,
         duration=sol.duration,
     )
+
+
+def solution_norms(sol: GaitSolution, reference: ReferenceGait | None = None, cycles: int = 4) -> GaitNormsReport:
+    """The periodic solution against the human gait norms at its speed
+    (:func:`sspinn.data.gait_norms.check_gait_norms`; running at or above
+    :data:`~predictive.ocp.settings.WALK_RUN_SPEED`, the speed clipped to the norms' speeds): the
+    cycle repeated ``cycles`` times on its node grid, the angles' RMSD to ``reference`` (e.g.
+    Winter's walking) where given."""
+    if not 2 <= cycles <= 20:
+        raise ValueError(f"cycles must be 2–20, got {cycles}")
+    mode = "run" if sol.speed >= WALK_RUN_SPEED else "walk"
+    low, high = SPEED_LIMITS[mode]
+    times = np.arange(cycles * sol.n_nodes) * sol.duration / sol.n_nodes
+    repeated = sol.resample(times, period=sol.duration, speed=sol.speed)
+    return check_gait_norms(repeated, float(np.clip(sol.speed, low, high)), mode, body_weight_n=sol.body_weight,
+                            reference=reference)
 
 
 def compare_with_reference(sol: GaitSolution, ref: ReferenceGait) -> dict[str, float]:

@@ -21,8 +21,14 @@ problem (:class:`~predictive.ocp.settings.ProblemSettings`, the base of :class:`
   node, and each stride's average speed: ``pelvis_tx(last node) − pelvis_tx(prev) = v_k·T_k``
   (exact). Bounds as in the periodic problem (joint ranges, pelvis height and tilt, |τ| ≤ 3·τmax).
 * **Objective.** The periodic problem's dimensionless effort with per-joint weights ``c_j``,
-  ``mean_k Σ_j c_j·(τ_kj/τmax_j · s_j(θ))² + w_acc·mean_k Σ_i (q̈_ki·T²/(4π²))²`` per stride,
-  summed over the horizon, plus a terminal tracking term
+  ``mean_k Σ_j c_j·|τ_kj/τmax_j · s_j(θ)|^e + w_acc·mean_k Σ_i (q̈_ki·T²/(4π²))²`` per stride
+  (e = 3 for the default ``effort="cubed"``), summed over the horizon, with the periodic problem's
+  human priors (:mod:`predictive.ocp.settings`): the GRF cap at the stride's planned speed, and
+  — instead of Winter's angles, whose phase a stride of a chain does not know — the angle prior
+  towards the stride's guess (the subject's periodic gait at that speed and phase, blended from
+  the previous state; the posture at rest for strides from and to rest: ``prior_q`` of
+  :meth:`StrideProblem.solve`) and the vertical-GRF prior towards that gait's forces
+  (``prior_grf``), plus a terminal tracking term
   ``w_terminal · (Σ_{i≥1} ((q_i − q_ref,i)/σ_q)² + Σ_i ((u_i − u_ref,i)/σ_u,i)²) / 18`` at the
   horizon's last node toward the periodic gait at that stride's speed and phase. Without it the
   end state is free and a chain of greedy strides drifts (a single stride's effort is lowest
@@ -68,7 +74,6 @@ from predictive.ocp import perturbation
 from predictive.ocp import settings as ocp
 from predictive.ocp.collocation import OCPSettings
 from sspinn.model import dynamics as dyn
-from sspinn.model import kinematics
 from sspinn.model.body import N_PARAMETERS, BodyParameters, JointLimits
 from sspinn.model.contact import ContactParameters
 from sspinn.model.conventions import N_Q, N_TAU
@@ -86,7 +91,7 @@ WARM_START_IPOPT: Final[dict[str, Any]] = {
 }
 
 _PER_NODE: Final = 3 * N_Q + N_TAU  # q_rel, u, q̈, τ (scaled)
-_NODE_PAR: Final = 3 + N_TAU  # active, 1/N, T, effort weights
+_NODE_PAR: Final = 6 + 2 * N_TAU  # active, 1/N, T, effort weights, GRF cap (BW), prior joint angles (rad), prior F_y (BW)
 
 
 def bucket_for(n_nodes: int, buckets: Sequence[int] = DEFAULT_BUCKETS) -> int:
@@ -108,8 +113,6 @@ class StrideSettings(ocp.ProblemSettings):
     Attributes:
         h: time step, s (backward Euler; the sample interval of the recordings).
         w_terminal: weight of the terminal tracking term (dimensionless, see the module docstring).
-        w_slip: weight of the sliding-power term (dimensionless, see the module docstring); 0
-            (the default) leaves it out.
         sigma_q: terminal tolerance of q (except pelvis_tx), m or rad.
         sigma_u_joint: terminal tolerance of the angular speeds, rad/s.
         sigma_u_ty: terminal tolerance of the vertical pelvis speed, m/s.
@@ -122,7 +125,6 @@ class StrideSettings(ocp.ProblemSettings):
 
     h: float = 0.01
     w_terminal: float = 2.0
-    w_slip: float = 0.0
     sigma_q: float = 0.05
     sigma_u_joint: float = 0.5
     sigma_u_ty: float = 0.2
@@ -138,8 +140,6 @@ class StrideSettings(ocp.ProblemSettings):
         super().__post_init__()
         if self.w_terminal < 0:
             raise ValueError(f"w_terminal must be >= 0, got {self.w_terminal}")
-        if not self.w_slip >= 0:
-            raise ValueError(f"w_slip must be >= 0, got {self.w_slip}")
         if not self.buckets or min(self.buckets) < 2:
             raise ValueError(f"buckets must be node counts >= 2, got {self.buckets}")
 
@@ -285,7 +285,8 @@ class StrideProblem:
 
         Inputs: the node's scaled variables (33); the previous node's scaled (q_rel, u) (18);
         body (41), residual scale (9), τmax (6), u scale (9), previous pelvis_tx (1); the node
-        parameters (active, 1/N, T, effort weights (6)).
+        parameters (active, 1/N, T, effort weights (6), GRF cap (BW), prior joint angles (6),
+        prior vertical GRF (2, BW)).
         """
         s = self.settings
         z, zp = ca.SX.sym("z", _PER_NODE), ca.SX.sym("zp", 2 * N_Q)
@@ -293,7 +294,8 @@ class StrideProblem:
         res_scale, tau_max, us = ca.SX.sym("res_scale", N_Q), ca.SX.sym("tau_max", N_TAU), ca.SX.sym("us", N_Q)
         x0 = ca.SX.sym("x0")
         npar = ca.SX.sym("node", _NODE_PAR)
-        active, inv_n, T, c = npar[0], npar[1], npar[2], npar[3:]
+        active, inv_n, T, c = npar[0], npar[1], npar[2], npar[3 : 3 + N_TAU]
+        cap, joints_prior, fy_prior = npar[3 + N_TAU], npar[4 + N_TAU : 4 + 2 * N_TAU], npar[4 + 2 * N_TAU :]
         as_ = ca.DM(self.a_scale)
         q_rel, u, a = z[0:N_Q], z[N_Q : 2 * N_Q] * us, z[2 * N_Q : 3 * N_Q] * as_
         tn = z[3 * N_Q :]
@@ -304,11 +306,16 @@ class StrideProblem:
         g_active = ca.vertcat(((q_rel - q_prev_rel) / s.h - u) / us, ((u - u_prev) / s.h - a) / as_, res)
         g_copy = ca.vertcat((q_rel - q_prev_rel) / (s.h * us), (u - u_prev) / (s.h * as_), z[2 * N_Q : 3 * N_Q])
         te = ocp.strength_scaled(tn, q, s.ankle_strength_slope)
-        effort = ca.dot(c, te**2) + s.w_acc * ocp.acceleration_regularisation(a, T)
+        effort = ca.dot(c, ocp.effort_power(te, s.effort)) + s.w_acc * ocp.acceleration_regularisation(a, T)
+        if s.w_grf_cap:
+            effort = effort + s.w_grf_cap * ocp.grf_cap_penalty(ca.vertcat(grf[1], grf[3]) / res_scale[0], cap)
+        if s.w_angle_prior:
+            effort = effort + s.w_angle_prior * ocp.angle_prior(q[3:], joints_prior, s.angle_prior_sd_deg)
+        if s.w_grf_prior:
+            dev = (ca.vertcat(grf[1], grf[3]) / res_scale[0] - fy_prior) / s.grf_prior_sd_bw
+            effort = effort + s.w_grf_prior * ca.sumsqr(dev) / 2
         if s.w_slip:  # the power of the friction forces on sliding contact points, in BW·m/s
-            pk = kinematics.point_kinematics(q, u, a, w, body)
-            slip = ca.vertcat(*(grf[2 * k] * pk[kinematics.point_index(f"contact_{side}"), 2] for k, side in enumerate("rl")))
-            effort = effort + s.w_slip * ca.sumsqr(slip / res_scale[0])
+            effort = effort + s.w_slip * ca.sumsqr(ocp.sliding_power(q, u, a, grf, w, body) / res_scale[0])
         g = active * g_active + (1 - active) * g_copy
         cost = active * effort * inv_n + (1 - active) * 1e-3 * ca.sumsqr(tn)
         return ca.Function("stride_node", [z, zp, body, res_scale, tau_max, us, x0, npar], [g, cost])
@@ -357,6 +364,8 @@ class StrideProblem:
         u_ref: np.ndarray,
         guess_q: np.ndarray,
         guess_tau: np.ndarray,
+        prior_q: np.ndarray | None = None,
+        prior_grf: np.ndarray | None = None,
     ) -> StrideResult:
         """Solve the horizon ``plans`` (one per bucket) from the fixed previous state.
 
@@ -368,6 +377,10 @@ class StrideProblem:
             guess_q: (Σ n_nodes, 9) initial guess of q (absolute pelvis_tx); u and q̈ of the
                 guess are its backward differences from the previous state.
             guess_tau: (Σ n_nodes, 6) initial guess of τ, N·m.
+            prior_q: (Σ n_nodes, 9) the angle prior's target (its joint angles, rad); default
+                ``guess_q``.
+            prior_grf: (Σ n_nodes, 4) the GRF prior's target (its vertical forces, N); needed
+                when ``settings.w_grf_prior`` > 0.
         """
         s = self.settings
         if len(plans) != len(self.buckets):
@@ -376,24 +389,36 @@ class StrideProblem:
         if any(c > b for c, b in zip(counts, self.buckets)):
             raise ValueError(f"strides of {counts} nodes do not fit the buckets {self.buckets}")
         n_active = sum(counts)
-        if guess_q.shape != (n_active, N_Q) or guess_tau.shape != (n_active, N_TAU):
+        prior_q = guess_q if prior_q is None else prior_q
+        if prior_grf is None:
+            if s.w_grf_prior:
+                raise ValueError("w_grf_prior > 0 needs prior_grf, the GRF prior's target")
+            prior_grf = np.zeros((n_active, 4))
+        if prior_grf.shape != (n_active, 4):
+            raise ValueError(f"prior_grf must be ({n_active}, 4), got {prior_grf.shape}")
+        if guess_q.shape != (n_active, N_Q) or guess_tau.shape != (n_active, N_TAU) or prior_q.shape != guess_q.shape:
             raise ValueError(
-                f"guess must be ({n_active}, 9) and ({n_active}, 6), got {guess_q.shape}, {guess_tau.shape}"
+                f"guess and prior must be ({n_active}, 9), ({n_active}, 6) and ({n_active}, 9), got {guess_q.shape}, "
+                f"{guess_tau.shape}, {prior_q.shape}"
             )
         v_max = max(p.speed for p in plans)
         sc = self.scales(body, v_max)
         sigma_u = np.array([s.sigma_u_tx * max(v_max, 1.0), s.sigma_u_ty] + [s.sigma_u_joint] * (N_Q - 2))
         node = np.zeros((_NODE_PAR, self.n))
         active = np.zeros(self.n, dtype=bool)
-        start = 0
+        start = done = 0
         for plan, bucket in zip(plans, self.buckets):
             cols = slice(start, start + bucket)
             node[0, start : start + plan.n_nodes] = 1.0
             node[1, cols] = 1.0 / plan.n_nodes
             node[2, cols] = plan.n_nodes * s.h
-            node[3:, cols] = np.asarray(plan.effort_weights)[:, None]
+            node[3 : 3 + N_TAU, cols] = np.asarray(plan.effort_weights)[:, None]
+            node[3 + N_TAU, cols] = ocp.grf_cap_bw(plan.speed, s.grf_cap_fraction)
+            node[4 + N_TAU : 4 + 2 * N_TAU, start : start + plan.n_nodes] = prior_q[done : done + plan.n_nodes, 3:].T
+            node[4 + 2 * N_TAU :, start : start + plan.n_nodes] = prior_grf[done : done + plan.n_nodes][:, [1, 3]].T / body.body_weight
             active[start : start + plan.n_nodes] = True
             start += bucket
+            done += plan.n_nodes
         params = self.params.pack(
             {
                 "body": body.vector(),

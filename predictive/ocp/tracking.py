@@ -63,6 +63,7 @@ from predictive.ocp.collocation import (
     OCPSettings,
     PredictiveGaitProblem,
 )
+from predictive.ocp.settings import Effort
 from predictive.ocp.solution import GaitSolution
 from sspinn.model import dynamics as dyn
 from sspinn.model import kinematics
@@ -174,9 +175,12 @@ class TrackingSettings(OCPSettings):
     Attributes (in addition to :class:`OCPSettings`; ``gait_cycle`` must be "full"):
         effort_weight: weight of the torque effort term (dimensionless; the tracking term is a
             mean normalised squared error, ≈ 1 when the errors are one scale σ).
+        effort: "squared" here (the tracking problems' effort; the human priors of the
+            predictive problem are not part of a tracking objective: the data take their place).
     """
 
     gait_cycle: GaitCycle = "full"
+    effort: Effort = field(default="squared", kw_only=True)
     effort_weight: float = 1.0
 
     def __post_init__(self) -> None:

@@ -28,7 +28,7 @@ from sspinn.data.dataset import Recording
 T = TypeVar("T")
 
 #: Bump when the generator's output for the same configuration changes (invalidates the caches).
-CODE_VERSION: Final = 3
+CODE_VERSION: Final = 4
 
 #: The generator's name in the files it writes (``provenance.generator`` of every recording,
 #: ``info.generator`` of ``dataset.json``; the output folder check of ``predictive synth``): the

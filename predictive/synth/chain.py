@@ -259,7 +259,7 @@ def simulate_chain(
             if rung in ("nominal", "smaller_change", "previous_speed") and plan == planned:
                 continue  # nothing new to try on this rung
             horizon = [plan] + padded[k + 1 : k + 1 + lookahead]
-            guess_q, guess_tau, target = _horizon_guess(
+            guess_q, guess_tau, target, prior_q, prior_grf = _horizon_guess(
                 rung, horizon, reference, h, q_prev, carried if rung == "warm" else None, k,
                 rests=_rests(padded, k, len(horizon), start is not None, targets, reference, h),
             )
@@ -267,7 +267,7 @@ def simulate_chain(
             n_try += 1
             cache = rest_solvers if rest_solvers is not None and plan.speed == 0 else solvers
             problem = cache.get([p.n_nodes for p in horizon], warm=rung == "warm")
-            result = problem.solve(body, q_prev, u_prev, horizon, q_ref, u_ref, guess_q, guess_tau)
+            result = problem.solve(body, q_prev, u_prev, horizon, q_ref, u_ref, guess_q, guess_tau, prior_q, prior_grf)
             total_iter += result.iterations
             total_time += result.solve_time
             if result.status in ACCEPTED_STATUSES and result.max_residual <= s.residual_tol:
@@ -329,9 +329,11 @@ def _horizon_guess(
     carried: tuple[np.ndarray, np.ndarray] | None,
     index: int,
     rests: Mapping[int, np.ndarray | None] | None = None,
-) -> tuple[np.ndarray, np.ndarray, ReferenceStride]:
-    """Initial guess (q, τ) of a horizon on ``rung`` and the terminal target (the reference stride
-    of the horizon's last plan). ``warm``: the carried lookahead stride (if any) or the reference
+) -> tuple[np.ndarray, np.ndarray, ReferenceStride, np.ndarray, np.ndarray]:
+    """Initial guess (q, τ) of a horizon on ``rung``, the terminal target (the reference stride
+    of the horizon's last plan), the angle prior's target q (the guess before the ``perturbed``
+    rung's perturbation) and the GRF prior's target (the reference strides' GRF, N;
+    :meth:`~predictive.ocp.stride_nlp.StrideProblem.solve`'s ``prior_q`` and ``prior_grf``). ``warm``: the carried lookahead stride (if any) or the reference
     blended from the previous guess; other rungs: the reference blended into ``q_prev``, on
     ``perturbed`` with a deterministic relative perturbation of the angles and torques.
 
@@ -340,30 +342,35 @@ def _horizon_guess(
     rests = rests or {}
     qs: list[np.ndarray] = []
     taus: list[np.ndarray] = []
+    grfs: list[np.ndarray] = []
     x_last, q_last = q_prev[0], q_prev
     target = None
     for i, p in enumerate(horizon):
         target = reference.stride(p.speed, p.n_nodes, h, x_last)
         if i in rests:
-            q, tau = _rest_guess(reference, p, h, qs[-1][-1] if qs else q_prev, rests[i])
+            q, tau, grf = _rest_guess(reference, p, h, qs[-1][-1] if qs else q_prev, rests[i])
             qs.append(q)
             taus.append(tau)
+            grfs.append(grf)
         elif i == 0 and carried is not None:
             qs.append(carried[0])
             taus.append(carried[1])
+            grfs.append(target.grf)
         else:
             start = q_last if rung == "warm" else (q_prev if i == 0 else target.q_prev)
             qs.append(blend_into(target.q, target.q_prev, start))
             taus.append(target.tau)
+            grfs.append(target.grf)
         x_last, q_last = qs[-1][-1, 0], qs[-1][-1]
     assert target is not None
     q, tau = np.vstack(qs), np.vstack(taus)
+    prior = q
     if rung == "perturbed":
         rng = np.random.default_rng([index, 7])
         q = q.copy()
         q[:, 2:] += PERTURBATION * np.abs(q[:, 2:]).max(axis=0) * rng.standard_normal(q[:, 2:].shape)
         tau = tau * (1 + PERTURBATION * rng.standard_normal(tau.shape))
-    return q, tau, target
+    return q, tau, target, prior, np.vstack(grfs)
 
 
 #: Parts of the reference cycle (phases from the stride boundary, which lies 0.12 of the cycle
@@ -407,8 +414,9 @@ def _rests(
 
 def _rest_guess(
     reference: PeriodicReference, plan: StridePlan, h: float, q_prev: np.ndarray, q_rest: np.ndarray | None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Initial guess (q, τ) of a stride that starts at rest (``q_rest`` None) or ends at rest in
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Initial guess (q, τ) and the GRF prior's target (N) of a stride that starts at rest
+    (``q_rest`` None) or ends at rest in
     the posture ``q_rest``: the reference at the plan's speed over :data:`INITIATION_PHASES` or
     :data:`TERMINATION_PHASES`, its angles blended from ``q_prev`` or into ``q_rest`` over a
     quarter of the stride, and pelvis_tx accelerating from rest (x ∝ s², s the fraction of the
@@ -431,4 +439,4 @@ def _rest_guess(
         dq = q_rest - target.q[-1]
         q[:, 1:] += dq[None, 1:] * np.exp(-np.arange(n - 1, -1, -1) / width)[:, None]
         q[:, 0] = q_prev[0] + plan.speed * n * h * (1 - (1 - s) ** 2)
-    return q, target.tau
+    return q, target.tau, target.grf

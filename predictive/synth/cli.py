@@ -44,6 +44,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     p.add_argument("--seed", type=bounded(int, 0, MAX_SEED), default=None, help=f"override the config's seed (0–{MAX_SEED})")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--require-norms", action="store_true",
+                   help="refuse (write nothing) if a recording has fewer than 95 %% of its stances inside the human "
+                   "gait norms (default: write it, print every recording against the norms and warn)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace a dataset of another configuration in --out (the same configuration is written again anyway)")
     return p
@@ -52,12 +55,14 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     """Run the sub-command; returns the exit code."""
     from predictive.synth.config import SynthConfig
+    from predictive.synth.norms import MIN_INSIDE
     from predictive.synth.pipeline import generate_dataset
 
     config = SynthConfig.from_yaml(args.config, workers=args.workers, seed=args.seed, backend=args.backend)
     t0 = time.perf_counter()
     dataset = generate_dataset(config, args.out, progress=not args.no_progress, cache_dir=args.cache_dir,
-                               overwrite=args.overwrite)
+                               overwrite=args.overwrite,
+                               outside_norms="refuse" if args.require_norms else "warn")
     elapsed = time.perf_counter() - t0
     info = dataset.info
     size = sum(p.stat().st_size for p in Path(args.out).iterdir() if p.is_file())
@@ -88,6 +93,10 @@ def run(args: argparse.Namespace) -> int:
         f"cache         periodic {cache['periodic_hits']} hit / {cache['periodic_solved']} solved, chains "
         f"{cache['chain_hits']} / {cache['chain_solved']}, recordings {cache['recording_hits']} / {cache['recording_made']}"
     )
+    print(f"human gait norms (every stance against the ranges at its speed, sspinn.data.gait_norms; "
+          f">= {100 * MIN_INSIDE:.0f} % of the stances inside per recording):")
+    for rec in info["recordings"].values():
+        print(f"  {rec['norms']['line']}")
     print(
         f"Kane residual max {res['max_trans_bw']:.2e} BW, {res['max_rot_bwh']:.2e} BW·H; "
         f"RMS {res['rms_trans_bw']:.2e} BW, {res['rms_rot_bwh']:.2e} BW·H (labels as written)"

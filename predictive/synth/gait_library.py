@@ -21,13 +21,14 @@ from typing import Any, Final
 
 from predictive.ocp.collocation import OCPError, solve_predictive
 from predictive.ocp.generic_gait import typical_stride_duration
+from predictive.ocp.settings import WALK_RUN_SPEED
 from predictive.ocp.solution import GaitSolution
 from predictive.ocp.stride_nlp import WARM_START_IPOPT, StrideSettings
 from predictive.synth.cache import CODE_VERSION, SynthCache, stable_hash
 from sspinn.model.body import BodyParameters
 
 #: Speeds at or above this are solved as running (template continuation from 3.5 m/s), m/s.
-RUN_SPEED: Final = 2.0
+RUN_SPEED: Final = WALK_RUN_SPEED
 #: Template speeds solved from the generic guess; the others by continuation from them, m/s.
 ANCHORS: Final[tuple[float, float]] = (1.3, 3.5)
 #: Standing hip height (femur + tibia + ankle height) of the 1.75 m Winter body, m (stride-duration scaling).

@@ -67,7 +67,7 @@ from collections.abc import Callable, Mapping, Sequence
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Final
+from typing import Any, Final, Literal
 
 import numpy as np
 
@@ -75,12 +75,20 @@ from predictive.ocp.stride_nlp import StrideSettings, StrideSolverCache
 from predictive.synth.cache import CODE_VERSION, GENERATOR_NAME, CacheStats, SynthCache, jsonable
 from predictive.synth.chain import ChainError, StrideRecord
 from predictive.synth.config import SynthConfig, imu_model
-from predictive.synth.gait_library import periodic_library, template_families, template_library
+from predictive.synth.gait_library import RUN_SPEED, periodic_library, template_families, template_library
 from predictive.synth.joblib_backend import LOCAL_BACKENDS, ProgressRelay, backend_context, check_backend
+from predictive.synth.norms import MIN_INSIDE, RecordingNorms, recording_norms
+from predictive.synth.norms import outside_norms as outside_norms_names
 from predictive.synth.recording import cached_recording, fallback_counts, recording_chain, residual_stats
 from predictive.synth.subjects import VirtualSubject, body_deviation, sample_subjects
 from sspinn.data.dataset import SPLITS, Dataset, Recording
+from sspinn.errors import UserError
 from sspinn.run_folder import atomic_write_json
+
+
+class NormsError(UserError):
+    """A generated dataset has recordings outside the human gait norms and was not written
+    (:func:`generate_dataset` with ``outside_norms="refuse"``)."""
 
 
 class SynthWarning(UserWarning):
@@ -192,7 +200,7 @@ def _subject_job(config: SynthConfig, subject: VirtualSubject, queue: Any) -> tu
 
 def generate_dataset(
     config: SynthConfig, out_dir: str | Path, progress: bool = True, cache_dir: str | Path | None = None,
-    overwrite: bool = False,
+    overwrite: bool = False, outside_norms: Literal["warn", "refuse"] = "warn",
 ) -> Dataset:
     """Generate (or load from the caches) the dataset of ``config`` into ``out_dir``.
 
@@ -202,8 +210,16 @@ def generate_dataset(
     dataset a model was trained on is never replaced silently). The earlier files are removed
     only once the new recordings are ready, so an interrupted run leaves them as they were. The returned dataset's ``info`` holds the configuration, the
     generation time, the Kane residual of the written labels (BW, BW·H), per-recording
-    statistics and the cache hits.
+    statistics (``norms``: every stance against the human ranges at its speed,
+    :func:`predictive.synth.norms.recording_norms`) and the cache hits.
+
+    ``outside_norms``: what to do when a recording has fewer than
+    :data:`~predictive.synth.norms.MIN_INSIDE` of its stances inside the human ranges — "warn"
+    (a :class:`SynthWarning` and an ``outside_norms`` event; the dataset is written) or "refuse"
+    (:class:`NormsError` before anything is written; the solved chains stay cached).
     """
+    if outside_norms not in ("warn", "refuse"):
+        raise ValueError(f"outside_norms must be 'warn' or 'refuse', got {outside_norms!r}")
     t0 = time.perf_counter()
     if config.workers > 1:
         check_backend(config.backend)  # before the output folder is touched
@@ -244,6 +260,15 @@ def generate_dataset(
     for subject, output in zip(subjects, outputs):
         by_split[subject.split].extend(output.recordings)
     events = [e for o in outputs for e in o.events]
+    norms = dataset_norms(config, subjects, outputs)
+    failing = outside_norms_names(norms)
+    if failing and outside_norms == "refuse":
+        raise NormsError(
+            f"{len(failing)} of {len(norms)} recording(s) have fewer than {100 * MIN_INSIDE:.0f} % of their stances inside "
+            "the human gait norms: " + "; ".join(norms[n].line() for n in failing)
+            + " (nothing written: --require-norms)"
+        )
+    events += [{"recording": n, "event": "outside_norms", "detail": norms[n].line()} for n in failing]
     for e in events:
         warnings.warn(f"{e['recording']}: {e['event'].replace('_', ' ')}: {e['detail']}", SynthWarning, stacklevel=2)
     empty = [split for split, recs in by_split.items() if not recs]
@@ -273,6 +298,7 @@ def generate_dataset(
                 "duration_s": rec.duration,
                 "program": rec.provenance.get("program"),
                 "gait": rec.provenance.get("gait"),
+                "norms": norms[rec.name].as_dict(),
                 "kane_residual": res,
             }
     strides = [r for o in outputs for r in o.strides]
@@ -315,6 +341,21 @@ def generate_dataset(
         non_finite="null",
     )
     return Dataset.open(out)
+
+
+def dataset_norms(
+    config: SynthConfig, subjects: Sequence[VirtualSubject], outputs: Sequence[SubjectOutput]
+) -> dict[str, RecordingNorms]:
+    """Every recording's stances against the human gait norms at their speeds
+    (:func:`predictive.synth.norms.recording_norms`; running when its program's speeds are at or
+    above :data:`~predictive.synth.gait_library.RUN_SPEED`), by recording name."""
+    out: dict[str, RecordingNorms] = {}
+    for subject, output in zip(subjects, outputs):
+        for rec in output.recordings:
+            speeds = (rec.provenance.get("program") or {}).get("speeds_mps") or [float(np.median(rec.labels.speed))]
+            mode = "run" if min(speeds) >= RUN_SPEED else "walk"
+            out[rec.name] = recording_norms(rec, subject.body.body_weight, mode)
+    return out
 
 
 def _template_job(speeds: Sequence[float], stride: StrideSettings, cache_dir: str) -> CacheStats:

@@ -15,7 +15,7 @@ virtual subjects, labelled like the others:
 2. **Ground reaction forces** are those the equations of motion require: the pelvis rows of
    :func:`sspinn.model.dynamics.inverse_dynamics` are affine in the total load (F_x, F_y, M_O)
    on the feet, which is solved for at every sample and shared equally between the feet
-   (:func:`sspinn.validation.inverse_dynamics.grf_inputs` turns it into forces and contact points).
+   (:func:`sspinn.data.measured_loads.grf_inputs` turns it into forces and contact points).
 3. **Joint torques** by inverse dynamics; the labels then satisfy the equations of motion at every
    sample, as the walking and running labels do (the residual is reported in the provenance).
 4. **IMU signals** from :func:`sspinn.data.sensor_noise.measure_imu` with the subject's true body
