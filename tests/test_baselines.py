@@ -121,7 +121,6 @@ def _split_all_data(folder: Path, speed: float = 1.3) -> Path:
     for name in ("p", "q"):
         rec = make_recording(name, name, 150, rng)
         rec.labels.speed[:] = speed
-        rec.save(folder)
         add_to_index(folder, rec, "all")
     return folder
 

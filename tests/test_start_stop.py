@@ -82,9 +82,13 @@ def test_the_chain_refuses_a_bad_start_target_or_step_in_one_line() -> None:
 @pytest.mark.parametrize(("flag", "value"), [("--start-stop", "0"), ("--start-stop", "nan"), ("--walk", "-1")])
 def test_the_command_refuses_a_bad_speed_or_walking_time(tmp_path: Path, capsys, flag: str, value: str) -> None:
     argv = ["--config", str(SMOKE), "--start-stop", "1.2", flag, value, "--out", str(tmp_path / "x")]
-    assert _main()(argv) == 2
+    try:
+        code = _main()(argv)
+    except SystemExit as exc:  # refused by the option's range, as a usage error
+        code = int(exc.code)
+    assert code == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith(f"error: {flag} must be") and value in err and "\n" not in err
+    assert flag in err and value in err and "\n" not in err and "Traceback" not in err
     assert not (tmp_path / "x").exists()
 
 
