@@ -85,8 +85,8 @@ def _subject01(data: Path) -> list[tuple[str, Any]]:
 
 
 def _hamner(data: Path) -> list[tuple[str, Any]]:
-    from sspinn.data.gait_norms import check_gait_norms
     from benchmarks.accuracy.semi_real_running import estimate_belt_speed, read_hamner_files
+    from sspinn.data.gait_norms import check_gait_norms
 
     files = read_hamner_files(data / "opensim_hamner_run")
     speed = estimate_belt_speed(files).speed
