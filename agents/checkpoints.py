@@ -41,9 +41,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from agents.builders import action_noise, algorithm_class, hyperparameter, make_env, policy_kwargs
-from agents.config import AgentConfig, ConfigError, load_config
+from agents.config import DIFF_ALGORITHMS, AgentConfig, ConfigError, load_config, save_config
+from agents.rollout import SUMMARY_GAIT_KEYS
 from sspinn.errors import UserError, one_line
-from sspinn.run_folder import atomic_path, atomic_write_text
+from sspinn.run_folder import atomic_path, atomic_write_text, claim_run_folder
 
 if TYPE_CHECKING:  # imports stable-baselines3, which loading waits for
     from agents.gait_prior import GaitPrior
@@ -174,7 +175,6 @@ def load_agent(checkpoint: str | Path, config: AgentConfig | None = None, device
     if not path.is_file():
         raise FileNotFoundError(f"checkpoint {path} does not exist")
     config = config if config is not None else find_config(path)
-    from agents.diff.settings import DIFF_ALGORITHMS
 
     if config.algo in DIFF_ALGORITHMS:  # learned through the differentiable simulator: a .pt of tensors
         from agents.diff.agent import DiffAgent
@@ -403,3 +403,27 @@ def save_checkpoint(model: Any, path: str | Path, vec_normalize: Any = None, rep
     with atomic_path(path) as tmp:
         model.save(tmp)
     return path
+
+
+#: Columns of a training run's evaluations.csv (SB3 and differentiable runs alike).
+EVAL_COLUMNS: tuple[str, ...] = (
+    "timesteps", "wall_s", "mean_return", "mean_distance_m", "min_distance_m", "mean_speed_m_s",
+    "mean_abs_speed_error_m_s", "mean_cost_of_transport", "falls", "episodes", "mean_foot_slide_m",
+    "mean_cadence_steps_per_min", *(f"mean_{key}" for key in SUMMARY_GAIT_KEYS),
+)
+
+
+def open_run_folder(config: AgentConfig, run_dir: Path, checkpoint: Path | None, resume: bool, overwrite: bool,
+                    outputs: tuple[str, ...]) -> None:
+    """Make ``run_dir`` this run's: with ``resume`` a ``checkpoint`` must exist; without it the
+    folder must hold none of ``outputs`` unless ``overwrite`` (which deletes them); then the
+    configuration is written and torch's threads set."""
+    if resume and checkpoint is None:
+        raise FileNotFoundError(f"--resume: no checkpoint in {run_dir / CHECKPOINT_DIR}")
+    if not resume:
+        claim_run_folder(run_dir, outputs, overwrite, "continue it with --resume, " if checkpoint is not None else "")
+    run_dir.mkdir(parents=True, exist_ok=True)
+    save_config(config, run_dir / CONFIG_FILE)
+    import torch
+
+    torch.set_num_threads(config.logging.torch_threads)

@@ -17,7 +17,6 @@ from pathlib import Path
 from typing import Any
 
 import numba
-import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
@@ -29,25 +28,26 @@ from agents.builders import WALKING_BELOW_M_S, algorithm_class, algorithm_kwargs
 from agents.checkpoints import (
     CHECKPOINT_DIR,
     CHECKPOINT_PREFIX,
-    CONFIG_FILE,
+    EVAL_COLUMNS,
     LoadedAgent,
     append_csv_row,
     checkpoint_steps,
     latest_checkpoint,
     load_algorithm,
     load_statistics,
+    open_run_folder,
     replay_buffer_path,
     restore_replay_buffer,
     save_checkpoint,
     vecnormalize_path,
 )
-from agents.config import AgentConfig, save_config
+from agents.config import DIFF_ALGORITHMS, AgentConfig
 from agents.gait_prior import GaitPrior, GaitPriorReward, load_prior
-from agents.rollout import SUMMARY_GAIT_KEYS, run_episode, summarize
+from agents.rollout import run_episode, summarize
 from agents.vec_env import PerEnvVecMonitor, WalkerVecEnv
 from sspinn.data.gait_metrics import winter_or_none
 from sspinn.interrupt import DeferredInterrupt
-from sspinn.run_folder import RunLock, claim_run_folder
+from sspinn.run_folder import RunLock
 
 #: What a run leaves in its folder (:mod:`agents.checkpoints`), besides its config: a folder
 #: holding any of them holds a run, which only ``--resume`` continues and ``--overwrite`` replaces.
@@ -58,11 +58,6 @@ RUN_OUTPUTS: tuple[str, ...] = (
 
 #: Info fields of the environment written to the Monitor CSV of every training episode.
 MONITOR_INFO_KEYS: tuple[str, ...] = ("distance", "cost_of_transport")
-EVAL_COLUMNS: tuple[str, ...] = (
-    "timesteps", "wall_s", "mean_return", "mean_distance_m", "min_distance_m", "mean_speed_m_s",
-    "mean_abs_speed_error_m_s", "mean_cost_of_transport", "falls", "episodes", "mean_foot_slide_m",
-    "mean_cadence_steps_per_min", *(f"mean_{key}" for key in SUMMARY_GAIT_KEYS),
-)
 
 
 def make_training_envs(
@@ -239,7 +234,6 @@ def train(config: AgentConfig, out: str | Path, resume: bool = False, overwrite:
     """
     if resume and overwrite:
         raise ValueError("--resume continues the run in --out and --overwrite replaces it: give one of them")
-    from agents.diff.settings import DIFF_ALGORITHMS
 
     with RunLock(out):
         if config.algo in DIFF_ALGORITHMS:  # learned through the differentiable simulator (agents.diff)
@@ -247,20 +241,6 @@ def train(config: AgentConfig, out: str | Path, resume: bool = False, overwrite:
 
             return train_diff(config, Path(out), resume, overwrite)  # type: ignore[return-value]
         return _train(config, Path(out), resume, overwrite)
-
-
-def open_run_folder(config: AgentConfig, run_dir: Path, checkpoint: Path | None, resume: bool, overwrite: bool,
-                    outputs: tuple[str, ...]) -> None:
-    """Make ``run_dir`` this run's: with ``resume`` a ``checkpoint`` must exist; without it the
-    folder must hold none of ``outputs`` unless ``overwrite`` (which deletes them); then the
-    configuration is written and torch's threads set."""
-    if resume and checkpoint is None:
-        raise FileNotFoundError(f"--resume: no checkpoint in {run_dir / CHECKPOINT_DIR}")
-    if not resume:
-        claim_run_folder(run_dir, outputs, overwrite, "continue it with --resume, " if checkpoint is not None else "")
-    run_dir.mkdir(parents=True, exist_ok=True)
-    save_config(config, run_dir / CONFIG_FILE)
-    torch.set_num_threads(config.logging.torch_threads)
 
 
 def _train(config: AgentConfig, out: Path, resume: bool, overwrite: bool) -> BaseAlgorithm:

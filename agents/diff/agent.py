@@ -60,7 +60,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from agents.diff.settings import DIFF_ACTIVATIONS, DIFF_ALGORITHMS, MAX_ENVS, DiffSettings
+from agents.config import DIFF_ALGORITHMS
+from agents.diff.settings import DIFF_ACTIVATIONS, MAX_ENVS, DiffSettings
 from envs.batched import BatchedSagittalWalker
 from envs.config import SUBSTEPS
 from envs.task import OBS_SIZE

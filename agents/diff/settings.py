@@ -11,13 +11,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from agents.config import DIFF_ALGORITHMS
 from sspinn.yaml_config import config_from_mapping, option
 
 if TYPE_CHECKING:
     from agents.config import AgentConfig
 
-__all__ = ["DIFF_ACTIVATIONS", "DIFF_ALGORITHMS", "MAX_ENVS", "MAX_HORIZON", "DiffSettings", "settings_of"]
+__all__ = ["DIFF_ACTIVATIONS", "MAX_ENVS", "MAX_HORIZON", "DiffSettings", "settings_of"]
 #: Most parallel walkers a differentiable window holds (the autograd graph of every substep is kept).
 MAX_ENVS = 4096
 #: Most control steps in one differentiable window.

@@ -22,7 +22,14 @@ from pathlib import Path
 from typing import Any
 
 from agents.builders import WALKING_BELOW_M_S, make_env
-from agents.checkpoints import CHECKPOINT_DIR, CHECKPOINT_PREFIX, append_csv_row, latest_checkpoint
+from agents.checkpoints import (
+    CHECKPOINT_DIR,
+    CHECKPOINT_PREFIX,
+    EVAL_COLUMNS,
+    append_csv_row,
+    latest_checkpoint,
+    open_run_folder,
+)
 from agents.config import AgentConfig
 from agents.diff.agent import DiffAgent
 from agents.diff.settings import settings_of
@@ -51,8 +58,6 @@ class DiffEvaluator:
     ``best_model.pt`` when the mean return is the best so far."""
 
     def __init__(self, config: AgentConfig, run_dir: Path) -> None:
-        from agents.train import EVAL_COLUMNS
-
         self.config, self.run_dir, self.columns = config, run_dir, EVAL_COLUMNS
         self.env = make_env(config)
         self.reference = winter_or_none() if config.env.target_speed < WALKING_BELOW_M_S else None
@@ -80,8 +85,6 @@ class DiffEvaluator:
 
 def train_diff(config: AgentConfig, run_dir: Path, resume: bool, overwrite: bool) -> DiffAgent:
     """Train ``config`` (algo apg/shac/ahac) into ``run_dir``; the caller holds the run's lock."""
-    from agents.train import open_run_folder
-
     checkpoint = latest_checkpoint(run_dir, suffix=".pt")
     open_run_folder(config, run_dir, checkpoint, resume, overwrite, DIFF_RUN_OUTPUTS)
     if checkpoint is not None and resume:
