@@ -171,7 +171,7 @@ def run_arm(arm: str, budget: int, out: Path, quick: bool, threads: int | None, 
     train(config, out / arm, overwrite=overwrite)
     wall = time.perf_counter() - started
     misses = best_model_misses(out / arm, 1 if quick else 5)
-    return {"arm": arm, "config": ARMS[arm], "env_steps": config.total_timesteps, "wall_s": round(wall, 1),
+    return {"arm": arm, "config": ARMS[arm], "env_steps": config.total_timesteps, "wall_s": round(wall, 3),
             "gait_prior": config.prior.gait is not None, **summarize_run(out / arm),
             "walking_targets_met": not misses, "walking_target_misses": misses}
 
